@@ -1,0 +1,51 @@
+"""A design: a mechanism, a population of parameter vectors and an output stage."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.kinematics import Solution, solve
+from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+
+
+@dataclass(frozen=True)
+class Design:
+    """Frozen: a topology plus ``params`` of shape ``(pop, n_params)`` (mm, rad).
+
+    One design is ``pop = 1``. The output stage maps the tracked point to the leg frame.
+    """
+
+    mechanism: Mechanism
+    params: NDArray[np.float64]
+    output: OutputStage = field(default=IDENTITY)
+
+    def __post_init__(self) -> None:
+        p = np.atleast_2d(np.array(self.params, dtype=np.float64))
+        if p.ndim != 2 or p.shape[1] != self.mechanism.n_params:
+            raise ValueError(
+                f"{self.mechanism.name} takes {self.mechanism.n_params} parameters "
+                f"({', '.join(self.mechanism.param_names)}), got shape {np.shape(self.params)}"
+            )
+        p.setflags(write=False)
+        object.__setattr__(self, "params", p)
+
+    @property
+    def pop(self) -> int:
+        return int(self.params.shape[0])
+
+    def named(self, i: int = 0) -> dict[str, float]:
+        """Member i as ``{name: value}``."""
+        return {n: float(v) for n, v in zip(self.mechanism.param_names, self.params[i])}
+
+    def replace(self, **values: float) -> Design:
+        """A copy with some named parameters changed (for every member)."""
+        p = self.params.copy()
+        for name, v in values.items():
+            p[:, self.mechanism.param_names.index(name)] = v
+        return Design(self.mechanism, p, self.output)
+
+    def solve(self, n_samples: int = 360, **kw: object) -> Solution:
+        return solve(self.mechanism, self.params, n_samples, output=self.output, **kw)  # type: ignore[arg-type]

@@ -1,0 +1,185 @@
+"""The batch dyad solver: ``solve(mechanism, params, n_samples) -> Solution``.
+
+Samples are uniform in the input crank angle, ``theta_i = 2 pi i / n_samples``; the
+crank's absolute angle is ``phase + theta_i``. With a crank period T, sample i is at time
+``t_i = i T / n_samples``. Derivatives are exact (differentiated construction steps) and
+taken with respect to theta (mm/rad).
+
+Two interpreters of the same compiled program: ``core.solver_numpy`` (reference) and
+``core.solver_numba`` (fast kernel). ``backend="auto"`` picks numba.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.mechanisms.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage
+from core import solver_numpy
+
+F64 = NDArray[np.float64]
+Backend = Literal["auto", "numpy", "numba"]
+
+# Above this population the numba kernel runs in parallel over designs.
+PARALLEL_MIN_POP = 2000
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Kinematics of a population over one crank revolution.
+
+    Attributes:
+        theta: ``(n_samples,)`` input crank angles (rad).
+        joints, djoints: ``(pop, n_samples, n_joints, 2)`` joint positions (mm) and their
+            d/dtheta (mm/rad); None when solved with ``joints=False``.
+        point, dpoint: ``(pop, n_samples, 2)`` tracked point in the design frame and d/dtheta.
+        leg, dleg: ``(pop, n_samples, 2)`` tracked point in the leg frame and d/dtheta.
+        valid: ``(pop, n_samples)`` True where every joint is placed.
+        violation: ``(pop,)`` >= 0; 0 iff the mechanism assembles over every sample, else the
+            sum over dyads of the worst assembly shortfall (mm), plus negative lengths and
+            any coupling violation of the mechanism (RTCLM).
+        dyad_margin: ``(pop, n_dyads)`` min over the cycle of each dyad's distance from its
+            singular (fully stretched or folded) configuration, ``min(d - |l1-l2|, l1+l2-d)`` (mm).
+        mu_min, mu_max: ``(pop, n_dyads)`` range of each dyad's transmission angle (rad).
+        crank_margin: ``(pop,)`` exact full-rotation margin of the loops closed by the crank
+            (mm, > 0: the crank turns fully; Grashof for a four-bar); +inf if none.
+        joint_names, dyad_names: names along the joint and dyad axes.
+    """
+
+    theta: F64
+    joints: F64 | None
+    djoints: F64 | None
+    point: F64
+    dpoint: F64
+    leg: F64
+    dleg: F64
+    valid: NDArray[np.bool_]
+    violation: F64
+    dyad_margin: F64
+    mu_min: F64
+    mu_max: F64
+    crank_margin: F64
+    joint_names: tuple[str, ...]
+    dyad_names: tuple[str, ...]
+
+    @property
+    def feasible(self) -> NDArray[np.bool_]:
+        """``(pop,)`` True where the mechanism assembles over the whole cycle."""
+        return self.violation == 0.0
+
+
+def sample_angles(n_samples: int) -> F64:
+    """``(n_samples,)`` input crank angles ``2 pi i / n`` (rad)."""
+    return 2.0 * np.pi * np.arange(n_samples) / n_samples
+
+
+def reduce_reference(
+    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool
+) -> tuple[F64 | None, F64 | None, F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
+    """The numpy reference with the kernel's outputs (see ``core.solver_numba.run``)."""
+    pos, dpos, margin, cos_mu, neg = solver_numpy.run(ops, vals, theta)
+    with np.errstate(invalid="ignore"):
+        mmin = np.where(np.isnan(margin).all(axis=1), np.inf, np.nanmin(np.where(np.isnan(margin), np.inf, margin), axis=1))
+        cmin = np.min(np.where(np.isnan(cos_mu), np.inf, cos_mu), axis=1)
+        cmax = np.max(np.where(np.isnan(cos_mu), -np.inf, cos_mu), axis=1)
+    point, dpoint = pos[:, :, tracked].copy(), dpos[:, :, tracked].copy()
+    valid = np.isfinite(pos).all(axis=(-1, -2))
+    if not want_joints:
+        return None, None, point, dpoint, valid, mmin, cmin, cmax, neg
+    return pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg
+
+
+def _crank_margin(ops: NDArray[np.int64], vals: F64) -> F64:
+    """Exact full-rotation margin of every dyad joining a crank point to a ground point."""
+    pop = vals.shape[0]
+    ground = np.full((pop, len(ops), 2), np.nan)
+    out = np.full(pop, np.inf)
+    for j, (kind, a, b, _) in enumerate(ops):
+        u, v, ang = vals[:, j, 0], vals[:, j, 1], vals[:, j, 2]
+        if kind == GROUND:
+            off = np.stack([np.cos(ang) * u - np.sin(ang) * v, np.sin(ang) * u + np.cos(ang) * v], -1)
+            ground[:, j] = off + (ground[:, a] if a >= 0 else 0.0)
+        elif kind == DYAD:
+            for c, g in ((a, b), (b, a)):
+                if ops[c, 0] == CRANK and ops[g, 0] == GROUND:
+                    pivot = ops[c, 1]
+                    rho = np.hypot(vals[:, c, 0], vals[:, c, 1])
+                    dist = np.linalg.norm(ground[:, g] - ground[:, pivot], axis=-1)
+                    l1, l2 = vals[:, j, 0], vals[:, j, 1]
+                    m = np.minimum(l1 + l2 - (dist + rho), np.abs(dist - rho) - np.abs(l1 - l2))
+                    out = np.minimum(out, m)
+    return out
+
+
+def solve(
+    mechanism: Mechanism,
+    params: F64,
+    n_samples: int = 360,
+    *,
+    output: OutputStage = IDENTITY,
+    joints: bool = True,
+    backend: Backend = "auto",
+) -> Solution:
+    """Solve a population of designs over one crank revolution.
+
+    Never raises for unassemblable or non-finite designs: their samples are NaN and their
+    violation is positive (+inf for non-finite parameters).
+
+    Args:
+        mechanism: the topology.
+        params: ``(pop, n_params)`` or ``(n_params,)`` design vectors (mm, rad); not mutated.
+        n_samples: samples per revolution.
+        output: design frame -> leg frame map of the tracked point.
+        joints: also return every joint (memory: pop * n_samples * n_joints * 32 bytes).
+        backend: ``numpy`` reference, ``numba`` kernel, or ``auto`` (numba).
+    """
+    params = np.atleast_2d(np.asarray(params, dtype=np.float64))
+    if params.shape[1] != mechanism.n_params:
+        raise ValueError(f"{mechanism.name} takes {mechanism.n_params} parameters, got {params.shape[1]}")
+    prog = mechanism.compile()
+    internal, derive_viol = mechanism.internal(params)
+    vals = np.ascontiguousarray(prog.operands(internal))
+    bad = ~np.isfinite(vals).all(axis=(1, 2))
+    if bad.any():
+        vals[bad] = np.nan
+    theta = sample_angles(n_samples)
+    if backend == "numpy":
+        out = reduce_reference(prog.ops, vals, theta, prog.tracked, joints)
+    else:
+        from core import solver_numba
+
+        out = solver_numba.run(prog.ops, vals, theta, prog.tracked, joints, params.shape[0] >= PARALLEL_MIN_POP)
+    pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = out
+    dyads = np.flatnonzero(prog.ops[:, 0] == DYAD)
+    margin = mmin[:, dyads]
+    with np.errstate(invalid="ignore"):
+        shortfall = np.where(np.isfinite(margin), np.maximum(0.0, -margin), 0.0).sum(axis=1)
+        violation = shortfall + neg + np.nan_to_num(derive_viol, nan=np.inf)
+        # Degenerate geometry (coincident points of an attachment) leaves NaN with no shortfall.
+        violation = np.where((~valid).any(axis=1) & (violation == 0.0), 1e-9, violation)
+        violation[bad] = np.inf
+        mu_min = np.arccos(np.clip(cmax[:, dyads], -1.0, 1.0))
+        mu_max = np.arccos(np.clip(cmin[:, dyads], -1.0, 1.0))
+    mu_min[~np.isfinite(cmax[:, dyads])] = np.nan
+    mu_max[~np.isfinite(cmin[:, dyads])] = np.nan
+    names = mechanism.joint_names
+    return Solution(
+        theta=theta,
+        joints=pos,
+        djoints=dpos,
+        point=point,
+        dpoint=dpoint,
+        leg=output.apply(point),
+        dleg=output.apply_derivative(dpoint),
+        valid=valid,
+        violation=violation,
+        dyad_margin=margin,
+        mu_min=mu_min,
+        mu_max=mu_max,
+        crank_margin=_crank_margin(prog.ops, vals),
+        joint_names=names,
+        dyad_names=tuple(names[j] for j in dyads),
+    )

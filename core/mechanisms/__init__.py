@@ -1,0 +1,18 @@
+"""Topologies: every mechanism the product knows, by registry name."""
+
+from __future__ import annotations
+
+from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism, OutputStage
+from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+
+MECHANISMS: dict[str, Mechanism] = {m.name: m for m in (STEPHENSON1, STEPHENSON3)}
+
+
+def get(name: str) -> Mechanism:
+    """The mechanism of that name; ValueError naming the known ones otherwise."""
+    if name not in MECHANISMS:
+        raise ValueError(f"unknown mechanism {name!r}; known: {', '.join(sorted(MECHANISMS))}")
+    return MECHANISMS[name]
+
+
+__all__ = ["MECHANISMS", "Attach", "Crank", "Dyad", "Ground", "Mechanism", "OutputStage", "get"]

@@ -1,0 +1,271 @@
+"""The generic construction model: a mechanism is an ordered list of steps over named points.
+
+Every topology is data: a tuple of steps, each placing one point from points placed
+before it. The solvers (``core/kinematics.py``) interpret the compiled form
+(:class:`Program`) and never branch on the topology.
+
+Step kinds (spec notation, ``rot90(v) = (-v_y, v_x)``, ``R(a)`` a rotation by ``a``):
+
+- :class:`Ground`: ``X = O + R(angle) (u, v)`` with O a ground point placed before or
+  the world origin. Fixed over the cycle.
+- :class:`Crank`: ``X = O + R(phase + theta) (u, v)`` with O a ground point and theta the
+  input crank angle. Several crank steps with one pivot and phase form one rigid crank.
+- :class:`Dyad`: ``X`` with ``|PX| = l1``, ``|QX| = l2``, left of P->Q for side +1, right for -1.
+- :class:`Attach`: ``X = P + u e + v rot90(e)``, ``e = unit(Q - P)``: a point rigidly
+  carried by the link through P and Q.
+
+An operand is a parameter name (``"r1"``), a negated name (``"-r8"``) or a number.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.mechanisms.params import Param
+
+Operand = str | float
+
+GROUND, CRANK, DYAD, ATTACH = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class Ground:
+    name: str
+    u: Operand
+    v: Operand = 0.0
+    origin: str | None = None
+    angle: Operand = 0.0
+
+
+@dataclass(frozen=True)
+class Crank:
+    name: str
+    pivot: str
+    u: Operand
+    v: Operand = 0.0
+    phase: Operand = 0.0
+
+
+@dataclass(frozen=True)
+class Dyad:
+    name: str
+    p: str
+    q: str
+    l1: Operand
+    l2: Operand
+    side: int = 1
+
+
+@dataclass(frozen=True)
+class Attach:
+    name: str
+    p: str
+    q: str
+    u: Operand
+    v: Operand = 0.0
+
+
+Step = Ground | Crank | Dyad | Attach
+
+
+@dataclass(frozen=True)
+class OutputStage:
+    """Maps the tracked point from the design frame to the leg frame (spec §2).
+
+    ``P_leg = O + k (P - O)``: identity for k = 1, a pantograph of signed ratio k about O
+    otherwise (the paper's Stephenson presets use k = -1 about (150, 0)).
+    """
+
+    k: float = 1.0
+    ox: float = 0.0
+    oy: float = 0.0
+
+    def apply(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Points ``(*, 2)`` in the design frame -> leg frame."""
+        o = np.array([self.ox, self.oy])
+        return o + self.k * (p - o)
+
+    def apply_derivative(self, dp: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self.k * dp
+
+    def to_dict(self) -> dict[str, float]:
+        return {"k": self.k, "ox": self.ox, "oy": self.oy}
+
+
+IDENTITY = OutputStage()
+
+# derive(params (pop, n_params)) -> (derived (pop, n_derived), violation (pop,))
+Derive = Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
+
+
+@dataclass(frozen=True)
+class Program:
+    """A mechanism compiled for the solvers.
+
+    Attributes:
+        ops: ``(n_steps, 4)`` int64 rows ``[kind, a, b, side]``; a, b are indices of earlier
+            points (-1 for none). Point j is placed by step j.
+        slots: ``(n_steps, 3)`` operand columns into the internal vector (-1: constant).
+        scale: ``(n_steps, 3)`` factor on the column (+1 or -1).
+        const: ``(n_steps, 3)`` value used when the column is -1.
+        tracked: index of the tracked point.
+    """
+
+    ops: NDArray[np.int64]
+    slots: NDArray[np.int64]
+    scale: NDArray[np.float64]
+    const: NDArray[np.float64]
+    tracked: int
+
+    def operands(self, internal: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Internal vectors ``(pop, n_internal)`` -> operand values ``(pop, n_steps, 3)``."""
+        cols = np.where(self.slots >= 0, self.slots, 0)
+        vals = internal[:, cols] * self.scale
+        return np.where(self.slots >= 0, vals, self.const)
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A single-DoF planar linkage: named parameters + construction steps.
+
+    Attributes:
+        name: registry name (``stephenson1``).
+        title: human name.
+        params: the design vector's entries, in order.
+        steps: construction steps, in solve order.
+        tracked: name of the foot point.
+        derived: names of extra internal values computed by ``derive`` from the design
+            vector (RTCLM's coupling); operands may name them.
+        derive: vectorized map ``params -> (derived, violation)``; None if not needed.
+        doc: a paragraph on the construction.
+    """
+
+    name: str
+    title: str
+    params: tuple[Param, ...]
+    steps: tuple[Step, ...]
+    tracked: str
+    derived: tuple[str, ...] = ()
+    derive: Derive | None = field(default=None, compare=False)
+    doc: str = ""
+
+    @property
+    def n_params(self) -> int:
+        return len(self.params)
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.steps)
+
+    @property
+    def lower(self) -> NDArray[np.float64]:
+        return np.array([p.lo for p in self.params], dtype=np.float64)
+
+    @property
+    def upper(self) -> NDArray[np.float64]:
+        return np.array([p.hi for p in self.params], dtype=np.float64)
+
+    def internal(self, params: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Design vectors ``(pop, n_params)`` -> internal vectors and derive violation ``(pop,)``."""
+        params = np.asarray(params, dtype=np.float64)
+        if self.derive is None:
+            return params, np.zeros(params.shape[0])
+        extra, viol = self.derive(params)
+        return np.concatenate([params, extra], axis=1), viol
+
+    def compile(self) -> Program:
+        return _compile(self)
+
+    def bodies(self) -> tuple[tuple[str, ...], ...]:
+        """Rigid bodies as tuples of point names (ground first), found from the steps."""
+        return _bodies(self.steps)
+
+
+@lru_cache(maxsize=None)
+def _compile(m: Mechanism) -> Program:
+    names = list(m.param_names) + list(m.derived)
+    col = {n: i for i, n in enumerate(names)}
+    index: dict[str, int] = {}
+    n = len(m.steps)
+    ops = np.full((n, 4), -1, dtype=np.int64)
+    slots = np.full((n, 3), -1, dtype=np.int64)
+    scale = np.ones((n, 3))
+    const = np.zeros((n, 3))
+
+    def point(name: str | None) -> int:
+        if name is None:
+            return -1
+        if name not in index:
+            raise ValueError(f"{m.name}: point {name!r} used before it is placed")
+        return index[name]
+
+    def operand(j: int, k: int, op: Operand) -> None:
+        if isinstance(op, str):
+            sign, key_ = (-1.0, op[1:]) if op.startswith("-") else (1.0, op)
+            if key_ not in col:
+                raise ValueError(f"{m.name}: unknown parameter {key_!r}")
+            slots[j, k], scale[j, k] = col[key_], sign
+        else:
+            const[j, k] = float(op)
+
+    for j, s in enumerate(m.steps):
+        if s.name in index:
+            raise ValueError(f"{m.name}: point {s.name!r} placed twice")
+        if isinstance(s, Ground):
+            ops[j, :3] = GROUND, point(s.origin), -1
+            for k, op in enumerate((s.u, s.v, s.angle)):
+                operand(j, k, op)
+        elif isinstance(s, Crank):
+            if not isinstance(m.steps[point(s.pivot)], Ground):
+                raise ValueError(f"{m.name}: crank {s.name!r} must turn about a ground point")
+            ops[j, :3] = CRANK, point(s.pivot), -1
+            for k, op in enumerate((s.u, s.v, s.phase)):
+                operand(j, k, op)
+        elif isinstance(s, Dyad):
+            if s.side not in (1, -1):
+                raise ValueError(f"{m.name}: dyad {s.name!r} side must be +1 or -1")
+            ops[j] = DYAD, point(s.p), point(s.q), s.side
+            operand(j, 0, s.l1)
+            operand(j, 1, s.l2)
+        else:
+            ops[j, :3] = ATTACH, point(s.p), point(s.q)
+            operand(j, 0, s.u)
+            operand(j, 1, s.v)
+        index[s.name] = j
+    return Program(ops, slots, scale, const, point(m.tracked))
+
+
+def _bodies(steps: tuple[Step, ...]) -> tuple[tuple[str, ...], ...]:
+    groups: list[list[str]] = [[s.name for s in steps if isinstance(s, Ground)]]
+    cranks: dict[tuple[str, Operand], list[str]] = {}
+    for s in steps:
+        if isinstance(s, Crank):
+            cranks.setdefault((s.pivot, s.phase), [s.pivot]).append(s.name)
+        elif isinstance(s, Dyad):
+            groups += [[s.p, s.name], [s.q, s.name]]
+        elif isinstance(s, Attach):
+            groups.append([s.p, s.q, s.name])
+    groups += list(cranks.values())
+    # Two bodies sharing two points are one rigid body: merge until stable.
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(groups)):
+            for j in range(i + 1, len(groups)):
+                if len(set(groups[i]) & set(groups[j])) >= 2:
+                    groups[i] = groups[i] + [p for p in groups[j] if p not in groups[i]]
+                    del groups[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return tuple(tuple(g) for g in groups if len(g) >= 2)

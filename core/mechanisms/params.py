@@ -1,0 +1,48 @@
+"""Named design parameters: units, kinds and global bounds."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+Kind = Literal["length", "offset", "position", "angle"]
+UNITS: dict[str, str] = {"length": "mm", "offset": "mm", "position": "mm", "angle": "rad"}
+
+
+@dataclass(frozen=True)
+class Param:
+    """One entry of a mechanism's parameter vector.
+
+    Args:
+        name: short name as the paper prints it (``r1``, ``x_a``, ``b``).
+        kind: ``length`` (must be > 0), ``offset`` (signed length), ``position``
+            (a coordinate) or ``angle`` (periodic, rad).
+        lo, hi: global search bounds (mm or rad).
+        doc: what the parameter is, in one line.
+    """
+
+    name: str
+    kind: Kind
+    lo: float
+    hi: float
+    doc: str = ""
+
+    @property
+    def unit(self) -> str:
+        return UNITS[self.kind]
+
+
+def length(name: str, doc: str = "", lo: float = 30.0, hi: float = 500.0) -> Param:
+    return Param(name, "length", lo, hi, doc)
+
+
+def offset(name: str, doc: str = "", lo: float = -500.0, hi: float = 500.0) -> Param:
+    return Param(name, "offset", lo, hi, doc)
+
+
+def position(name: str, doc: str = "", lo: float = -500.0, hi: float = 500.0) -> Param:
+    return Param(name, "position", lo, hi, doc)
+
+
+def angle(name: str, doc: str = "", lo: float = -3.141592653589793, hi: float = 3.141592653589793) -> Param:
+    return Param(name, "angle", lo, hi, doc)
