@@ -38,7 +38,7 @@ class Design:
 
     def named(self, i: int = 0) -> dict[str, float]:
         """Member i as ``{name: value}``."""
-        return {n: float(v) for n, v in zip(self.mechanism.param_names, self.params[i])}
+        return {n: float(v) for n, v in zip(self.mechanism.param_names, self.params[i], strict=True)}
 
     def replace(self, **values: float) -> Design:
         """A copy with some named parameters changed (for every member)."""

@@ -17,8 +17,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from core.mechanisms.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage
 from core import solver_numpy
+from core.mechanisms.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage
 
 F64 = NDArray[np.float64]
 Backend = Literal["auto", "numpy", "numba"]
@@ -82,11 +82,11 @@ def reduce_reference(
     """The numpy reference with the kernel's outputs (see ``core.solver_numba.run``)."""
     pos, dpos, margin, cos_mu, neg = solver_numpy.run(ops, vals, theta)
     with np.errstate(invalid="ignore"):
-        mmin = np.where(np.isnan(margin).all(axis=1), np.inf, np.nanmin(np.where(np.isnan(margin), np.inf, margin), axis=1))
+        mmin = np.min(np.where(np.isnan(margin), np.inf, margin), axis=1)
         cmin = np.min(np.where(np.isnan(cos_mu), np.inf, cos_mu), axis=1)
         cmax = np.max(np.where(np.isnan(cos_mu), -np.inf, cos_mu), axis=1)
     point, dpoint = pos[:, :, tracked].copy(), dpos[:, :, tracked].copy()
-    valid = np.isfinite(pos).all(axis=(-1, -2))
+    valid = np.asarray(np.isfinite(pos).all(axis=(-1, -2)), dtype=bool)
     if not want_joints:
         return None, None, point, dpoint, valid, mmin, cmin, cmax, neg
     return pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg
@@ -142,9 +142,9 @@ def solve(
     prog = mechanism.compile()
     internal, derive_viol = mechanism.internal(params)
     vals = np.ascontiguousarray(prog.operands(internal))
-    bad = ~np.isfinite(vals).all(axis=(1, 2))
-    if bad.any():
-        vals[bad] = np.nan
+    # Non-finite operands (bad input, or a coupling that has no solution) poison the whole row.
+    vals[~np.isfinite(vals).all(axis=(1, 2))] = np.nan
+    bad = ~np.isfinite(params).all(axis=1)
     theta = sample_angles(n_samples)
     if backend == "numpy":
         out = reduce_reference(prog.ops, vals, theta, prog.tracked, joints)

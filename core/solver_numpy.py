@@ -77,7 +77,9 @@ def run(ops: NDArray[np.int64], vals: F64, theta: F64) -> tuple[F64, F64, F64, F
                 a1, a2 = x - p, x - q
                 r1, r2 = dot(a1, dpos[:, :, a]), dot(a2, dpos[:, :, b])
                 det = cross(a1, a2)
-                dx = np.stack([(r1 * a2[..., 1] - r2 * a1[..., 1]) / det, (a1[..., 0] * r2 - a2[..., 0] * r1) / det], -1)
+                dx = np.stack(
+                    [(r1 * a2[..., 1] - r2 * a1[..., 1]) / det, (a1[..., 0] * r2 - a2[..., 0] * r1) / det], -1
+                )
                 pos[:, :, j] = x
                 dpos[:, :, j] = dx
                 margin[:, :, j] = np.minimum(d - np.abs(l1 - l2), l1 + l2 - d)

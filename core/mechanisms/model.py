@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -190,7 +190,7 @@ class Mechanism:
         return _bodies(self.steps)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _compile(m: Mechanism) -> Program:
     names = list(m.param_names) + list(m.derived)
     col = {n: i for i, n in enumerate(names)}

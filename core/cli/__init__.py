@@ -1,0 +1,91 @@
+"""The headless command line: ``clm <command> ...``.
+
+Each command is a module ``core/cli/<name>.py`` with ``register(sub)`` (adds its
+subparser and ``set_defaults(func=run)``) and ``run(args) -> int``. Input errors
+(``CLIError``, ``ValueError``, argparse usage errors) print one line
+``clm: error: <message>`` on stderr and exit with code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Sequence
+from typing import Any, NoReturn
+
+import numpy as np
+
+# Command modules, in help order; each has register(sub) and run(args).
+COMMANDS = ("presets", "simulate")
+
+
+class CLIError(Exception):
+    """A user-facing error: printed as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that raises instead of printing usage and exiting, so errors stay one line."""
+
+    def error(self, message: str) -> NoReturn:
+        raise CLIError(f"{message} (see '{self.prog} --help')")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    import importlib
+
+    parser = _Parser(prog="clm", description="CLM Studio headless tools: presets, kinematics, optimization.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in COMMANDS:
+        importlib.import_module(f"core.cli.{name}").register(sub)
+    return parser
+
+
+def jsonable(value: Any) -> Any:
+    """Arrays and numpy scalars -> plain lists and floats; NaN and +-inf -> None (JSON has neither)."""
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind == "f":
+            out = value.astype(object)
+            out[~np.isfinite(value)] = None
+            return out.tolist()
+        return value.tolist()
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def dumps(obj: dict[str, Any]) -> str:
+    """JSON text with one top-level key per line (``| head`` shows the summary keys first)."""
+    lines = [
+        f"  {json.dumps(k)}: {json.dumps(jsonable(v), separators=(',', ':'), allow_nan=False)}" for k, v in obj.items()
+    ]
+    return "{\n" + ",\n".join(lines) + "\n}"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``clm`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args))
+    except (CLIError, ValueError) as e:
+        print(f"clm: error: {e}", file=sys.stderr)
+        return 2
+    except SystemExit as e:  # --help and --version exit through argparse
+        return e.code if isinstance(e.code, int) else 0
+    except BrokenPipeError:
+        # The reader (head, less) went away: stop quietly, like other Unix tools.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
+    except KeyboardInterrupt:
+        return 130
+
+
+__all__ = ["COMMANDS", "CLIError", "build_parser", "dumps", "jsonable", "main"]

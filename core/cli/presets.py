@@ -1,0 +1,48 @@
+"""``clm presets``: list the named designs, or show one as a design JSON."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from core import presets
+from core.validate import design_to_dict
+
+
+def preset_dict(p: presets.Preset) -> dict[str, Any]:
+    """A preset in the design JSON format plus its name, title and source."""
+    d = design_to_dict(p.design())
+    return {"name": p.name, "title": p.mechanism.title, **d, "source": p.source}
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "presets",
+        help="list presets, or show one as JSON",
+        description="List the named designs (paper rows, reference walkers), or show one as a design JSON "
+        "that 'clm simulate --design' reads back.",
+    )
+    p.add_argument("--json", action="store_true", help="list every preset as JSON")
+    actions = p.add_subparsers(dest="action", metavar="ACTION")
+    actions.add_parser("list", help="list presets (the default)").add_argument(
+        "--json", action="store_true", help="list every preset as JSON"
+    )
+    show = actions.add_parser("show", help="print one preset as a design JSON")
+    show.add_argument("name", help="preset name, e.g. stephenson1/X3")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.action == "show":
+        print(json.dumps(preset_dict(presets.get(args.name)), indent=2))
+        return 0
+    items = sorted(presets.PRESETS.values(), key=lambda p: p.name)
+    if args.json:
+        print(json.dumps([preset_dict(p) for p in items], indent=2))
+        return 0
+    rows = [("NAME", "MECHANISM", "SOURCE")] + [(p.name, p.mechanism.name, p.source) for p in items]
+    w0, w1 = (max(len(r[i]) for r in rows) for i in (0, 1))
+    for name, mech, source in rows:
+        print(f"{name:<{w0}}  {mech:<{w1}}  {source}".rstrip())
+    return 0

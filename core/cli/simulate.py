@@ -1,0 +1,159 @@
+"""``clm simulate``: solve one design over a crank revolution and print a summary or JSON."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core import presets
+from core.cli import CLIError, dumps
+from core.design import Design
+from core.kinematics import Solution
+from core.validate import check_design, design_from_dict
+
+# Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
+MAX_SAMPLES = 100_000
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "simulate",
+        help="solve one design over a crank revolution",
+        description="Solve one design (a preset or a design JSON file, see docs/cli.md) over one crank "
+        "revolution; print a summary, or with --json the joints and the tracked point in both frames.",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
+    src.add_argument("--design", metavar="FILE", type=Path, help="a design JSON file")
+    p.add_argument("--samples", type=int, default=360, metavar="N", help="crank samples per revolution (default 360)")
+    p.add_argument("--json", action="store_true", help="print the whole solution as JSON")
+    p.add_argument(
+        "--backend",
+        choices=("numpy", "numba", "auto"),
+        default="numpy",
+        help="solver; numpy (default) needs no compilation, which suits one design",
+    )
+    p.set_defaults(func=run)
+
+
+def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
+    """The design named by ``--preset`` or read from ``--design``, checked; and the preset name."""
+    if args.preset is not None:
+        return check_design(presets.get(args.preset).design()), args.preset
+    path: Path = args.design
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CLIError(f"design file {str(path)!r} not found") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise CLIError(f"cannot read design file {str(path)!r}: {e}") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise CLIError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+    try:
+        return design_from_dict(data), None
+    except ValueError as e:
+        raise CLIError(f"{path}: {e}") from None
+
+
+def extent(points: np.ndarray) -> dict[str, float | None]:
+    """Bounding box of a ``(n_samples, 2)`` path over its finite samples (mm); None if there are none."""
+    ok = np.isfinite(points).all(axis=-1)
+    if not ok.any():
+        return {"width": None, "height": None, "x_min": None, "x_max": None, "y_min": None, "y_max": None}
+    lo, hi = points[ok].min(axis=0), points[ok].max(axis=0)
+    return {
+        "width": float(hi[0] - lo[0]),
+        "height": float(hi[1] - lo[1]),
+        "x_min": float(lo[0]),
+        "x_max": float(hi[0]),
+        "y_min": float(lo[1]),
+        "y_max": float(hi[1]),
+    }
+
+
+def solution_dict(design: Design, sol: Solution, preset: str | None) -> dict[str, Any]:
+    """Member 0 of a solution as a JSON-ready dict; summary keys first, then the per-sample arrays."""
+    assert sol.joints is not None
+    return {
+        "mechanism": design.mechanism.name,
+        "preset": preset,
+        "params": design.named(0),
+        "units": {p.name: p.unit for p in design.mechanism.params},
+        "output": design.output.to_dict(),
+        "n_samples": int(sol.theta.shape[0]),
+        "feasible": bool(sol.feasible[0]),
+        "violation": float(sol.violation[0]),
+        "crank_margin": float(sol.crank_margin[0]),
+        "dyad_names": list(sol.dyad_names),
+        "dyad_margin": sol.dyad_margin[0],
+        "mu_min": sol.mu_min[0],
+        "mu_max": sol.mu_max[0],
+        "extent_design": extent(sol.point[0]),
+        "extent_leg": extent(sol.leg[0]),
+        "joint_names": list(sol.joint_names),
+        "theta": sol.theta,
+        "valid": sol.valid[0],
+        "point_design": sol.point[0],
+        "point_leg": sol.leg[0],
+        "dpoint_design": sol.dpoint[0],
+        "dpoint_leg": sol.dleg[0],
+        "joints": sol.joints[0],
+    }
+
+
+def why_not(sol: Solution) -> list[str]:
+    """Plain reasons why member 0 does not assemble over the whole revolution."""
+    reasons = []
+    if np.isfinite(sol.crank_margin[0]) and sol.crank_margin[0] < 0:
+        reasons.append(f"the crank cannot turn fully (short by {-sol.crank_margin[0]:.3g} mm)")
+    for name, m in zip(sol.dyad_names, sol.dyad_margin[0], strict=True):
+        if np.isfinite(m) and m < 0:
+            reasons.append(f"dyad {name} cannot close (short by {-m:.3g} mm)")
+    n_bad = int((~sol.valid[0]).sum())
+    if n_bad:
+        reasons.append(f"{n_bad} of {sol.valid.shape[1]} samples unplaced")
+    return reasons or ["degenerate geometry"]
+
+
+def summary(design: Design, sol: Solution, label: str) -> str:
+    m = design.mechanism
+    o = design.output
+    out = "identity output" if (o.k, o.ox, o.oy) == (1.0, 0.0, 0.0) else f"output k={o.k:g} about ({o.ox:g}, {o.oy:g})"
+    lines = [f"{label}: {m.title} ({m.name}, {m.n_params} parameters), {out}"]
+    n = sol.theta.shape[0]
+    if sol.feasible[0]:
+        lines.append(f"assembles over the whole revolution ({n} samples), violation 0")
+    else:
+        lines.append(f"does not assemble: {'; '.join(why_not(sol))}; violation {sol.violation[0]:.4g}")
+    for frame, pts in (("design", sol.point[0]), ("leg", sol.leg[0])):
+        e = extent(pts)
+        if e["width"] is None:
+            lines.append(f"path ({frame} frame): no placed samples")
+        else:
+            lines.append(
+                f"path ({frame} frame): width {e['width']:.2f} mm, height {e['height']:.2f} mm, "
+                f"x {e['x_min']:.2f}..{e['x_max']:.2f}, y {e['y_min']:.2f}..{e['y_max']:.2f} mm"
+            )
+    if np.isfinite(sol.crank_margin[0]):
+        lines.append(f"crank rotation margin {sol.crank_margin[0]:.2f} mm")
+    for name, margin, lo, hi in zip(sol.dyad_names, sol.dyad_margin[0], sol.mu_min[0], sol.mu_max[0], strict=True):
+        if np.isfinite(margin) and np.isfinite(lo) and np.isfinite(hi):
+            mu = f"{np.degrees(lo):.1f}..{np.degrees(hi):.1f} deg"
+            lines.append(f"dyad {name}: margin {margin:.2f} mm, transmission angle {mu}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    if not 1 <= args.samples <= MAX_SAMPLES:
+        raise CLIError(f"--samples must be between 1 and {MAX_SAMPLES}, got {args.samples}")
+    design, preset = load_design(args)
+    sol = design.solve(args.samples, backend=args.backend)
+    label = preset if preset is not None else str(args.design)
+    print(dumps(solution_dict(design, sol, preset)) if args.json else summary(design, sol, label))
+    return 0

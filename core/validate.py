@@ -1,0 +1,177 @@
+"""Checked design input: parameter vectors, output stages and the design JSON format.
+
+The solver never raises on odd numbers (it answers NaN and a violation); this module is
+the front door for designs typed by a person or read from a file, where a clear error
+beats a NaN. Every failure is a ``ValueError`` with one line naming the parameter and
+its unit.
+
+Design JSON (see ``docs/cli.md``)::
+
+    {"mechanism": "stephenson1",
+     "params": {"b": 0.52, "g": 3.26, ...} | [0.52, 3.26, ...],
+     "output": {"k": -1.0, "ox": 150.0, "oy": 0.0}}
+
+``output`` is optional (identity). ``name``, ``title``, ``source`` and ``units`` may be
+present (``clm presets show`` writes them); ``units``, if given, must match the mechanism's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from core import mechanisms
+from core.design import Design
+from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+
+F64 = NDArray[np.float64]
+
+DESIGN_KEYS = ("mechanism", "params", "output")
+INFO_KEYS = ("name", "title", "source", "units")
+OUTPUT_KEYS = ("k", "ox", "oy")
+
+
+def _number(label: str, unit: str, value: object) -> float:
+    """``value`` as a float, or a ValueError naming ``label``; bools are not numbers here."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{label} must be a number ({unit}), got {value!r}")
+    return float(value)
+
+
+def check_params(mechanism: Mechanism, params: ArrayLike) -> F64:
+    """Check a population of design vectors against a mechanism.
+
+    Args:
+        mechanism: the topology.
+        params: ``(pop, n_params)`` or ``(n_params,)`` design vectors (mm, rad).
+
+    Returns:
+        ``(pop, n_params)`` float64 copy.
+
+    Raises:
+        ValueError: wrong parameter count, a non-finite value, or a length <= 0; the
+            message names the first offending parameter, its unit and (for pop > 1) the member.
+    """
+    try:
+        p = np.array(params, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{mechanism.name} parameters must be numbers, got {params!r}") from None
+    p = np.atleast_2d(p)
+    if p.ndim != 2 or p.shape[1] != mechanism.n_params:
+        got = p.shape[-1] if p.ndim == 2 else f"shape {p.shape}"
+        raise ValueError(
+            f"{mechanism.name} takes {mechanism.n_params} parameters "
+            f"({', '.join(mechanism.param_names)}), got {got}"
+        )
+    many = p.shape[0] > 1
+    for j, spec in enumerate(mechanism.params):
+        col = p[:, j]
+        bad = ~np.isfinite(col) | ((col <= 0.0) if spec.kind == "length" else False)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            who = f"{spec.name} of design {i}" if many else spec.name
+            v = float(col[i])
+            if not math.isfinite(v):
+                raise ValueError(f"{who} ({spec.unit}) must be finite, got {v}")
+            raise ValueError(f"{who} is a length and must be > 0 {spec.unit}, got {v:g} {spec.unit}")
+    return p
+
+
+def params_from(mechanism: Mechanism, values: Mapping[str, object] | Sequence[object]) -> F64:
+    """One design vector from ``{name: value}`` (every name, no other) or a plain list.
+
+    Returns:
+        ``(1, n_params)`` checked design vector (mm, rad).
+    """
+    units = {p.name: p.unit for p in mechanism.params}
+    if isinstance(values, Mapping):
+        unknown = [k for k in values if k not in units]
+        if unknown:
+            raise ValueError(
+                f"unknown parameter {unknown[0]!r} for {mechanism.name}; it takes {', '.join(mechanism.param_names)}"
+            )
+        missing = [n for n in mechanism.param_names if n not in values]
+        if missing:
+            raise ValueError(f"missing parameter {missing[0]!r} ({units[missing[0]]}) for {mechanism.name}")
+        row = [_number(n, units[n], values[n]) for n in mechanism.param_names]
+    elif isinstance(values, Sequence) and not isinstance(values, str | bytes):
+        if len(values) != mechanism.n_params:
+            raise ValueError(
+                f"{mechanism.name} takes {mechanism.n_params} parameters "
+                f"({', '.join(mechanism.param_names)}), got {len(values)}"
+            )
+        row = [_number(n, units[n], v) for n, v in zip(mechanism.param_names, values, strict=True)]
+    else:
+        raise ValueError(f"params must be an object {{name: value}} or a list of numbers, got {values!r}")
+    return check_params(mechanism, [row])
+
+
+def check_output(output: OutputStage) -> OutputStage:
+    """An output stage with finite k, ox, oy and k != 0 (a zero ratio collapses the leg to O)."""
+    for key, unit in (("k", "ratio"), ("ox", "mm"), ("oy", "mm")):
+        if not math.isfinite(getattr(output, key)):
+            raise ValueError(f"output {key} ({unit}) must be finite, got {getattr(output, key)}")
+    if output.k == 0.0:
+        raise ValueError("output k (ratio) must be non-zero")
+    return output
+
+
+def output_from(data: object) -> OutputStage:
+    """An output stage from ``{"k": .., "ox": .., "oy": ..}`` (missing keys take identity's values)."""
+    if not isinstance(data, Mapping):
+        raise ValueError(f"output must be an object {{k, ox, oy}}, got {data!r}")
+    unknown = [k for k in data if k not in OUTPUT_KEYS]
+    if unknown:
+        raise ValueError(f"unknown output key {unknown[0]!r}; expected k, ox, oy")
+    units = {"k": "ratio", "ox": "mm", "oy": "mm"}
+    vals = {k: _number(f"output {k}", units[k], data[k]) for k in OUTPUT_KEYS if k in data}
+    return check_output(OutputStage(**vals))
+
+
+def check_design(design: Design) -> Design:
+    """The same design after checking its parameters and output stage."""
+    check_params(design.mechanism, design.params)
+    check_output(design.output)
+    return design
+
+
+def design_from_dict(data: object) -> Design:
+    """A checked one-member design from the design JSON format (see module docstring)."""
+    if not isinstance(data, Mapping):
+        keys = ", ".join(DESIGN_KEYS)
+        raise ValueError(f"a design must be a JSON object with keys {keys}, got {type(data).__name__}")
+    unknown = [k for k in data if k not in DESIGN_KEYS + INFO_KEYS]
+    if unknown:
+        raise ValueError(f"unknown design key {unknown[0]!r}; expected {', '.join(DESIGN_KEYS)}")
+    for key in ("mechanism", "params"):
+        if key not in data:
+            raise ValueError(f"design has no {key!r}")
+    name = data["mechanism"]
+    if not isinstance(name, str):
+        raise ValueError(f"mechanism must be a name, got {name!r}")
+    mech = mechanisms.get(name)
+    units = data.get("units")
+    if units is not None:
+        if not isinstance(units, Mapping):
+            raise ValueError(f"units must be an object {{name: unit}}, got {units!r}")
+        expected = {p.name: p.unit for p in mech.params}
+        for k, u in units.items():
+            if k in expected and u != expected[k]:
+                raise ValueError(f"{k} is given in {u!r} but {mech.name} takes it in {expected[k]}")
+    params = params_from(mech, data["params"])
+    output = output_from(data["output"]) if "output" in data else IDENTITY
+    return Design(mech, params, output)
+
+
+def design_to_dict(design: Design, i: int = 0) -> dict[str, Any]:
+    """Member ``i`` in the design JSON format (``params`` by name, with ``units``)."""
+    return {
+        "mechanism": design.mechanism.name,
+        "params": design.named(i),
+        "units": {p.name: p.unit for p in design.mechanism.params},
+        "output": design.output.to_dict(),
+    }

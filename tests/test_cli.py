@@ -1,0 +1,300 @@
+"""The `clm` command line: presets, simulate, the design JSON format, and one-line input errors."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core import presets
+from core.cli import jsonable, main
+from core.mechanisms.stephenson import STEPHENSON1
+from core.validate import check_params, design_from_dict
+
+ROOT = Path(__file__).resolve().parents[1]
+X3 = presets.get("stephenson1/X3")
+
+
+def clm(*argv: str) -> subprocess.CompletedProcess[str]:
+    """`clm` in a fresh interpreter, as a user runs it."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run(
+        [sys.executable, "-m", "core.cli", *argv], cwd=ROOT, env=env, capture_output=True, text=True, timeout=120
+    )
+
+
+def run_in_process(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def strict_json(text: str) -> object:
+    """Parse JSON and fail on NaN/Infinity, which are not JSON."""
+
+    def refuse(name: str) -> None:
+        raise AssertionError(f"non-JSON constant {name} in output")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def x3_file(tmp_path: Path, **changes: object) -> Path:
+    d = {"mechanism": "stephenson1", "params": dict(zip(STEPHENSON1.param_names, X3.values, strict=True))}
+    d.update(changes)
+    path = tmp_path / "design.json"
+    path.write_text(json.dumps(d))
+    return path
+
+
+# --- presets -----------------------------------------------------------------------------------
+
+
+def test_presets_table_lists_every_preset_with_its_mechanism(capsys):
+    code, out, _ = run_in_process(capsys, "presets")
+    assert code == 0
+    rows = {line.split()[0]: line.split()[1] for line in out.splitlines()[1:]}
+    assert rows == {name: p.mechanism.name for name, p in presets.PRESETS.items()}
+
+
+def test_presets_json_lists_every_preset_as_a_loadable_design(capsys):
+    code, out, _ = run_in_process(capsys, "presets", "--json")
+    assert code == 0
+    items = strict_json(out)
+    assert isinstance(items, list)
+    assert sorted(d["name"] for d in items) == sorted(presets.PRESETS)
+    for d in items:
+        p = presets.get(d["name"])
+        design = design_from_dict(d)
+        assert design.mechanism is p.mechanism
+        np.testing.assert_array_equal(design.params[0], p.values)
+        assert design.output == p.output
+
+
+def test_presets_show_gives_names_units_output_and_source(capsys):
+    code, out, _ = run_in_process(capsys, "presets", "show", "stephenson1/X3")
+    assert code == 0
+    d = strict_json(out)
+    assert isinstance(d, dict)
+    assert d["mechanism"] == "stephenson1"
+    assert list(d["params"]) == list(STEPHENSON1.param_names)
+    assert d["units"]["r1"] == "mm" and d["units"]["b"] == "rad"
+    assert d["output"] == {"k": -1.0, "ox": 150.0, "oy": 0.0}
+    assert "B-1" in d["source"]
+
+
+# --- simulate ----------------------------------------------------------------------------------
+
+
+def test_simulate_x3_reproduces_the_paper_path_extent():
+    """Issue 2's fidelity numbers, through the whole CLI in a fresh interpreter."""
+    r = clm("simulate", "--preset", "stephenson1/X3", "--json")
+    assert r.returncode == 0, r.stderr
+    d = strict_json(r.stdout)
+    assert isinstance(d, dict)
+    p = np.array(d["point_design"], dtype=float)
+    assert p.shape == (360, 2)
+    assert abs(np.ptp(p[:, 0]) - 298.94) <= 0.05
+    assert abs(p[:, 1].min() - (-101.04)) <= 0.05
+    assert d["feasible"] is True and d["violation"] == 0.0 and all(d["valid"])
+
+
+def test_simulate_json_shapes_angles_and_leg_frame(capsys):
+    code, out, _ = run_in_process(capsys, "simulate", "--preset", "stephenson1/X3", "--json", "--samples", "12")
+    assert code == 0
+    d = strict_json(out)
+    assert isinstance(d, dict)
+    np.testing.assert_allclose(d["theta"], 2 * np.pi * np.arange(12) / 12)
+    joints = np.array(d["joints"], dtype=float)
+    assert joints.shape == (12, len(d["joint_names"]), 2)
+    # The tracked point is the last joint here (P); the leg frame is the pantograph k = -1 about (150, 0).
+    p, leg = np.array(d["point_design"]), np.array(d["point_leg"])
+    np.testing.assert_allclose(joints[:, d["joint_names"].index("P")], p)
+    np.testing.assert_allclose(leg, np.array([300.0, 0.0]) - p, atol=1e-12)
+    np.testing.assert_allclose(d["dpoint_leg"], -np.array(d["dpoint_design"]), atol=1e-12)
+    # Ground pivot A sits at (x_a, y_a) for every sample.
+    np.testing.assert_allclose(joints[:, 0], np.tile([d["params"]["x_a"], d["params"]["y_a"]], (12, 1)))
+
+
+def test_design_file_by_name_by_list_and_shown_preset_all_agree(tmp_path, capsys):
+    runs = []
+    shown = tmp_path / "shown.json"
+    main(["presets", "show", "stephenson1/X3"])
+    shown.write_text(capsys.readouterr().out)
+    by_list = tmp_path / "list.json"
+    # Partial output: oy takes the identity's 0.
+    by_list.write_text(json.dumps({"mechanism": S1, "params": list(X3.values), "output": {"k": -1, "ox": 150}}))
+    by_name = x3_file(tmp_path, output={"k": -1.0, "ox": 150, "oy": 0})
+    for argv in (["--preset", "stephenson1/X3"], ["--design", str(shown)], ["--design", str(by_list)],
+                 ["--design", str(by_name)]):
+        code, out, err = run_in_process(capsys, "simulate", "--json", "--samples", "24", *argv)
+        assert code == 0, err
+        d = strict_json(out)
+        assert isinstance(d, dict)
+        runs.append(d)
+    for d in runs[1:]:
+        assert d["params"] == runs[0]["params"] and d["output"] == runs[0]["output"]
+        assert d["joints"] == runs[0]["joints"] and d["point_leg"] == runs[0]["point_leg"]
+
+
+def test_design_without_output_uses_the_identity(tmp_path, capsys):
+    code, out, _ = run_in_process(capsys, "simulate", "--json", "--samples", "8", "--design", str(x3_file(tmp_path)))
+    assert code == 0
+    d = strict_json(out)
+    assert isinstance(d, dict)
+    assert d["output"] == {"k": 1.0, "ox": 0.0, "oy": 0.0}
+    assert d["point_leg"] == d["point_design"]
+
+
+def test_unassemblable_design_prints_null_not_nan_and_says_why(tmp_path, capsys):
+    # A crank longer than the loop allows: C cannot close for part of the revolution.
+    path = x3_file(tmp_path, params=dict(zip(STEPHENSON1.param_names, X3.values, strict=True)) | {"r1": 80.0})
+    code, out, _ = run_in_process(capsys, "simulate", "--json", "--samples", "36", "--design", str(path))
+    assert code == 0
+    d = strict_json(out)
+    assert isinstance(d, dict)
+    assert d["feasible"] is False and d["violation"] > 0
+    assert not all(d["valid"]) and any(d["valid"])
+    for ok, point in zip(d["valid"], d["point_design"], strict=True):
+        assert (point[0] is not None) == ok
+    code, out, _ = run_in_process(capsys, "simulate", "--samples", "36", "--design", str(path))
+    assert code == 0
+    assert "does not assemble" in out and "dyad C cannot close" in out
+
+
+def test_summary_of_an_assembling_preset(capsys):
+    code, out, _ = run_in_process(capsys, "simulate", "--preset", "stephenson1/X3")
+    assert code == 0
+    assert "assembles over the whole revolution" in out
+    assert "width 298.94 mm" in out
+
+
+def test_jsonable_maps_nan_and_inf_to_null():
+    arr = np.array([[1.5, np.nan], [np.inf, -np.inf]])
+    assert jsonable({"a": arr, "b": np.float64("nan"), "c": (np.int64(3), True)}) == {
+        "a": [[1.5, None], [None, None]],
+        "b": None,
+        "c": [3, True],
+    }
+
+
+# --- errors: one line on stderr, exit code 2, never a traceback --------------------------------
+
+GOOD = dict(zip(STEPHENSON1.param_names, X3.values, strict=True))
+
+
+def _file(content: object) -> str:
+    return content if isinstance(content, str) else json.dumps(content)
+
+
+S1 = "stephenson1"
+FILE = ["simulate", "--design", "DESIGN"]  # DESIGN is replaced by the path of the case's file content
+NAN_R3 = '{"mechanism": "stephenson1", "params": ' + json.dumps(GOOD).replace('"r3": 99.62', '"r3": NaN') + "}"
+
+ERRORS: list[tuple[str, list[str], object | None, str]] = [
+    # (case, argv, file content or None, expected fragment of the message)
+    ("unknown preset", ["simulate", "--preset", "stephenson1/X99"], None, "unknown preset 'stephenson1/X99'"),
+    ("unknown preset shown", ["presets", "show", "nope"], None, "unknown preset 'nope'"),
+    ("unknown mechanism", FILE, {"mechanism": "hexapod", "params": []}, "unknown mechanism 'hexapod'"),
+    ("too few params", FILE, {"mechanism": S1, "params": list(X3.values[:15])}, "stephenson1 takes 16 parameters"),
+    ("too many params", FILE, {"mechanism": S1, "params": [*X3.values, 1.0]}, "got 17"),
+    ("unknown name", FILE, {"mechanism": S1, "params": GOOD | {"r13": 1.0}}, "unknown parameter 'r13'"),
+    ("missing name", FILE, {"mechanism": S1, "params": {k: v for k, v in GOOD.items() if k != "r7"}},
+     "missing parameter 'r7' (mm)"),
+    ("nan", FILE, NAN_R3, "r3 (mm) must be finite"),
+    ("infinite angle", FILE, {"mechanism": S1, "params": GOOD | {"b": 1e999}}, "b (rad) must be finite"),
+    ("negative length", FILE, {"mechanism": S1, "params": GOOD | {"r1": -5}}, "must be > 0 mm, got -5"),
+    ("zero length", FILE, {"mechanism": S1, "params": GOOD | {"r9": 0}}, "r9 is a length and must be > 0 mm"),
+    ("string value", FILE, {"mechanism": S1, "params": GOOD | {"r2": "88"}}, "r2 must be a number (mm)"),
+    ("params not a list", FILE, {"mechanism": S1, "params": 3}, "params must be an object"),
+    ("malformed json", FILE, '{"mechanism": "stephenson1", "params": [1, 2,', "not valid JSON"),
+    ("not an object", FILE, [1, 2, 3], "a design must be a JSON object"),
+    ("no params", FILE, {"mechanism": S1}, "design has no 'params'"),
+    ("unknown key", FILE, {"mechanism": S1, "params": GOOD, "parms": 1}, "unknown design key 'parms'"),
+    ("wrong unit", FILE, {"mechanism": S1, "params": GOOD, "units": {"r1": "cm"}}, "r1 is given in 'cm'"),
+    ("zero ratio", FILE, {"mechanism": S1, "params": GOOD, "output": {"k": 0}}, "output k (ratio) must be non-zero"),
+    ("unknown output key", FILE, {"mechanism": S1, "params": GOOD, "output": {"kk": 1}}, "unknown output key 'kk'"),
+    ("missing file", ["simulate", "--design", "no/such/file.json"], None, "not found"),
+    ("no source", ["simulate"], None, "one of the arguments --preset --design is required"),
+    ("bad samples", ["simulate", "--preset", "stephenson1/X3", "--samples", "0"], None, "--samples must be between"),
+    ("unknown command", ["fly"], None, "invalid choice: 'fly'"),
+]
+
+
+def _argv(argv: list[str], content: object | None, tmp_path: Path) -> list[str]:
+    if content is None:
+        return argv
+    path = tmp_path / "design.json"
+    path.write_text(_file(content))
+    return [str(path) if a == "DESIGN" else a for a in argv]
+
+
+def _assert_one_line_error(code: int, out: str, err: str, fragment: str) -> None:
+    assert code == 2
+    assert out == ""
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("clm: error: ")
+    assert fragment in lines[0]
+
+
+@pytest.mark.parametrize(("case", "argv", "content", "fragment"), ERRORS, ids=[e[0] for e in ERRORS])
+def test_input_error_in_process(case, argv, content, fragment, tmp_path, capsys):
+    code, out, err = run_in_process(capsys, *_argv(argv, content, tmp_path))
+    _assert_one_line_error(code, out, err, fragment)
+
+
+@pytest.mark.parametrize(("case", "argv", "content", "fragment"), ERRORS, ids=[e[0] for e in ERRORS])
+def test_input_error_in_a_fresh_interpreter(case, argv, content, fragment, tmp_path):
+    r = clm(*_argv(argv, content, tmp_path))
+    _assert_one_line_error(r.returncode, r.stdout, r.stderr, fragment)
+
+
+def test_help_exits_zero(capsys):
+    assert main(["--help"]) == 0
+    assert "simulate" in capsys.readouterr().out
+
+
+def test_installed_console_script_runs():
+    """The `clm` entry point of pyproject.toml, where the package is installed (the project venv)."""
+    exe = Path(sys.executable).with_name("clm")
+    if not exe.exists():
+        pytest.skip("clm is not installed next to this interpreter")
+    r = subprocess.run([str(exe), "presets"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "stephenson1/X3" in r.stdout
+
+
+# --- core.validate directly --------------------------------------------------------------------
+
+
+def test_every_preset_passes_validation():
+    for p in presets.PRESETS.values():
+        check_params(p.mechanism, p.values)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, STEPHENSON1.n_params - 1), st.sampled_from([0.0, -1e-9, -3.0, math.nan, math.inf]))
+def test_a_bad_entry_is_named_with_its_unit(j, bad):
+    spec = STEPHENSON1.params[j]
+    row = np.array(X3.values)
+    row[j] = bad
+    if spec.kind != "length" and math.isfinite(bad):
+        check_params(STEPHENSON1, row)  # signed offsets, positions and angles may be <= 0
+        return
+    with pytest.raises(ValueError, match=rf"^{spec.name} .*{spec.unit}"):
+        check_params(STEPHENSON1, row)
+
+
+def test_population_errors_name_the_member():
+    pop = np.tile(X3.values, (3, 1))
+    pop[2, 4] = -1.0
+    with pytest.raises(ValueError, match="r1 of design 2 is a length"):
+        check_params(STEPHENSON1, pop)
