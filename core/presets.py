@@ -79,7 +79,14 @@ def _paper_presets() -> dict[str, Preset]:
     return out
 
 
-PRESETS: dict[str, Preset] = _paper_presets()
+def _all_presets() -> dict[str, Preset]:
+    # Imported here: those modules import Preset from this one.
+    from core.mechanisms import rtclm_presets
+
+    return {**_paper_presets(), **rtclm_presets.PRESETS}
+
+
+PRESETS: dict[str, Preset] = _all_presets()
 
 
 def get(name: str) -> Preset:

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism, OutputStage
+from core.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
 from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
 
-MECHANISMS: dict[str, Mechanism] = {m.name: m for m in (STEPHENSON1, STEPHENSON3)}
+MECHANISMS: dict[str, Mechanism] = {
+    m.name: m for m in (STEPHENSON1, STEPHENSON3, RTCLM_PRIMARY, RTCLM_AUXILIARY)
+}
 
 
 def get(name: str) -> Mechanism:
