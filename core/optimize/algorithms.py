@@ -1,0 +1,230 @@
+"""pymoo multi-objective algorithms that handle constraints, selectable by name with settings.
+
+Offered (pymoo 0.6.2; all rank infeasible members by total violation, all reproducible from a
+seed): ``nsga2`` (default), ``nsga3``, ``unsga3``, ``agemoea``, ``agemoea2``, ``smsemoa``,
+``spea2``, ``ctaea``, ``gde3``. Left out: MOEA/D, D-NSGA-II and KGB (pymoo asserts they take no
+constraints), RVEA (keeps infeasible members it should drop), CMOPSO (not reproducible from a
+seed with three objectives), R-NSGA-II/III (need reference points from the user).
+
+Every call builds fresh operator instances; nothing mutable is shared between runs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from math import comb
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from pymoo.core.algorithm import Algorithm
+from pymoo.core.repair import Repair
+from pymoo.operators.crossover.sbx import SBX
+from pymoo.operators.mutation.pm import PM
+from pymoo.operators.selection.tournament import TournamentSelection
+from pymoo.util.ref_dirs import get_reference_directions
+
+DEFAULT_ALGORITHM = "nsga2"
+DEFAULT_POP_SIZE = 200
+
+# Options of the SBX / PM genetic algorithms (pymoo names in brackets):
+#   crossover_prob (SBX prob), crossover_eta (SBX eta), mutation_prob (PM prob, per member),
+#   mutation_prob_var (PM prob_var, per variable; default 1/n_var), mutation_eta (PM eta),
+#   eliminate_duplicates.
+GA_OPTIONS = ("crossover_prob", "crossover_eta", "mutation_prob", "mutation_prob_var", "mutation_eta",
+              "eliminate_duplicates")
+REF_OPTIONS = ("n_partitions",)
+DE_OPTIONS = ("variant", "CR", "F")
+
+
+@dataclass(frozen=True)
+class AlgorithmSpec:
+    """An algorithm by name, its population size and its options (see ``ALGORITHMS``)."""
+
+    name: str = DEFAULT_ALGORITHM
+    pop_size: int = DEFAULT_POP_SIZE
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "pop_size": self.pop_size, "options": dict(self.options)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> AlgorithmSpec:
+        unknown = set(d) - {"name", "pop_size", "options"}
+        if unknown:
+            raise ValueError(f"unknown algorithm key {sorted(unknown)[0]!r}; known: name, pop_size, options")
+        return cls(str(d.get("name", DEFAULT_ALGORITHM)), int(d.get("pop_size", DEFAULT_POP_SIZE)),
+                   dict(d.get("options", {})))
+
+
+Build = Callable[[AlgorithmSpec, int, int, dict[str, Any]], Algorithm]
+
+
+@dataclass(frozen=True)
+class AlgorithmInfo:
+    """How to build one algorithm: its option names, pymoo's operator defaults and a builder."""
+
+    title: str
+    options: tuple[str, ...]
+    build: Build
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+
+
+def reference_directions(n_obj: int, n_max: int, n_partitions: int | None = None) -> NDArray[np.float64]:
+    """Das-Dennis directions: the most partitions giving at most ``n_max`` directions (at least 1)."""
+    if n_partitions is None:
+        n_partitions = 1
+        while comb(n_partitions + 1 + n_obj - 1, n_obj - 1) <= n_max:
+            n_partitions += 1
+    return get_reference_directions("das-dennis", n_obj, n_partitions=int(n_partitions))
+
+
+def _sbx_pm(opts: dict[str, Any], defaults: Mapping[str, Any]) -> dict[str, Any]:
+    o = {**defaults, **opts}
+    sbx_kw = {"n_offsprings": 1} if o.get("sbx_one_child") else {}
+    return {
+        "crossover": SBX(prob=float(o["crossover_prob"]), eta=float(o["crossover_eta"]), **sbx_kw),
+        "mutation": PM(prob=float(o.get("mutation_prob", 0.9)), eta=float(o["mutation_eta"]),
+                       prob_var=None if o.get("mutation_prob_var") is None else float(o["mutation_prob_var"])),
+        "eliminate_duplicates": bool(o.get("eliminate_duplicates", True)),
+    }
+
+
+# Fresh selection / survival operators per algorithm. pymoo's own defaults are instances
+# shared by every run, and some keep state (SPEA2's normalisation bounds leak between runs).
+def _ops_nsga2() -> dict[str, Any]:
+    from pymoo.algorithms.moo.nsga2 import binary_tournament
+    from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
+
+    return {"selection": TournamentSelection(func_comp=binary_tournament), "survival": RankAndCrowding()}
+
+
+def _ops_nsga3() -> dict[str, Any]:
+    from pymoo.algorithms.moo.nsga3 import comp_by_cv_then_random
+
+    return {"selection": TournamentSelection(func_comp=comp_by_cv_then_random)}
+
+
+def _ops_unsga3() -> dict[str, Any]:
+    from pymoo.algorithms.moo.unsga3 import comp_by_rank_and_ref_line_dist
+
+    return {"selection": TournamentSelection(func_comp=comp_by_rank_and_ref_line_dist)}
+
+
+def _ops_age() -> dict[str, Any]:
+    from pymoo.algorithms.moo.nsga2 import binary_tournament
+
+    return {"selection": TournamentSelection(func_comp=binary_tournament)}
+
+
+def _ops_sms() -> dict[str, Any]:
+    from pymoo.algorithms.moo.sms import LeastHypervolumeContributionSurvival, cv_and_dom_tournament
+
+    return {"selection": TournamentSelection(func_comp=cv_and_dom_tournament),
+            "survival": LeastHypervolumeContributionSurvival()}
+
+
+def _ops_spea2() -> dict[str, Any]:
+    from pymoo.algorithms.moo.spea2 import SPEA2Survival, spea_binary_tournament
+
+    return {"selection": TournamentSelection(func_comp=spea_binary_tournament),
+            "survival": SPEA2Survival(normalize=True)}
+
+
+def _ops_ctaea() -> dict[str, Any]:
+    from pymoo.algorithms.moo.ctaea import RestrictedMating, comp_by_cv_dom_then_random
+
+    return {"selection": RestrictedMating(func_comp=comp_by_cv_dom_then_random)}
+
+
+
+def _ga(cls_path: str, ops: Callable[[], dict[str, Any]]) -> Build:
+    def build(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+        cls = _import(cls_path)
+        return cls(pop_size=spec.pop_size, seed=seed, **_sbx_pm(opts, ALGORITHMS[spec.name].defaults), **ops())
+
+    return build
+
+
+def _ref(cls_path: str, ops: Callable[[], dict[str, Any]], fixed_pop: bool = False) -> Build:
+    def build(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+        cls = _import(cls_path)
+        dirs = reference_directions(n_obj, spec.pop_size, opts.pop("n_partitions", None))
+        kw = {**_sbx_pm(opts, ALGORITHMS[spec.name].defaults), **ops()}
+        if fixed_pop:  # C-TAEA's population is its set of reference directions
+            return cls(dirs, seed=seed, **kw)
+        return cls(dirs, pop_size=max(spec.pop_size, len(dirs)), seed=seed, **kw)
+
+    return build
+
+
+def _de(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from pymoo.algorithms.moo.gde3 import GDE3
+    from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
+
+    F = opts.get("F")
+    return GDE3(pop_size=spec.pop_size, variant=str(opts.get("variant", "DE/rand/1/bin")),
+                CR=float(opts.get("CR", 0.5)), F=tuple(F) if isinstance(F, (list, tuple)) else F, seed=seed,
+                survival=RankAndCrowding())
+
+
+def _import(path: str) -> type:
+    module, name = path.rsplit(".", 1)
+    from importlib import import_module
+
+    cls: type = getattr(import_module(module), name)
+    return cls
+
+
+_MOO = "pymoo.algorithms.moo."
+_SBX15 = {"crossover_prob": 0.9, "crossover_eta": 15.0, "mutation_eta": 20.0}
+_SBX30 = {"crossover_prob": 1.0, "crossover_eta": 30.0, "mutation_eta": 20.0}
+
+ALGORITHMS: dict[str, AlgorithmInfo] = {
+    "nsga2": AlgorithmInfo("NSGA-II", GA_OPTIONS, _ga(_MOO + "nsga2.NSGA2", _ops_nsga2), _SBX15),
+    "nsga3": AlgorithmInfo("NSGA-III", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "nsga3.NSGA3", _ops_nsga3), _SBX30),
+    "unsga3": AlgorithmInfo("U-NSGA-III", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "unsga3.UNSGA3", _ops_unsga3), _SBX30),
+    "agemoea": AlgorithmInfo("AGE-MOEA", GA_OPTIONS, _ga(_MOO + "age.AGEMOEA", _ops_age), _SBX15),
+    "agemoea2": AlgorithmInfo("AGE-MOEA2", GA_OPTIONS, _ga(_MOO + "age2.AGEMOEA2", _ops_age), _SBX15),
+    "smsemoa": AlgorithmInfo("SMS-EMOA", GA_OPTIONS, _ga(_MOO + "sms.SMSEMOA", _ops_sms), _SBX15),
+    "spea2": AlgorithmInfo("SPEA2", GA_OPTIONS, _ga(_MOO + "spea2.SPEA2", _ops_spea2), _SBX15),
+    "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
+                           {**_SBX30, "sbx_one_child": True}),
+    "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
+}
+
+
+def algorithm_names() -> tuple[str, ...]:
+    return tuple(ALGORITHMS)
+
+
+def validate(spec: AlgorithmSpec) -> None:
+    """Raise ValueError naming the problem if the spec cannot be built."""
+    if spec.name not in ALGORITHMS:
+        raise ValueError(f"unknown algorithm {spec.name!r}; known: {', '.join(ALGORITHMS)}")
+    if not isinstance(spec.pop_size, int) or isinstance(spec.pop_size, bool) or spec.pop_size < 2:
+        raise ValueError(f"algorithm pop_size must be an integer >= 2, got {spec.pop_size!r}")
+    info = ALGORITHMS[spec.name]
+    for key in spec.options:
+        if key not in info.options:
+            raise ValueError(f"unknown option {key!r} for {spec.name}; known: {', '.join(info.options)}")
+
+
+def make_algorithm(spec: AlgorithmSpec, n_obj: int, seed: int, repair: Repair | None = None) -> Algorithm:
+    """A fresh pymoo algorithm for ``n_obj`` objectives, seeded.
+
+    Args:
+        spec: name, population size and options.
+        n_obj: number of objectives (reference-direction algorithms need it).
+        seed: the algorithm's random seed (pymoo draws every random number from it).
+        repair: applied to every new member before evaluation (initial sample and offspring).
+    """
+    validate(spec)
+    alg = ALGORITHMS[spec.name].build(spec, n_obj, int(seed), dict(spec.options))
+    if repair is not None:
+        # Set on every holder: GDE3 builds its DE mating without the algorithm's repair.
+        for holder in (alg, getattr(alg, "initialization", None), getattr(alg, "mating", None)):
+            if holder is not None and hasattr(holder, "repair"):
+                holder.repair = repair
+    return alg

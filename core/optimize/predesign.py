@@ -1,0 +1,214 @@
+"""Predesign X0 (paper §3.1): Fourier-descriptor shape matching, then analytic placement.
+
+The ``predesign`` problem searches a mechanism's global bounds. Every new member is first
+*placed* (the problem's Lamarckian repair): its design-frame path is mapped onto the target
+by the best similarity transform (``core.fourier.similarity_transform``: scale, rotation,
+translation, cyclic shift), and the transform is applied to the design itself:
+
+- lengths and signed offsets are multiplied by the scale;
+- absolute ground points (``Ground`` steps without origin, e.g. the crank pivot x_a, y_a)
+  are rotated, scaled and translated; world-frame offsets of a ground point from another one
+  are rotated and scaled;
+- direction angles of ground links (``Ground(..., angle=b)``) get the rotation added;
+- crank phases get the rotation plus the cyclic shift as a crank angle (``Similarity.phase``).
+
+The placed design's path is then exactly ``scale R path_(i + shift) + translation``, the
+least-squares fit of the target. Objectives: ``fd`` (distance between the normalised Fourier
+descriptors of path and target: the shape alone, invariant to placement and timing) and
+``f1`` (the time-aligned shape error after placement). Constraint: assembly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core import fourier
+from core.design import Design
+from core.evaluate import Backend
+from core.mechanisms.model import Crank, Dyad, Ground, Mechanism, Operand
+from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec
+from core.optimize.subtasks import DEFAULT_TARGET, LABELS, load_target, shape_metrics
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Placement:
+    """How a similarity transform of the design frame acts on a mechanism's parameter vector.
+
+    Attributes:
+        scaled: ``(n_params,)`` entries multiplied by the scale (lengths, offsets).
+        points: ``(ix, iy, sx, sy, absolute)`` coordinate pairs (column indices, operand signs):
+            absolute points are rotated, scaled and translated, relative ones rotated and scaled.
+        directions: ``(n_params,)`` angles that get the rotation added.
+        phases: ``(n_params,)`` crank phases that get the rotation plus the cyclic-shift angle.
+    """
+
+    scaled: NDArray[np.bool_]
+    points: tuple[tuple[int, int, float, float, bool], ...]
+    directions: NDArray[np.bool_]
+    phases: NDArray[np.bool_]
+
+
+def _operand(m: Mechanism, op: Operand) -> tuple[int, float] | None:
+    """(column, sign) of a parameter operand; None for a constant."""
+    if not isinstance(op, str):
+        return None
+    sign, name = (-1.0, op[1:]) if op.startswith("-") else (1.0, op)
+    if name not in m.param_names:
+        raise ValueError(f"{m.name}: no analytic placement (operand {op!r} is a derived value)")
+    return m.param_names.index(name), sign
+
+
+def placement(m: Mechanism) -> Placement:
+    """The placement plan of a mechanism (see the module doc).
+
+    Raises:
+        ValueError: the mechanism's construction cannot follow a similarity transform (a fixed
+            ground point, a constant length, a derived coupling), naming the step.
+    """
+    if m.derive is not None:
+        raise ValueError(f"{m.name}: no analytic placement for a mechanism with derived values")
+    n = m.n_params
+    kinds = np.array([p.kind for p in m.params])
+    scaled = np.isin(kinds, ("length", "offset"))
+    directions = np.zeros(n, dtype=bool)
+    phases = np.zeros(n, dtype=bool)
+    points: list[tuple[int, int, float, float, bool]] = []
+    paired = np.zeros(n, dtype=bool)
+
+    def needs_scale(step: str, *ops: Operand) -> None:
+        for op in ops:
+            col = _operand(m, op)
+            if col is None and float(op) != 0.0:
+                raise ValueError(f"{m.name}: no analytic placement (step {step!r} has a constant length {op!r})")
+            if col is not None and not scaled[col[0]]:
+                raise ValueError(f"{m.name}: no analytic placement (step {step!r} uses {op!r} as a length)")
+
+    def angle(step: str, op: Operand, into: NDArray[np.bool_]) -> None:
+        col = _operand(m, op)
+        if col is None:
+            raise ValueError(f"{m.name}: no analytic placement (step {step!r} has a constant angle {op!r})")
+        if col[1] < 0 or kinds[col[0]] != "angle":
+            raise ValueError(f"{m.name}: no analytic placement (step {step!r}: angle operand {op!r})")
+        into[col[0]] = True
+
+    for s in m.steps:
+        if isinstance(s, Ground):
+            cu, cv = _operand(m, s.u), _operand(m, s.v)
+            if isinstance(s.angle, str) and s.origin is not None:
+                angle(s.name, s.angle, directions)
+                needs_scale(s.name, s.u, s.v)
+                continue
+            if isinstance(s.angle, str) or float(s.angle) != 0.0 or cu is None or cv is None:
+                raise ValueError(f"{m.name}: no analytic placement (ground point {s.name!r} cannot be moved)")
+            points.append((cu[0], cv[0], cu[1], cv[1], s.origin is None))
+            paired[[cu[0], cv[0]]] = True
+        elif isinstance(s, Crank):
+            angle(s.name, s.phase, phases)
+            needs_scale(s.name, s.u, s.v)
+        elif isinstance(s, Dyad):
+            needs_scale(s.name, s.l1, s.l2)
+        else:
+            needs_scale(s.name, s.u, s.v)
+    if (directions & phases).any():
+        raise ValueError(f"{m.name}: no analytic placement (an angle is both a direction and a crank phase)")
+    loose = (kinds == "position") & ~paired
+    if loose.any():
+        raise ValueError(f"{m.name}: no analytic placement (position {m.param_names[int(np.argmax(loose))]!r} "
+                         "is not a ground point)")
+    return Placement(scaled & ~paired, tuple(points), directions, phases)
+
+
+def apply_placement(plan: Placement, params: F64, sim: fourier.Similarity) -> F64:
+    """Parameter vectors ``(pop, n_params)`` after the similarity ``sim`` (NaN rows where sim is NaN)."""
+    p = np.array(params, dtype=np.float64, copy=True)
+    s, rot = sim.scale, sim.rotation
+    factor = s * np.exp(1j * rot)
+    shift = sim.translation[:, 0] + 1j * sim.translation[:, 1]
+    p[:, plan.scaled] *= s[:, None]
+    for ix, iy, sx, sy, absolute in plan.points:
+        z = factor * (sx * params[:, ix] + 1j * sy * params[:, iy]) + (shift if absolute else 0.0)
+        p[:, ix], p[:, iy] = sx * z.real, sy * z.imag
+    p[:, plan.directions] += rot[:, None]
+    p[:, plan.phases] += (rot + sim.phase)[:, None]
+    p[~np.isfinite(s)] = np.nan
+    return p
+
+
+def place(design: Design, target: str = DEFAULT_TARGET, n_samples: int = 360, backend: Backend = "auto",
+          fit: str = "lsq") -> tuple[F64, fourier.Similarity]:
+    """Place a population on a target: parameters whose design-frame paths best fit it.
+
+    Args:
+        design: population to place.
+        target: target option string (``cycloid`` or a CSV path, see ``subtasks.load_target``).
+        n_samples: crank samples (against the target's n time-uniform samples).
+        backend: solver backend.
+        fit: ``lsq`` the least-squares similarity; ``extent`` refined so the width and the lowest
+            point match the target exactly (:func:`fit_extent`).
+
+    Returns:
+        ``(pop, n_params)`` placed parameters (angles not wrapped; NaN rows for unassemblable
+        members) and the similarity that was applied.
+    """
+    plan = placement(design.mechanism)
+    tgt = load_target(target).sample(n_samples)
+    sol = design.solve(n_samples, joints=False, backend=backend)
+    point = np.where(sol.violation[:, None, None] == 0.0, sol.point, np.nan)
+    sim = fourier.similarity_transform(point, tgt)
+    if fit == "extent":
+        sim = fit_extent(sim, point, tgt)
+    return apply_placement(plan, design.params, sim), sim
+
+
+def fit_extent(sim: fourier.Similarity, point: F64, target: F64) -> fourier.Similarity:
+    """Refine a least-squares similarity so the placed path has the target's width and lowest y exactly.
+
+    The path is scaled about its centroid by target width / placed width, then shifted in y so
+    its lowest point is the target's (the f2 and f3 inputs of subtask 1); rotation, cyclic shift
+    and the x alignment of the centroid are the least-squares ones.
+
+    Args:
+        sim: least-squares similarity of ``point`` onto ``target``.
+        point: ``(pop, n, 2)`` design-frame paths (mm).
+        target: ``(n, 2)`` target samples (mm).
+    """
+    placed = fourier.apply_similarity(sim, point)
+    x, y = placed[..., 0], placed[..., 1]
+    width0, ymin0 = float(np.ptp(target[:, 0])), float(target[:, 1].min())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = width0 / (x.max(1) - x.min(1))
+    cx, cy = x.mean(1), y.mean(1)
+    # Scaled about the centroid: q' = c + k (q - c); then y shifted so min y' = ymin0.
+    dy = ymin0 - (cy + k * (y.min(1) - cy))
+    tx = cx * (1.0 - k) + k * sim.translation[:, 0]
+    ty = cy * (1.0 - k) + k * sim.translation[:, 1] + dy
+    return fourier.Similarity(scale=sim.scale * k, rotation=sim.rotation, translation=np.stack([tx, ty], -1),
+                              shift=sim.shift, phase=sim.phase, rms=sim.rms)
+
+
+def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
+                      n_harmonics: int = fourier.DEFAULT_HARMONICS) -> ProblemSpec:
+    """Predesign: objectives fd (Fourier-descriptor distance) and f1 (MSE after placement).
+
+    Registered as ``predesign`` by ``core.optimize.subtasks`` (the module the problem registry loads).
+    """
+    tgt = load_target(target)
+    d_target = fourier.descriptors(tgt.sample(n_samples), n_harmonics)
+
+    def evaluate(design: Design) -> Metrics:
+        out = shape_metrics(design, target, n_samples, backend)  # type: ignore[arg-type]
+        sol = design.solve(n_samples, joints=False, backend=backend)
+        point = np.where(sol.violation[:, None, None] == 0.0, sol.point, np.nan)
+        out["fd"] = fourier.descriptor_distance(fourier.descriptors(point, n_harmonics), d_target)
+        return out
+
+    def repair(design: Design) -> F64:
+        return place(design, target, n_samples, backend)[0]  # type: ignore[arg-type]
+
+    return ProblemSpec("predesign", evaluate, ("fd", "f1"), (ASSEMBLY,),
+                       labels={**LABELS, "fd": "Fourier-descriptor distance (-)"}, repair=repair)

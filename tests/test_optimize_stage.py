@@ -1,0 +1,195 @@
+"""A stage: reproducible from its seed, one callback per generation, cancellable, feasible picks."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from core.design import Design
+from core.optimize import AlgorithmSpec, Progress, Stage, StageResult, StageSpec, make_problem
+from core.optimize.algorithms import ALGORITHMS
+from core.optimize.problem import ASSEMBLY, Constraint, ProblemSpec
+from core.presets import get
+
+X0 = get("stephenson1/X0").design()
+
+
+def spec(problem: str = "path_box", name: str = "nsga2", pop: int = 12, n_gen: int = 4, seed: int = 3,
+         **kw: object) -> StageSpec:
+    return StageSpec("stage", make_problem(problem), s=0.2, d=20.0, algorithm=AlgorithmSpec(name, pop), n_gen=n_gen,
+                     seed=seed, **kw)  # type: ignore[arg-type]
+
+
+def same(a: StageResult, b: StageResult) -> bool:
+    return (
+        np.array_equal(a.X, b.X)
+        and np.array_equal(a.F, b.F, equal_nan=True)
+        and np.array_equal(a.G, b.G, equal_nan=True)
+        and a.shortlist == b.shortlist
+    )
+
+
+@pytest.mark.parametrize("algorithm", list(ALGORITHMS))  # AGE-MOEA's first use compiles numba kernels (~10 s)
+def test_same_seed_gives_identical_results_and_picks(algorithm: str) -> None:
+    s = spec("bowl", algorithm)
+    a, b = Stage(s, X0).run(), Stage(s, X0).run()
+    assert a.status == "complete" and a.pop > 0
+    assert same(a, b)
+    assert a.choose("knee") == b.choose("knee")
+
+
+def test_another_seed_gives_another_population() -> None:
+    a, b = Stage(spec(seed=1), X0).run(), Stage(spec(seed=2), X0).run()
+    assert not np.array_equal(a.X, b.X)
+
+
+def test_callback_once_per_generation_with_consistent_shapes() -> None:
+    calls = []
+    s = spec(n_gen=5, pop=10)
+    stage = Stage(s, X0, index=2, callback=calls.append)
+    res = stage.run()
+    assert [p.generation for p in calls] == [1, 2, 3, 4, 5]
+    assert [p.fraction for p in calls] == [0.2, 0.4, 0.6, 0.8, 1.0]
+    assert all(p.index == 2 and p.stage == "stage" and p.n_gen == 5 for p in calls)
+    elapsed = [p.elapsed for p in calls]
+    assert elapsed == sorted(elapsed)
+    evals = [p.n_evals for p in calls]
+    assert evals == sorted(evals) and evals[0] >= 10
+    for p in calls:
+        pop = p.X.shape[0]
+        assert p.X.shape == (pop, 16) and p.F.shape == (pop, 2) and p.G.shape == (pop, 1) and p.cv.shape == (pop,)
+        assert p.feasible.shape == (pop,)
+        assert set(p.front) <= set(np.flatnonzero(p.feasible))
+        assert stage.box.contains(p.X).all()
+    np.testing.assert_array_equal(calls[-1].X, res.X)
+
+
+def test_picks_satisfy_their_stage_constraints() -> None:
+    # Subtask-2-like: objectives under constraints on other metrics, re-checked on the picked designs.
+    base = make_problem("path_box")
+    constrained = ProblemSpec("path_box_c", base.evaluate, ("f1",  "f2"),
+                              (ASSEMBLY, Constraint("width", lower=280.0), Constraint("y_min", upper=-90.0)))
+    s = StageSpec("c", constrained, s=0.1, d=10.0, algorithm=AlgorithmSpec("nsga2", 16), n_gen=4, seed=5)
+    res = Stage(s, X0).run()
+    assert res.shortlist.knees
+    for i in res.shortlist.candidates:
+        d = res.pick(i)
+        F, G = constrained.columns(constrained.evaluate_metrics(d))
+        assert (G <= 0.0).all()
+        np.testing.assert_allclose(F[0], res.F[i], rtol=1e-12)  # one design == its row of the batch
+
+
+def test_the_start_design_seeds_the_initial_population() -> None:
+    first = []
+    Stage(spec(n_gen=1), X0, callback=first.append).run()
+    d = np.abs(first[0].X - X0.params[0]).max(axis=1)
+    assert d.min() < 1e-9
+
+
+def test_cancel_between_generations_leaves_a_valid_loadable_result() -> None:
+    cancel = threading.Event()
+
+    def on_gen(p: Progress) -> None:
+        if p.generation == 2:
+            cancel.set()
+
+    stage = Stage(spec(n_gen=6), X0)
+    res = stage.run(on_gen, cancel)
+    assert res.status == "cancelled" and res.generation == 2 and res.pop == 12
+    back = StageResult.from_json(res.to_json())
+    assert same(back, res) and back.status == "cancelled"
+    assert back.pick(back.choose("knee")).pop == 1
+    # Resuming the same stage finishes it exactly as an uninterrupted run would.
+    cancel.clear()
+    resumed = stage.run(None, cancel)
+    assert resumed.status == "complete" and resumed.generation == 6
+    assert same(resumed, Stage(spec(n_gen=6), X0).run())
+
+
+def test_cancel_before_the_first_generation_gives_an_empty_result() -> None:
+    cancel = threading.Event()
+    cancel.set()
+    res = Stage(spec(), X0).run(cancel=cancel)
+    assert res.status == "cancelled" and res.pop == 0 and res.X.shape == (0, 16)
+    back = StageResult.from_json(res.to_json())
+    assert back.pop == 0 and back.F.shape == (0, 2)
+    with pytest.raises(ValueError, match="no population"):
+        back.choose("knee")
+
+
+def test_stepping_matches_run() -> None:
+    stage = Stage(spec(), X0)
+    stage.setup()
+    n = 0
+    while stage.has_next():
+        stage.next()
+        n += 1
+    assert n == 4
+    with pytest.raises(RuntimeError):
+        stage.next()
+    assert same(stage.result(), Stage(spec(), X0).run())
+
+
+def test_early_stop_when_objectives_reach_their_thresholds() -> None:
+    res = Stage(spec(n_gen=10, stop_below=(1e12, 1e12)), X0).run()
+    assert res.status == "stopped" and res.generation == 1
+    res = Stage(spec(n_gen=3, stop_below=(-1.0, -1.0)), X0).run()
+    assert res.status == "complete" and res.generation == 3
+
+
+def test_metrics_of_every_member_are_kept() -> None:
+    res = Stage(spec(), X0).run()
+    assert set(res.metrics) >= {"f1", "f2", "width", "y_min", "violation"}
+    np.testing.assert_array_equal(res.metrics["f1"][res.feasible], res.F[res.feasible, 0])
+    np.testing.assert_allclose((res.metrics["width"] - 300.0) ** 2, res.metrics["f1"], rtol=1e-12)
+
+
+def test_unassemblable_members_are_constraint_violations_not_penalties() -> None:
+    # The global box: most random Stephenson-I designs do not assemble.
+    s = StageSpec("global", make_problem("path_box"), s=None, algorithm=AlgorithmSpec("nsga2", 30), n_gen=1, seed=0,
+                  seed_start=False)
+    res = Stage(s, X0).run()
+    bad = res.metrics["violation"] > 0
+    assert bad.any()
+    assert (res.cv[bad] == res.metrics["violation"][bad]).all()  # the continuous assembly shortfall
+    assert np.isinf(res.F[bad]).all() and np.isnan(res.metrics["f1"][bad]).all()
+    assert (res.F[~bad] < 1e9).all()
+
+
+def test_bad_settings_are_named() -> None:
+    with pytest.raises(ValueError, match="'moead'"):
+        spec(name="moead")
+    with pytest.raises(ValueError, match="'crossover_rate'"):
+        StageSpec("s", make_problem("bowl"), algorithm=AlgorithmSpec("nsga2", 10, {"crossover_rate": 0.5}))
+    with pytest.raises(ValueError, match="'width_mm'"):
+        make_problem("path_box", width_mm=3.0)
+    with pytest.raises(ValueError, match="n_gen"):
+        spec(n_gen=0)
+    with pytest.raises(ValueError, match="one design"):
+        Stage(spec(), Design(X0.mechanism, np.repeat(X0.params, 2, 0)))
+
+
+@pytest.mark.parametrize("algorithm", ["nsga2", "gde3"])
+def test_a_problem_repair_replaces_members_before_evaluation(algorithm: str) -> None:
+    # A stand-in for predesign's analytic placement: r3 becomes a function of r2 (inside the box).
+    base = make_problem("bowl")
+    j2, j3 = X0.mechanism.param_names.index("r2"), X0.mechanism.param_names.index("r3")
+    box = StageSpec("r", base, s=0.2, d=20.0).box(X0)
+
+    def tie(r2: np.ndarray) -> np.ndarray:
+        u = (r2 - box.lower[j2]) / (box.upper[j2] - box.lower[j2])
+        return box.lower[j3] + (1.0 - u) * (box.upper[j3] - box.lower[j3])
+
+    def repair(design: Design) -> np.ndarray:
+        p = np.array(design.params)
+        p[:, j3] = tie(p[:, j2])
+        return p
+
+    s = StageSpec("r", replace(base, repair=repair), s=0.2, d=20.0, algorithm=AlgorithmSpec(algorithm, 12), n_gen=3)
+    res = Stage(s, X0).run()
+    np.testing.assert_allclose(res.X[:, j3], tie(res.X[:, j2]), rtol=1e-12)
+    F, _ = base.columns(base.evaluate_metrics(Design(X0.mechanism, res.X)))
+    np.testing.assert_array_equal(F, res.F)  # objectives belong to the repaired designs
