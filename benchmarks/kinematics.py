@@ -1,0 +1,160 @@
+"""Throughput of the batch dyad solver: numpy reference vs numba kernel (serial and parallel).
+
+    python benchmarks/kinematics.py            # pop 200 and 10 000, N 360, best of 7
+    python benchmarks/kinematics.py --quick    # pop 200 and 1 000, best of 3 (CI, a few seconds)
+
+Prints trajectories (designs x one crank revolution of N samples) per second for the four-bar,
+Stephenson-I and Jansen mechanisms, each population a preset jittered by 3 % (seeded). A
+mechanism not yet in the registry is skipped with a note. Times are the best of k repeats after
+a warm-up call, through ``solver_numba.run`` and ``kinematics.reduce_reference`` (the same
+outputs, allocation included; "reused out": the serial kernel alone, writing into outputs
+allocated once); compile (or cache load) time is reported apart. Targets
+(issue 3): Stephenson-I numba serial joints=False >= 500 k/s, numpy reference >= 50 k/s.
+Not a test: wall-clock numbers depend on the machine and its load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from core import solver_numba  # noqa: E402
+from core.kinematics import reduce_reference, sample_angles  # noqa: E402
+from core.mechanisms import MECHANISMS  # noqa: E402
+from core.presets import PRESETS, Preset  # noqa: E402
+
+MECHANISM_NAMES = ("fourbar", "stephenson1", "jansen")
+TITLES = {"fourbar": "four-bar", "stephenson1": "Stephenson-I", "jansen": "Jansen"}
+TARGET_NUMBA = 500_000.0
+TARGET_NUMPY = 50_000.0
+JITTER = 0.03
+
+
+def preset_for(name: str) -> Preset | None:
+    """The preset a mechanism is benchmarked around: ``name``, X3 for Stephenson-I, else its first."""
+    for key in (name, f"{name}/X3"):
+        if key in PRESETS and PRESETS[key].mechanism.name == name:
+            return PRESETS[key]
+    return next((p for p in PRESETS.values() if p.mechanism.name == name), None)
+
+
+def operands(preset: Preset, pop: int, seed: int = 0) -> np.ndarray:
+    """``(pop, n_steps, 3)`` kernel operands of the preset with every parameter jittered by 3 %."""
+    m = preset.mechanism
+    rng = np.random.default_rng(seed)
+    params = np.asarray(preset.values) * (1.0 + JITTER * rng.standard_normal((pop, m.n_params)))
+    internal, _ = m.internal(params)
+    return np.ascontiguousarray(m.compile().operands(internal))
+
+
+def best_of(fn: Callable[[], object], repeats: int) -> float:
+    """Best wall time of repeats calls (s): the least disturbed by other processes."""
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return float(best)
+
+
+def compile_report(ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int) -> str:
+    """Time of the first call of each kernel entry (a compile, or a load from numba's disk cache)."""
+    parts = []
+    for parallel, kernel in ((False, solver_numba._run_serial), (True, solver_numba._run_parallel)):
+        t = time.perf_counter()
+        solver_numba.run(ops, vals[:2], theta, tracked, False, parallel)
+        dt = time.perf_counter() - t
+        misses = sum(kernel.stats.cache_misses.values())
+        how = "compiled" if misses else "loaded from cache"
+        parts.append(f"{'parallel' if parallel else 'serial'} {dt:.2f} s ({how})")
+    return "first call: " + ", ".join(parts)
+
+
+def kernel_only(ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int) -> Callable[[], object]:
+    """The serial kernel writing into outputs allocated once: compute without allocation and
+    first-touch page faults (which cost ~1 us per design at pop 10 000 on this VM)."""
+    pop, n_steps = vals.shape[:2]
+    n = theta.shape[0]
+    none = np.empty((0, 0, 0, 2))
+    out = (none, none, np.empty((pop, n, 2)), np.empty((pop, n, 2)), np.empty((pop, n), dtype=bool))
+    out += tuple(np.empty((pop, n_steps)) for _ in range(3)) + (np.empty(pop),)
+    program = (ops, vals, np.cos(theta), np.sin(theta), tracked)
+    program += (solver_numba._sinks(ops, tracked), solver_numba._link_lengths(ops), False)
+    return lambda: solver_numba._run_serial(*program, *out)
+
+
+def rates(ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int, repeats: int) -> dict[str, float]:
+    """Trajectories per second of each backend and mode on one population."""
+    pop = vals.shape[0]
+    cases: dict[str, Callable[[], object]] = {
+        "numpy": lambda: reduce_reference(ops, vals, theta, tracked, False),
+        "serial": lambda: solver_numba.run(ops, vals, theta, tracked, False, False),
+        "serial, reused out": kernel_only(ops, vals, theta, tracked),
+        "parallel": lambda: solver_numba.run(ops, vals, theta, tracked, False, True),
+        "serial+joints": lambda: solver_numba.run(ops, vals, theta, tracked, True, False),
+        "parallel+joints": lambda: solver_numba.run(ops, vals, theta, tracked, True, True),
+    }
+    out = {}
+    for label, fn in cases.items():
+        fn()  # warm-up: caches, first-touch page faults
+        out[label] = pop / best_of(fn, max(1, repeats // 3) if label == "numpy" else repeats)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small populations, few repeats (CI)")
+    ap.add_argument("--samples", type=int, default=360)
+    args = ap.parse_args(argv)
+    pops = (200, 1000) if args.quick else (200, 10_000)
+    repeats = 3 if args.quick else 7
+    n = args.samples
+    theta = sample_angles(n)
+
+    rows: list[tuple[str, int, dict[str, float]]] = []
+    compiled = False
+    for name in MECHANISM_NAMES:
+        preset = preset_for(name) if name in MECHANISMS else None
+        if preset is None:
+            print(f"skipping {name}: {'no preset' if name in MECHANISMS else 'not in MECHANISMS'} yet")
+            continue
+        prog = preset.mechanism.compile()
+        for pop in pops:
+            vals = operands(preset, pop)
+            if not compiled:
+                print(compile_report(prog.ops, vals, theta, prog.tracked))
+                compiled = True
+            rows.append((name, pop, rates(prog.ops, vals, theta, prog.tracked, repeats)))
+
+    print(f"trajectories/s (N = {n}), best of {repeats} (numpy: {max(1, repeats // 3)}); joints=False unless noted")
+    header = ["mechanism", "pop", "numpy", "numba serial", "reused out", "parallel", "serial+joints", "parallel+joints"]
+    print(f"{header[0]:<14}{header[1]:>7}" + "".join(f"{h:>16}" for h in header[2:]))
+    for name, pop, by_case in rows:
+        cells = "".join(f"{_rate(r):>16}" for r in by_case.values())
+        print(f"{TITLES[name]:<14}{pop:>7}{cells}")
+    s1 = [r for name, _, r in rows if name == "stephenson1"]
+    if s1:
+        serial, ref = s1[-1]["serial"], s1[-1]["numpy"]
+        print(
+            f"targets, Stephenson-I at pop {pops[-1]}: numba serial {_rate(serial)} "
+            f"({'meets' if serial >= TARGET_NUMBA else 'below'} {_rate(TARGET_NUMBA)}), numpy {_rate(ref)} "
+            f"({'meets' if ref >= TARGET_NUMPY else 'below'} {_rate(TARGET_NUMPY)})"
+        )
+    return 0
+
+
+def _rate(r: float) -> str:
+    return f"{r / 1e6:.2f} M" if r >= 1e6 else f"{r / 1e3:.1f} k"
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
