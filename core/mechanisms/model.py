@@ -87,11 +87,13 @@ class OutputStage:
 
     def apply(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
         """Points ``(*, 2)`` in the design frame -> leg frame."""
-        o = np.array([self.ox, self.oy])
-        return o + self.k * (p - o)
+        # One output array, no temporaries: the optimizer maps (pop, n, 2) batches every generation.
+        out = np.multiply(p, self.k)
+        out += (1.0 - self.k) * np.array([self.ox, self.oy])
+        return out
 
     def apply_derivative(self, dp: NDArray[np.float64]) -> NDArray[np.float64]:
-        return self.k * dp
+        return np.multiply(dp, self.k)
 
     def to_dict(self) -> dict[str, float]:
         return {"k": self.k, "ox": self.ox, "oy": self.oy}

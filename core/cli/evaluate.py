@@ -1,0 +1,136 @@
+"""``clm evaluate``: every performance metric of one design or curve (paper §2, spec §3-5)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.cli import CLIError, dumps
+from core.evaluate import CONSTRAINT_NAMES, CONSTRAINT_UNITS, DEFAULT_OBSTACLE, Evaluation, evaluate, evaluate_paths
+from core.gait import DEFAULT_TRUNK
+from core.presets import PAPER_PANTOGRAPH
+from core.targets import load_curve, parse_target
+from core.trajectory import DEFAULT_PERIOD, FEATURE_NAMES
+
+MAX_SAMPLES = 100_000
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "evaluate",
+        help="every performance metric of a design or a curve",
+        description="Feature points, body fluctuation, impact, obstacle crossing and shape error of one "
+        "design (a preset or a design JSON file) or of a closed curve from a CSV file (see docs/metrics.md).",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
+    src.add_argument("--design", metavar="FILE", type=Path, help="a design JSON file")
+    src.add_argument("--curve", metavar="FILE", type=Path, help="a CSV curve: x,y or x,y,t per line (design frame)")
+    p.add_argument(
+        "--leg-frame",
+        action="store_true",
+        help="the --curve is already in the leg frame (default: design frame, mapped by the paper's pantograph)",
+    )
+    p.add_argument("--target", metavar="SPEC", help="cycloid[:L=300,H=100,T=2] (default) or a CSV curve")
+    p.add_argument("--obstacle", nargs=2, type=float, metavar=("A", "B"), default=list(DEFAULT_OBSTACLE),
+                   help="obstacle length and height for psi (mm, default 25 25)")
+    p.add_argument("--trunk", type=float, default=DEFAULT_TRUNK,
+                   help=f"quadruped hip distance (mm, default {DEFAULT_TRUNK:g})")
+    p.add_argument("--period", type=float, default=DEFAULT_PERIOD, help="crank period T (s, default 2)")
+    p.add_argument("--samples", type=int, default=360, metavar="N", help="samples per revolution (default 360)")
+    p.add_argument("--phase-optimal", action="store_true", help="also report the shape error at the best cyclic shift")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--backend", choices=("numpy", "numba", "auto"), default="numpy",
+                   help="solver; numpy (default) needs no compilation, which suits one design")
+    p.set_defaults(func=run)
+
+
+def _check(args: argparse.Namespace) -> None:
+    if not 8 <= args.samples <= MAX_SAMPLES:
+        raise CLIError(f"--samples must be between 8 and {MAX_SAMPLES}, got {args.samples}")
+    if not (math.isfinite(args.period) and args.period > 0):
+        raise CLIError(f"--period must be a positive number of seconds, got {args.period}")
+    a, b = args.obstacle
+    if not (math.isfinite(a) and math.isfinite(b) and a >= 0 and b >= 0):
+        raise CLIError(f"--obstacle needs two non-negative sizes in mm, got {a} {b}")
+    if not math.isfinite(args.trunk):
+        raise CLIError(f"--trunk must be a finite length in mm, got {args.trunk}")
+
+
+def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:
+    target = parse_target(args.target)
+    kw: dict[str, Any] = dict(target=target, period=args.period, obstacle=tuple(args.obstacle), trunk=args.trunk,
+                              phase_optimal=args.phase_optimal)
+    if args.curve is not None:
+        curve = load_curve(args.curve)
+        pts = curve.sample(args.samples)
+        leg = pts if args.leg_frame else PAPER_PANTOGRAPH.apply(pts)
+        point = PAPER_PANTOGRAPH.apply(pts) if args.leg_frame else pts
+        ev = evaluate_paths(point, leg, None, None, **kw)
+        info: dict[str, Any] = {"source": str(args.curve), "frame": "leg" if args.leg_frame else "design",
+                "time_law": curve.has_time}
+        return ev, str(args.curve), info
+    from core.cli.simulate import load_design
+
+    design, preset = load_design(args)
+    ev = evaluate(design, args.samples, backend=args.backend, **kw)
+    info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
+            "output": design.output.to_dict()}
+    return ev, preset if preset is not None else str(args.design), info
+
+
+def _fmt(v: float, digits: int = 3) -> str:
+    return "n/a" if not np.isfinite(v) else f"{v:.{digits}f}"
+
+
+def table(ev: Evaluation, label: str) -> str:
+    """A readable summary of member 0."""
+    r = ev.record(0)
+    deg = math.degrees
+    status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g})"
+    a, b = ev.obstacle
+    rows = [
+        ("stance length l_s", _fmt(r["l_s"]), "mm"),
+        ("body fluctuation h_s", _fmt(r["h_s"]), "mm"),
+        ("straightness S = h_s/l_s", _fmt(r["S"]), "%"),
+        ("  (h_s / 300 mm, the paper's S)", _fmt(100 * r["h_s"] / 300.0), "%"),
+        ("impact I", _fmt(r["I"]), "mm/s"),
+        ("landing angle theta1", _fmt(deg(r["theta1"]) if np.isfinite(r["theta1"]) else np.nan, 2), "deg"),
+        ("take-off angle theta2", _fmt(deg(r["theta2"]) if np.isfinite(r["theta2"]) else np.nan, 2), "deg"),
+        ("width (design frame)", _fmt(r["width"]), "mm"),
+        ("y_min (design frame)", _fmt(r["y_min"]), "mm"),
+        ("step length 2 l_s", _fmt(r["step_length"]), "mm"),
+        ("max crossing height h_m", _fmt(r["h_m"]), "mm"),
+        ("mean crossing height h_bar", _fmt(r["h_bar"]), "mm"),
+        (f"psi2({a:g}, {b:g})", _fmt(100 * r["psi2"], 2), "%"),
+        (f"psi4({a:g}, {b:g}), trunk {ev.trunk:g} mm", _fmt(100 * r["psi4"], 2), "%"),
+        ("shape error MSE", _fmt(r["mse"]), "mm"),
+    ]
+    if np.isfinite(r["mse_phase"]):
+        rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
+    w = max(len(n) for n, _, _ in rows)
+    lines = [f"{label}: {status}; T = {ev.period:g} s, {ev.n_samples} samples, target {ev.target}"]
+    lines += [f"  {n:<{w}}  {v:>10}  {u}" for n, v, u in rows]
+    lines.append("  feature points (leg frame):")
+    for n in FEATURE_NAMES:
+        fp = r["feature_points"][n]
+        lines.append(f"    {n}: t = {_fmt(fp['t'], 4)} s, ({_fmt(fp['x'], 2)}, {_fmt(fp['y'], 2)}) mm")
+    lines.append("  constraints (<= 0 satisfied): " + ", ".join(
+        f"{n} {_fmt(v, 4)} {u}" for (n, v), u in zip(r["constraints"].items(), CONSTRAINT_UNITS, strict=True)))
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    _check(args)
+    ev, label, info = _evaluate(args)
+    if args.json:
+        rec = ev.record(0)
+        rec["constraint_names"] = list(CONSTRAINT_NAMES)
+        print(dumps({**rec, **info}))
+    else:
+        print(table(ev, label))
+    return 0

@@ -1,0 +1,289 @@
+"""The whole analysis stack for a population: solve -> feature points -> metrics -> shape error.
+
+``evaluate(design)`` returns an ``Evaluation`` of ``(pop,)`` arrays; ``Evaluation.record(i)`` is
+member i as a JSON-ready dict (the ``clm evaluate --json`` object).
+
+Feasibility here means "a well-defined bench trajectory": the mechanism assembles over the whole
+cycle, the path has exactly one landing/take-off pair and is a simple closed curve. The paper's
+gait constraints (Eq. 30 order and 15 degree angles, Eq. 31) are reported separately as
+``constraints`` (pymoo convention, <= 0 satisfied): the §3 designs were never held to them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core import metrics as M
+from core.design import Design
+from core.gait import BIPED, DEFAULT_TRUNK, quadruped, walking_trajectory
+from core.shape import mse as shape_mse
+from core.shape import mse_phase_optimal
+from core.targets import Target, cycloid_target
+from core.trajectory import DEFAULT_PERIOD, FEATURE_NAMES, FeaturePoints, feature_points, periodic_derivative
+
+F64 = NDArray[np.float64]
+Backend = Literal["auto", "numpy", "numba"]
+
+CONSTRAINT_NAMES = ("order", "theta1", "theta2", "h_bar", "psi2")
+CONSTRAINT_UNITS = ("rad", "rad", "rad", "mm", "1")
+DEFAULT_OBSTACLE = (25.0, 25.0)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Every metric of a population, ``(pop,)`` unless noted. Units mm, rad, s, mm/s, %.
+
+    Attributes:
+        feasible: violation == 0.
+        violation: kinematic + path violation (>= 0).
+        kinematic_violation: the solver's assembly violation (mm).
+        path_violation: extra landing roots (mm) + 1 per excess turn of a self-intersecting path.
+        l_s, h_s, S, I: stance length, stance fluctuation, straightness (%, h_s / l_s), impact (mm/s).
+        theta1, theta2: landing and take-off angles (rad).
+        landing_speed: signed vertical foot speed at landing (mm/s).
+        width, y_min: design-frame path width and lowest y (the f2 and f3 inputs, spec §3).
+        step_length: walking-trajectory step (2 l_s).
+        h_m, h_bar: maximum and mean swing height above ground.
+        psi2, psi4: crossing probabilities of the obstacle (biped module, quadruped).
+        mse: time-aligned shape error against the target; mse_phase: at the best cyclic shift
+            (NaN unless requested).
+        times: ``(pop, 8)`` t1 ... t8 (s); points: ``(pop, 8, 2)`` leg-frame positions.
+        constraints: ``(pop, 5)`` Eq. 30-31 values, columns ``CONSTRAINT_NAMES`` (<= 0 satisfied).
+    """
+
+    feasible: NDArray[np.bool_]
+    violation: F64
+    kinematic_violation: F64
+    path_violation: F64
+    l_s: F64
+    h_s: F64
+    S: F64
+    I: F64  # noqa: E741 - the paper's name
+    theta1: F64
+    theta2: F64
+    landing_speed: F64
+    width: F64
+    y_min: F64
+    step_length: F64
+    h_m: F64
+    h_bar: F64
+    psi2: F64
+    psi4: F64
+    mse: F64
+    mse_phase: F64
+    times: F64
+    points: F64
+    constraints: F64
+    obstacle: tuple[float, float]
+    trunk: float
+    period: float
+    n_samples: int
+    target: str
+
+    @property
+    def pop(self) -> int:
+        return int(self.violation.shape[0])
+
+    def record(self, i: int = 0) -> dict[str, Any]:
+        """Member i as a dict of plain Python values (NaN stays float NaN; the CLI maps it to null)."""
+        out: dict[str, Any] = {}
+        skip = {"times", "points", "constraints", "obstacle", "trunk", "period", "n_samples", "target"}
+        for f in fields(self):
+            if f.name in skip:
+                continue
+            v = getattr(self, f.name)[i]
+            out[f.name] = bool(v) if f.name == "feasible" else float(v)
+        out["obstacle"] = list(self.obstacle)
+        out["trunk"] = self.trunk
+        out["period"] = self.period
+        out["n_samples"] = self.n_samples
+        out["target"] = self.target
+        out["constraints"] = {n: float(v) for n, v in zip(CONSTRAINT_NAMES, self.constraints[i], strict=True)}
+        out["feature_points"] = {
+            n: {"t": float(self.times[i, k]), "x": float(self.points[i, k, 0]), "y": float(self.points[i, k, 1])}
+            for k, n in enumerate(FEATURE_NAMES)
+        }
+        return out
+
+
+def _numba_ready(backend: Backend) -> bool:
+    if backend == "numpy":
+        return False
+    try:
+        import core.solver_numba  # noqa: F401
+    except ImportError:
+        if backend == "numba":
+            raise
+        return False
+    return True
+
+
+def evaluate(
+    design: Design,
+    n_samples: int = 360,
+    *,
+    target: Target | None = None,
+    period: float = DEFAULT_PERIOD,
+    obstacle: tuple[float, float] = DEFAULT_OBSTACLE,
+    trunk: float = DEFAULT_TRUNK,
+    backend: Backend = "auto",
+    phase_optimal: bool = False,
+) -> Evaluation:
+    """Solve a population and compute every metric.
+
+    Args:
+        design: mechanism, ``(pop, n_params)`` parameters and output stage.
+        n_samples: crank samples per revolution (even numbers keep t + T/2 on a sample).
+        target: the shape target (default the paper's compound cycloid), compared in the design frame.
+        period: crank period T (s).
+        obstacle: (a, b) length and height of the psi obstacle (mm).
+        trunk: front-to-rear hip distance of the quadruped (mm).
+        backend: ``numpy``, ``numba`` or ``auto`` (numba when available) for the solver.
+        phase_optimal: also compute the best-cyclic-shift shape error (O(n^2) per design).
+    """
+    use_numba = _numba_ready(backend)
+    sol = design.solve(n_samples, joints=False, backend="numba" if use_numba else "numpy")
+    return evaluate_paths(
+        sol.point,
+        sol.leg,
+        sol.dleg,
+        sol.violation,
+        target=target,
+        period=period,
+        obstacle=obstacle,
+        trunk=trunk,
+        phase_optimal=phase_optimal,
+        kernel=use_numba,
+    )
+
+
+def _kernel(
+    point: F64, leg: F64, dleg: F64 | None, target: F64, period: float, a: float, b: float, trunk: float
+) -> tuple[FeaturePoints, F64, F64, F64, F64, F64, F64, F64, F64, F64]:
+    """The numba kernel's outputs in the numpy modules' shapes."""
+    from core import metrics_numba as K
+
+    pop, n = leg.shape[:2]
+    dleg = periodic_derivative(np.nan_to_num(leg)) if dleg is None else np.asarray(dleg).reshape(leg.shape)
+    quad = quadruped(trunk)
+    index = np.empty((pop, 8))
+    pts = np.empty((pop, 8, 2))
+    tans = np.empty((pop, 8, 2))
+    S = np.empty((pop, K.N_SCALARS))
+    K.run(
+        np.ascontiguousarray(leg), np.ascontiguousarray(dleg, dtype=np.float64), np.ascontiguousarray(point),
+        np.ascontiguousarray(target, dtype=np.float64), float(period), float(a), float(b),
+        np.asarray(BIPED.offsets, dtype=np.float64), np.asarray(BIPED.phases, dtype=np.float64),
+        np.asarray(quad.offsets, dtype=np.float64), np.asarray(quad.phases, dtype=np.float64),
+        index, pts, tans, S,
+    )
+    fp = FeaturePoints(
+        index=index,
+        times=index * (period / n),
+        points=pts,
+        tangents=tans,
+        n_roots=S[:, K.N_ROOTS].astype(np.int64),
+        root_violation=S[:, K.ROOT_VIOL],
+        turning=S[:, K.TURNING].astype(np.int64),
+        valid=S[:, K.VALID] > 0.0,
+        period=float(period),
+        n_samples=n,
+    )
+    return (fp, S[:, K.H_S], S[:, K.H_M], S[:, K.H_BAR], S[:, K.PSI2], S[:, K.PSI4], S[:, K.STEP], S[:, K.MSE],
+            S[:, K.WIDTH], S[:, K.Y_MIN])
+
+
+def evaluate_paths(
+    point: F64,
+    leg: F64,
+    dleg: F64 | None = None,
+    kinematic_violation: F64 | None = None,
+    *,
+    target: Target | None = None,
+    period: float = DEFAULT_PERIOD,
+    obstacle: tuple[float, float] = DEFAULT_OBSTACLE,
+    trunk: float = DEFAULT_TRUNK,
+    phase_optimal: bool = False,
+    kernel: bool = False,
+) -> Evaluation:
+    """Every metric of given paths (a solved population, or a curve read from a file).
+
+    Args:
+        point: ``(pop, n, 2)`` design-frame path (mm), for the shape error, width and y_min.
+        leg: ``(pop, n, 2)`` leg-frame path (mm), for the gait metrics.
+        dleg: its d/dtheta (mm/rad); periodic differences when None.
+        kinematic_violation: ``(pop,)`` assembly violation (0 if None).
+        target, period, obstacle, trunk, phase_optimal: see ``evaluate``.
+        kernel: use the numba kernel ``core.metrics_numba`` (same results) instead of the numpy modules.
+    """
+    point = np.asarray(point, dtype=np.float64)
+    point = point[None] if point.ndim == 2 else point
+    leg = np.asarray(leg, dtype=np.float64)
+    leg = leg[None] if leg.ndim == 2 else leg
+    pop, n = leg.shape[:2]
+    kin = np.zeros(pop) if kinematic_violation is None else np.asarray(kinematic_violation, dtype=np.float64)
+    tgt = cycloid_target(period=period) if target is None else target
+    a, b = float(obstacle[0]), float(obstacle[1])
+    target_n = tgt.sample(n)
+    if kernel:
+        fp, h_s, h_m, h_bar, psi2, psi4, step, err, width, y_min = _kernel(
+            point, leg, dleg, target_n, period, a, b, trunk
+        )
+    else:
+        fp = feature_points(leg, dleg, period)
+        h_s = M.stance_fluctuation(leg, fp)
+        wt = walking_trajectory(leg, dleg, fp)
+        h_m = M.crossing_height(wt)
+        h_bar = M.mean_crossing_height(wt)
+        psi2 = M.psi(wt, BIPED, a, b)
+        psi4 = M.psi(wt, quadruped(trunk), a, b)
+        step = wt.step
+        err = shape_mse(point, target_n)
+        finite = np.asarray(np.isfinite(point).all(axis=(1, 2)), dtype=bool)
+        p0 = np.where(finite[:, None, None], point, 0.0)
+        width = np.where(finite, p0[..., 0].max(1) - p0[..., 0].min(1), np.nan)
+        y_min = np.where(finite, p0[..., 1].min(1), np.nan)
+    l_s = M.stance_length(fp)
+    theta = M.tangent_angles(fp)
+    err_phase = mse_phase_optimal(point, target_n)[0] if phase_optimal else np.full(pop, np.nan)
+    selfx = np.abs(np.abs(fp.turning) - 1).astype(np.float64)
+    path_viol = np.where(fp.valid, fp.root_violation + selfx, np.inf)
+    # An unassemblable design's violation is the solver's continuous shortfall alone.
+    violation = np.where(kin > 0.0, kin, path_viol)
+    cons = np.concatenate(
+        [M.order_violation(fp)[:, None], M.angle_margins(fp), M.eq31(h_m, h_bar, psi2)], 1
+    )
+    return Evaluation(
+        feasible=violation == 0.0,
+        violation=violation,
+        kinematic_violation=kin,
+        path_violation=path_viol,
+        l_s=l_s,
+        h_s=h_s,
+        S=M.straightness(h_s, l_s),
+        I=M.impact(fp),
+        theta1=theta[:, 0],
+        theta2=theta[:, 1],
+        landing_speed=M.landing_speed(fp),
+        width=width,
+        y_min=y_min,
+        step_length=step,
+        h_m=h_m,
+        h_bar=h_bar,
+        psi2=psi2,
+        psi4=psi4,
+        mse=err,
+        mse_phase=err_phase,
+        times=fp.times,
+        points=fp.points,
+        constraints=cons,
+        obstacle=(a, b),
+        trunk=float(trunk),
+        period=float(period),
+        n_samples=n,
+        target=tgt.name,
+    )

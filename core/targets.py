@@ -1,0 +1,203 @@
+"""Target curves in the design frame: the paper's compound cycloid (spec §3) and user curves from CSV.
+
+A target is a closed curve sampled at ``n_samples`` points that are uniform in time (index i
+against crank sample i) or, for a curve given without times, uniform in arc length.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+MIN_POINTS = 4
+CLOSE_TOL = 3.0  # a curve is closed when its last-to-first gap is at most this many median steps
+
+
+@dataclass(frozen=True)
+class Target:
+    """A closed target curve.
+
+    Attributes:
+        name: label for tables.
+        points: ``(m, 2)`` the curve as given (mm), without a repeated closing point.
+        times: ``(m,)`` times from 0 (s), or None when the curve has no time law.
+        period: duration of one cycle (s); for a curve without times, the nominal 2 s.
+        formula: exact sampler ``n -> (n, 2)`` of an analytic target (used by ``sample``), or None.
+    """
+
+    name: str
+    points: F64
+    times: F64 | None
+    period: float
+    formula: Callable[[int], F64] | None = field(default=None, compare=False)
+
+    @property
+    def has_time(self) -> bool:
+        return self.times is not None
+
+    def sample(self, n_samples: int) -> F64:
+        """``(n_samples, 2)`` uniform in time from t = 0, or uniform in arc length from the first point."""
+        if self.formula is not None:
+            return self.formula(n_samples)
+        return resample(self.points, n_samples, self.times, self.period)
+
+
+def compound_cycloid(n_samples: int, L: float = 300.0, H: float = 100.0) -> tuple[F64, F64]:
+    """The compound-cycloid target (paper Eq. 19, spec §3) at N time-uniform samples.
+
+    First half-period: the arch ``x = L (s - sin(2 pi s) / (2 pi))``, ``y = -H (1 - cos(2 pi s)) / 2``
+    with s the normalised half-period time; second half-period: the straight return from (L, 0)
+    to (0, 0) at constant speed. Sample i is at ``t = i T / N`` for any period T.
+
+    Returns:
+        ``(n_samples, 2)`` points (mm) and ``(n_samples, 2)`` derivatives d/dtheta (mm/rad),
+        theta being the crank angle ``2 pi t / T`` (one-sided, forward, at the two junctions).
+    """
+    s2 = 2.0 * np.arange(n_samples) / n_samples  # half-periods elapsed
+    arch = s2 < 1.0
+    s = np.where(arch, s2, s2 - 1.0)
+    w = 2.0 * np.pi * s
+    x = np.where(arch, L * (s - np.sin(w) / (2.0 * np.pi)), L * (1.0 - s))
+    y = np.where(arch, -H * (0.5 - 0.5 * np.cos(w)), 0.0)
+    ds = 1.0 / np.pi  # ds/dtheta
+    dx = np.where(arch, L * (1.0 - np.cos(w)) * ds, -L * ds)
+    dy = np.where(arch, -H * np.pi * np.sin(w) * ds, 0.0)
+    return np.stack([x, y], -1), np.stack([dx, dy], -1)
+
+
+def cycloid_target(L: float = 300.0, H: float = 100.0, period: float = 2.0, n_dense: int = 3600) -> Target:
+    """The compound cycloid as a Target: sampled exactly by its formula, with a dense copy as points."""
+    pts, _ = compound_cycloid(n_dense, L, H)
+    t = (np.arange(n_dense) * (period / n_dense)).astype(np.float64)
+
+    def formula(n: int) -> F64:
+        return compound_cycloid(n, L, H)[0]
+
+    return Target(f"compound cycloid L={L:g} H={H:g} T={period:g}", pts, t, float(period), formula)
+
+
+def _periodic_interp(u: F64, s: F64, values: F64, total: float) -> F64:
+    """Values of a closed polyline with knots at s in [0, total) at parameters u (linear)."""
+    s_ext = np.concatenate([s, [total]])
+    v_ext = np.concatenate([values, values[:1]], 0)
+    return np.stack([np.interp(u, s_ext, v_ext[:, k]) for k in range(values.shape[1])], -1)
+
+
+def resample(points: F64, n_samples: int, times: F64 | None = None, period: float | None = None) -> F64:
+    """Resample a closed curve to n points, uniform in time (when times are given) or in arc length.
+
+    Args:
+        points: ``(m, 2)`` closed curve without a repeated closing point (mm).
+        n_samples: number of output samples.
+        times: ``(m,)`` increasing times starting anywhere, or None.
+        period: cycle duration (s), required with times.
+
+    Returns:
+        ``(n_samples, 2)`` starting at the first point.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if times is not None:
+        t = (np.asarray(times, dtype=np.float64) - times[0]).astype(np.float64)
+        total = float(period) if period is not None else float(t[-1] + np.median(np.diff(t)))
+        return _periodic_interp((np.arange(n_samples) * (total / n_samples)).astype(np.float64), t, pts, total)
+    seg = np.linalg.norm(np.roll(pts, -1, 0) - pts, axis=1)
+    s: F64 = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    total = float(seg.sum())
+    return _periodic_interp((np.arange(n_samples) * (total / n_samples)).astype(np.float64), s, pts, total)
+
+
+def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
+    """Validate CSV rows (``x,y`` or ``x,y,t``; an optional header) into a closed Target.
+
+    Raises:
+        ValueError: one clear sentence for too few points, non-numeric or non-finite values, a
+            wrong number of columns, times not increasing, or an open curve.
+    """
+    body = [r for r in rows if r and any(c.strip() for c in r)]
+    if body and not _numeric(body[0][0]):
+        body = body[1:]  # header
+    if not body:
+        raise ValueError(f"{name}: no data rows (expected lines 'x,y' or 'x,y,t')")
+    ncol = len(body[0])
+    if ncol not in (2, 3):
+        raise ValueError(f"{name}: expected 2 columns (x,y) or 3 (x,y,t), got {ncol}")
+    data = np.empty((len(body), ncol))
+    for i, r in enumerate(body):
+        if len(r) != ncol:
+            raise ValueError(f"{name}: data row {i + 1} has {len(r)} columns, expected {ncol}")
+        for k, c in enumerate(r):
+            try:
+                data[i, k] = float(c)
+            except ValueError:
+                raise ValueError(f"{name}: data row {i + 1}: {c.strip()!r} is not a number") from None
+    bad = ~np.isfinite(data).all(1)
+    if bad.any():
+        raise ValueError(f"{name}: data row {int(np.argmax(bad)) + 1} has a NaN or infinite value")
+    pts = data[:, :2]
+    times = data[:, 2] if ncol == 3 else None
+    if times is not None and np.any(np.diff(times) <= 0.0):
+        raise ValueError(f"{name}: times (third column) must be strictly increasing")
+    closed_by_repeat = len(pts) > 1 and np.allclose(pts[-1], pts[0], rtol=0.0, atol=1e-9 * (1.0 + np.abs(pts).max()))
+    if closed_by_repeat:
+        period = float(times[-1] - times[0]) if times is not None else 2.0
+        pts, times = pts[:-1], (times[:-1] if times is not None else None)
+    if len(pts) < MIN_POINTS:
+        raise ValueError(f"{name}: a closed curve needs at least {MIN_POINTS} distinct points, got {len(pts)}")
+    steps = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    med = float(np.median(steps))
+    if med <= 0.0:
+        raise ValueError(f"{name}: the points do not move (median step 0)")
+    if not closed_by_repeat:
+        gap = float(np.linalg.norm(pts[-1] - pts[0]))
+        if gap > CLOSE_TOL * med:
+            raise ValueError(
+                f"{name}: open curve: the last point is {gap:.3g} mm from the first (median step {med:.3g} mm); "
+                "close it by repeating the first point or sampling the whole cycle"
+            )
+        period = float(times[-1] - times[0] + np.median(np.diff(times))) if times is not None else 2.0
+    if times is not None:
+        times = times - times[0]
+    return Target(name, pts, times, period)
+
+
+def _numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def load_curve(path: str | Path) -> Target:
+    """Read a closed curve from a CSV file (see ``curve_from_rows``); ValueError if unreadable."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as e:
+        raise ValueError(f"cannot read curve {str(p)!r}: {e.strerror}") from None
+    return curve_from_rows(list(csv.reader(io.StringIO(text))), p.name)
+
+
+def parse_target(spec: str | None) -> Target:
+    """A target from a command-line value: None or ``cycloid[:L=300,H=100,T=2]`` or a CSV path."""
+    if spec is None or spec.split(":", 1)[0] == "cycloid":
+        kw = {"L": 300.0, "H": 100.0, "T": 2.0}
+        if spec and ":" in spec:
+            for item in spec.split(":", 1)[1].split(","):
+                key, _, val = item.partition("=")
+                if key.strip() not in kw or not _numeric(val):
+                    raise ValueError(f"bad cycloid parameter {item!r}; use cycloid:L=300,H=100,T=2")
+                kw[key.strip()] = float(val)
+        if not all(math.isfinite(v) and v > 0 for v in kw.values()):
+            raise ValueError("cycloid parameters L, H, T must be positive")
+        return cycloid_target(kw["L"], kw["H"], kw["T"])
+    return load_curve(spec)

@@ -1,0 +1,105 @@
+"""`clm evaluate`: a table, a JSON object with every metric, and one error line for a bad curve."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import core.cli
+from core.cli import main
+from core.evaluate import evaluate
+from core.presets import get
+from core.targets import compound_cycloid
+
+REQUIRED = ("feasible", "violation", "l_s", "h_s", "S", "I", "theta1", "theta2", "width", "y_min", "step_length",
+            "h_m", "h_bar", "psi2", "psi4", "mse", "feature_points")
+
+
+@pytest.fixture(autouse=True)
+def wired(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Until the lead adds it to core.cli.COMMANDS, register the command for these tests."""
+    if "evaluate" not in core.cli.COMMANDS:
+        monkeypatch.setattr(core.cli, "COMMANDS", (*core.cli.COMMANDS, "evaluate"))
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_json_has_every_metric_of_the_library(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(capsys, "evaluate", "--preset", "stephenson1/X3", "--json", "--obstacle", "30", "20")
+    assert code == 0 and err == ""
+    data = json.loads(out)
+    for k in REQUIRED:
+        assert k in data, k
+    ev = evaluate(get("stephenson1/X3").design(), 360, obstacle=(30.0, 20.0), backend="numpy")
+    for k in ("l_s", "h_s", "S", "I", "psi2", "psi4", "mse", "h_m", "h_bar"):
+        assert data[k] == pytest.approx(float(getattr(ev, k)[0]), rel=1e-12), k
+    assert data["obstacle"] == [30.0, 20.0]
+    assert set(data["feature_points"]) == {f"t{i}" for i in range(1, 9)}
+    assert data["feature_points"]["t1"]["t"] == pytest.approx(float(ev.times[0, 0]))
+
+
+def test_table_names_the_design_and_the_metrics(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X0")
+    assert code == 0
+    assert out.startswith("stephenson1/X0: feasible")
+    assert "straightness" in out and "psi2(25, 25)" in out and "t8:" in out
+
+
+def test_a_timed_curve_csv_is_evaluated(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    p, _ = compound_cycloid(360)
+    t = np.arange(360) * (2.0 / 360)
+    f = tmp_path / "target.csv"
+    f.write_text("x,y,t\n" + "\n".join(f"{a:.17g},{b:.17g},{c:.17g}" for (a, b), c in zip(p, t, strict=True)))
+    code, out, err = run(capsys, "evaluate", "--curve", str(f), "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    # the target against itself: the closed forms of tests/test_cycloid_target_closed_forms.py
+    assert data["mse"] == pytest.approx(0.0, abs=1e-9)
+    assert data["l_s"] == pytest.approx(300.0, rel=1e-9)
+    assert data["h_m"] == pytest.approx(100.0, rel=1e-6)
+    assert data["S"] == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        ("0,0\n1,0\n", "at least 4"),
+        ("0,0\n1,x\n1,1\n0,1\n", "not a number"),
+        ("0,0\n1,0\n2,0\n3,0\n40,0\n", "open curve"),
+        ("0,0\n1,0\nnan,1\n0,1\n", "NaN"),
+    ],
+)
+def test_bad_csv_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, fragment: str
+) -> None:
+    f = tmp_path / "bad.csv"
+    f.write_text(text)
+    code, out, err = run(capsys, "evaluate", "--curve", str(f))
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("clm: error: ") and fragment in err
+
+
+def test_bad_options_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    for argv in (["--obstacle", "-1", "5"], ["--period", "0"], ["--target", "cycloid:L=x"], ["--samples", "3"]):
+        code, _, err = run(capsys, "evaluate", "--preset", "stephenson1/X3", *argv)
+        assert code == 2 and err.count("\n") == 1, argv
+
+
+def test_an_unassemblable_design_is_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    d = get("stephenson1/X3").design()
+    params = d.named(0) | {"r2": 5.0}
+    f = tmp_path / "d.json"
+    f.write_text(json.dumps({"mechanism": "stephenson1", "params": params, "output": d.output.to_dict()}))
+    code, out, _ = run(capsys, "evaluate", "--design", str(f), "--json")
+    data = json.loads(out)
+    assert code == 0 and data["feasible"] is False and data["violation"] > 0
+    assert data["S"] is None and data["mse"] is None  # NaN -> null
+    assert not any(isinstance(v, float) and math.isnan(v) for v in data.values())

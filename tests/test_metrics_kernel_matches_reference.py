@@ -1,0 +1,62 @@
+"""The numba analysis kernel gives the numpy reference's results, odd paths included."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+import pytest
+
+from core.design import Design
+from core.evaluate import Evaluation, evaluate, evaluate_paths
+from core.presets import get
+
+
+def assert_same(a: Evaluation, b: Evaluation) -> None:
+    for f in fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            np.testing.assert_allclose(y, x, rtol=1e-9, atol=1e-9, equal_nan=True, err_msg=f.name)
+        else:
+            assert x == y, f.name
+
+
+def odd_population(n: int) -> np.ndarray:
+    th = 2 * np.pi * np.arange(n) / n
+    c, s = np.cos(th), np.sin(th)
+    P = np.stack(
+        [
+            np.stack([150 * c, 50 * s], -1),  # ellipse
+            np.stack([150 * c, 50 * (s - 0.36 * np.sin(3 * th))], -1),  # extra landing roots
+            np.stack([150 * s, 60 * np.sin(2 * th) + 20 * s], -1),  # figure eight
+            np.stack([150 * c, 0 * c], -1),  # folded: no root
+            np.stack([150 * c, -50 * s], -1),  # clockwise
+            np.stack([150 * c + 30 * np.cos(2 * th), 50 * s + 20 * np.cos(3 * th + 1)], -1),
+            np.stack([150 * c, 50 * s], -1),
+        ]
+    )
+    P[-1, 3] = np.nan  # partly unplaced
+    return P
+
+
+@pytest.mark.parametrize("n", [360, 361, 64])
+def test_kernel_matches_reference_on_odd_paths(n: int) -> None:
+    P = odd_population(n)
+    ref = evaluate_paths(P, P, None, obstacle=(20.0, 30.0), trunk=380.0, kernel=False)
+    fast = evaluate_paths(P, P, None, obstacle=(20.0, 30.0), trunk=380.0, kernel=True)
+    assert_same(ref, fast)
+    assert ref.feasible.tolist() == [True, False, False, False, True, True, False]
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_kernel_matches_reference_on_a_perturbed_population(parallel: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    if parallel:  # the kernel goes parallel from the solver's threshold on; force it here
+        monkeypatch.setattr("core.kinematics.PARALLEL_MIN_POP", 1)
+    base = get("stephenson1/X3").design()
+    rng = np.random.default_rng(11)
+    p = base.params * (1 + 0.04 * rng.standard_normal((300, base.params.shape[1])))
+    d = Design(base.mechanism, p, base.output)
+    ref = evaluate(d, 360, backend="numpy")
+    fast = evaluate(d, 360, backend="numba")
+    assert 50 < ref.feasible.sum() < 300  # both assembled and unassemblable members
+    assert_same(ref, fast)
