@@ -1,0 +1,9 @@
+"""``python -m studio`` is ``clm-studio``."""
+
+from __future__ import annotations
+
+import sys
+
+from studio.app import main
+
+sys.exit(main())

@@ -1,0 +1,168 @@
+"""Pure drawing geometry: link edges, segments, the two-view layout and the camera fit.
+
+Everything here is numpy in, numpy out (mm in, scene units out where noted), so it is
+tested without a server. The scene is in metres (``SCENE_SCALE`` m per mm) because viser's
+camera and grid defaults are sized for metre-scale scenes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.mechanisms.model import Crank, Ground, Mechanism
+
+F64 = NDArray[np.float64]
+F32 = NDArray[np.float32]
+
+SCENE_SCALE = 1e-3
+EDGE_GROUND, EDGE_CRANK, EDGE_LINK = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class LinkEdges:
+    """Edges to draw for every rigid body of a mechanism.
+
+    Attributes:
+        pairs: ``(n_edges, 2)`` joint indices (along ``Mechanism.joint_names``).
+        kinds: ``(n_edges,)`` ``EDGE_GROUND``, ``EDGE_CRANK`` or ``EDGE_LINK``.
+    """
+
+    pairs: NDArray[np.int64]
+    kinds: NDArray[np.int64]
+
+
+def link_edges(mechanism: Mechanism) -> LinkEdges:
+    """Edges to draw: every pair of points of every moving body (a binary link's bar, a ternary
+    link's triangle), and for the ground only each ground point's tie to the ground point it is
+    placed from (pivots placed from the world origin stand alone, as in a kinematic diagram)."""
+    index = {name: j for j, name in enumerate(mechanism.joint_names)}
+    grounds = {s.name for s in mechanism.steps if isinstance(s, Ground)}
+    # The crank is the body turning about a ground pivot: it holds a crank point and its pivot.
+    cranks = [(s.name, s.pivot) for s in mechanism.steps if isinstance(s, Crank)]
+    pairs: list[tuple[int, int]] = [
+        (index[s.origin], index[s.name]) for s in mechanism.steps if isinstance(s, Ground) and s.origin is not None
+    ]
+    kinds: list[int] = [EDGE_GROUND] * len(pairs)
+    for body in mechanism.bodies():
+        members = set(body)
+        if members <= grounds:
+            continue
+        kind = EDGE_CRANK if any(c in members and pivot in members for c, pivot in cranks) else EDGE_LINK
+        for a in range(len(body)):
+            for b in range(a + 1, len(body)):
+                pairs.append((index[body[a]], index[body[b]]))
+                kinds.append(kind)
+    return LinkEdges(np.array(pairs, dtype=np.int64).reshape(-1, 2), np.array(kinds, dtype=np.int64))
+
+
+def link_segments(joints: F64, pairs: NDArray[np.int64]) -> F64:
+    """Joints ``(..., n_joints, 2)`` -> segments ``(..., n_edges, 2, 2)`` (mm)."""
+    return np.stack([joints[..., pairs[:, 0], :], joints[..., pairs[:, 1], :]], axis=-2)
+
+
+def closed_polyline(points: F64) -> F64:
+    """Closed curve ``(n, 2)`` -> segments ``(m, 2, 2)`` joining each point to the next.
+
+    Segments touching a non-finite point are dropped, so a partly unassemblable path draws
+    its valid arcs only.
+    """
+    seg = np.stack([points, np.roll(points, -1, axis=0)], axis=1)
+    return seg[np.isfinite(seg).all(axis=(1, 2))]
+
+
+def to_scene(points: F64, offset: F64 | tuple[float, float] = (0.0, 0.0)) -> F32:
+    """Planar points ``(..., 2)`` (mm) plus an offset (mm) -> ``(..., 3)`` scene points (m, z = 0)."""
+    p = (np.asarray(points, dtype=np.float64) + np.asarray(offset, dtype=np.float64)) * SCENE_SCALE
+    return np.concatenate([p, np.zeros(p.shape[:-1] + (1,))], axis=-1).astype(np.float32)
+
+
+def bounds(*clouds: F64) -> F64:
+    """``(4,)`` ``[x_min, y_min, x_max, y_max]`` over the finite points of several ``(..., 2)`` arrays (mm)."""
+    pts = np.concatenate([np.asarray(c, dtype=np.float64).reshape(-1, 2) for c in clouds])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) == 0:
+        return np.array([0.0, 0.0, 1.0, 1.0])
+    return np.concatenate([pts.min(axis=0), pts.max(axis=0)])
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where the two views sit in the scene (mm, before ``SCENE_SCALE``).
+
+    Attributes:
+        design: ``(4,)`` bounds of the mechanism view (design frame, drawn at its own coordinates).
+        leg: ``(4,)`` bounds of the leg-frame view, in leg-frame coordinates.
+        leg_offset: ``(2,)`` shift that places the leg-frame view to the right of the mechanism.
+        scene: ``(4,)`` bounds of both views together, in scene coordinates (mm).
+    """
+
+    design: F64
+    leg: F64
+    leg_offset: F64
+    scene: F64
+
+
+def layout(design_points: F64, leg_points: F64, gap: float = 60.0) -> Layout:
+    """Place the leg-frame view ``gap`` mm right of the mechanism view, centred on it vertically.
+
+    Args:
+        design_points: ``(..., 2)`` everything drawn in the design frame (joints over the cycle,
+            path, target) (mm).
+        leg_points: ``(..., 2)`` everything drawn in the leg frame (mm).
+        gap: horizontal space between the views (mm).
+    """
+    d, g = bounds(design_points), bounds(leg_points)
+    dy = 0.5 * (d[1] + d[3]) - 0.5 * (g[1] + g[3])
+    offset = np.array([d[2] + gap - g[0], dy])
+    moved = g + np.concatenate([offset, offset])
+    scene = np.concatenate([np.minimum(d[:2], moved[:2]), np.maximum(d[2:], moved[2:])])
+    return Layout(d, g, offset, scene)
+
+
+def camera_pose(scene_bounds: F64, fov_y: float, aspect: float, margin: float = 1.15) -> tuple[F64, F64]:
+    """Camera on the +z axis looking straight down at the xy plane, fitting the bounds.
+
+    Args:
+        scene_bounds: ``(4,)`` ``[x_min, y_min, x_max, y_max]`` (mm).
+        fov_y: vertical field of view (rad).
+        aspect: canvas width / height.
+        margin: extra room around the bounds (ratio).
+
+    Returns:
+        ``(position (3,), look_at (3,))`` in scene units (m).
+    """
+    cx, cy = 0.5 * (scene_bounds[0] + scene_bounds[2]), 0.5 * (scene_bounds[1] + scene_bounds[3])
+    half_w = 0.5 * (scene_bounds[2] - scene_bounds[0]) * margin
+    half_h = 0.5 * (scene_bounds[3] - scene_bounds[1]) * margin
+    t = math.tan(0.5 * fov_y)
+    dist = max(half_h / t, half_w / (t * aspect), 1.0)
+    look = np.array([cx, cy, 0.0]) * SCENE_SCALE
+    return look + np.array([0.0, 0.0, dist * SCENE_SCALE]), look
+
+
+def hold_last_valid(valid: NDArray[np.bool_]) -> NDArray[np.int64] | None:
+    """For each sample, the latest valid sample at or before it, cyclically; None if none is valid.
+
+    Drawing sample ``i`` as sample ``hold[i]`` freezes a mechanism at its last assembled pose
+    while the crank passes through angles where it does not assemble.
+
+    Args:
+        valid: ``(n_samples,)`` True where every joint is placed.
+    """
+    valid = np.asarray(valid, dtype=bool)
+    n = len(valid)
+    if not valid.any():
+        return None
+    k = int(np.argmax(valid))  # start the scan on a valid sample so every sample has one before it
+    rolled = np.roll(valid, -k)
+    last = np.maximum.accumulate(np.where(rolled, np.arange(n), 0))
+    return np.roll((last + k) % n, k).astype(np.int64)
+
+
+def frame_index(angle: float, n_samples: int) -> int:
+    """Sample nearest to an input crank angle (rad), wrapped to ``[0, n_samples)``."""
+    return int(round(angle / (2.0 * math.pi) * n_samples)) % n_samples

@@ -1,0 +1,183 @@
+"""Rows of the Metrics panel and the bench-trajectory annotations, as plain data.
+
+The paper's metrics come from ``core.evaluate`` (feature points, h_s, S, I, theta1, theta2, l_s,
+h_m, h_bar, psi2, psi4, shape error, feasibility); the kinematic facts (crank and assembly
+margins, transmission angle) from the solver's :class:`core.kinematics.Solution`. A
+:class:`Row` is one line of the table with a stable key; tests and later layers address rows
+by key.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.evaluate import CONSTRAINT_NAMES, Evaluation, evaluate_paths
+from core.kinematics import Solution
+from core.targets import Target
+from core.trajectory import FEATURE_NAMES
+
+F64 = NDArray[np.float64]
+
+# What each Eq. 30-31 constraint asks, for "why not" (same order as CONSTRAINT_NAMES).
+CONSTRAINT_TEXT = {
+    "order": "order t1 -> t2 -> t5 -> t4 (Eq. 30)",
+    "theta1": "landing angle theta1 >= 15 deg",
+    "theta2": "take-off angle theta2 >= 15 deg",
+    "h_bar": "mean swing height h_bar > h_m / 4 (Eq. 31)",
+    "psi2": "psi2 > 20 % (Eq. 31)",
+}
+
+
+@dataclass(frozen=True)
+class Row:
+    """One metric of one design.
+
+    Attributes:
+        key: stable identifier (``h_s``).
+        label: name shown to the designer.
+        value: a number, a bool (yes/no facts), a short text, or None when not available.
+        unit: unit shown after the value (``mm``, ``deg``, ``%``), or ``""``.
+        digits: decimals shown.
+        note: short explanation (definition, or why not feasible); shown as a tooltip.
+    """
+
+    key: str
+    label: str
+    value: float | bool | str | None
+    unit: str = ""
+    digits: int = 2
+    note: str = ""
+
+    def text(self) -> str:
+        """The value as shown: ``yes``/``no``, ``-`` for missing, ``none`` for +inf."""
+        v = self.value
+        if v is None:
+            return "-"
+        if isinstance(v, bool):
+            return "yes" if v else "no"
+        if isinstance(v, str):
+            return v
+        if math.isnan(v):
+            return "NaN"
+        if math.isinf(v):
+            return "none" if v > 0 else "-inf"
+        return f"{v:.{self.digits}f}"
+
+
+def evaluate_solution(solution: Solution, target: Target, period: float) -> Evaluation:
+    """Every paper metric of a solved population, via ``core.evaluate`` (crank period ``period``, s)."""
+    return evaluate_paths(solution.point, solution.leg, solution.dleg, solution.violation,
+                          target=target, period=period)
+
+
+def min_transmission_angle(solution: Solution, i: int = 0) -> float:
+    """Worst transmission angle over the cycle and every dyad: ``min(mu, pi - mu)`` (rad), NaN if none."""
+    lo, hi = solution.mu_min[i], solution.mu_max[i]
+    worst = np.minimum(lo, np.pi - hi)
+    worst = worst[np.isfinite(worst)]
+    return float(worst.min()) if len(worst) else math.nan
+
+
+def why_infeasible(ev: Evaluation, i: int = 0) -> str:
+    """Why member i has no well-defined bench trajectory, or ``""`` if it has one."""
+    if ev.feasible[i]:
+        return ""
+    if ev.kinematic_violation[i] > 0.0:
+        return f"does not assemble over the whole cycle (shortfall {ev.kinematic_violation[i]:.2f} mm)"
+    if not np.isfinite(ev.path_violation[i]):
+        return "the foot path is not finite"
+    return "no single landing/take-off pair, or the foot path crosses itself"
+
+
+def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:
+    """Names of the Eq. 30-31 gait constraints member i does not meet (value > 0)."""
+    return tuple(n for n, v in zip(CONSTRAINT_NAMES, ev.constraints[i], strict=True) if not v <= 0.0)
+
+
+def metric_rows(solution: Solution, ev: Evaluation, i: int = 0) -> tuple[Row, ...]:
+    """The Metrics table of member i: the paper's metrics, then the kinematic facts."""
+    deg = math.degrees
+    unmet = unmet_constraints(ev, i)
+    why = why_infeasible(ev, i)
+    margin = solution.dyad_margin[i]
+    margin = margin[np.isfinite(margin)]
+    return (
+        Row("feasible", "Feasible", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
+        Row("why", "Why not", why or "-", note="reason the bench trajectory is not well defined"),
+        Row("mse", "MSE (shape error)", float(ev.mse[i]), "mm",
+            note="mean distance to the target, sample against sample (design frame)"),
+        Row("h_s", "Body fluctuation hₛ", float(ev.h_s[i]), "mm", note="max - min of y over the stance"),
+        Row("S", "Straightness S", float(ev.S[i]), "%", note="h_s / l_s"),
+        Row("I", "Impact I", float(ev.I[i]), "mm/s", note="|dy/dt| sin(theta1) at landing"),
+        Row("theta1", "Landing angle θ₁", deg(float(ev.theta1[i])), "deg", 1),
+        Row("theta2", "Take-off angle θ₂", deg(float(ev.theta2[i])), "deg", 1),
+        Row("l_s", "Stance length lₛ", float(ev.l_s[i]), "mm"),
+        Row("h_m", "Crossing height hₘ", float(ev.h_m[i]), "mm", note="max swing height, walking trajectory"),
+        Row("h_bar", "Mean swing height h̄", float(ev.h_bar[i]), "mm"),
+        Row("psi2", f"ψ₂({ev.obstacle[0]:g}, {ev.obstacle[1]:g})", 100.0 * float(ev.psi2[i]), "%", 1,
+            note="obstacle crossing probability, biped module"),
+        Row("psi4", f"ψ₄({ev.obstacle[0]:g}, {ev.obstacle[1]:g})", 100.0 * float(ev.psi4[i]), "%", 1,
+            note="obstacle crossing probability, quadruped"),
+        Row("width", "Path width l", float(ev.width[i]), "mm", note="x_max - x_min, design frame"),
+        Row("y_min", "Lowest path y", float(ev.y_min[i]), "mm", note="lowest point, design frame (target: -H)"),
+        Row("gait", "Gait constraints", "all met" if not unmet else f"{len(unmet)} unmet",
+            note="; ".join(CONSTRAINT_TEXT[n] for n in unmet) or "Eq. 30-31 all met"),
+        Row("violation", "Assembly violation", float(solution.violation[i]), "mm",
+            note="assembly shortfall, 0 if it assembles"),
+        Row("crank_margin", "Crank margin", float(solution.crank_margin[i]), "mm", note="> 0: the crank turns fully"),
+        Row("dyad_margin", "Assembly margin", float(margin.min()) if len(margin) else math.nan, "mm",
+            note="closest approach of any dyad to its stretched/folded limit"),
+        Row("mu_min", "Min transmission angle μ", deg(min_transmission_angle(solution, i)), "deg", 1,
+            note="min over dyads and cycle of min(mu, 180 - mu)"),
+    )
+
+
+def stance_mask(ev: Evaluation, n_samples: int, i: int = 0) -> NDArray[np.bool_] | None:
+    """``(n_samples,)`` True on the stance half-cycle [t1, t2] (cyclic), or None without feature points."""
+    t1, t2 = ev.times[i, 0], ev.times[i, 1]
+    if not (ev.feasible[i] and np.isfinite(t1) and np.isfinite(t2)):
+        return None
+    q1, q2 = t1 * n_samples / ev.period, t2 * n_samples / ev.period
+    span = (q2 - q1) % n_samples
+    return np.asarray((np.arange(n_samples) - q1) % n_samples <= span)
+
+
+def feature_labels(ev: Evaluation, i: int = 0, tol: float = 1e-6) -> tuple[tuple[str, tuple[float, float]], ...]:
+    """Feature points t1 ... t8 of member i as ``(label, (x, y))``; coincident points share one label
+    (``t6=t7=t8`` for a single-peak swing). Empty without feature points."""
+    if not ev.feasible[i]:
+        return ()
+    out: list[tuple[list[str], tuple[float, float]]] = []
+    for name, p in zip(FEATURE_NAMES, ev.points[i], strict=True):
+        if not np.isfinite(p).all():
+            continue
+        xy = (float(p[0]), float(p[1]))
+        for names, q in out:
+            if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= tol:
+                names.append(name)
+                break
+        else:
+            out.append(([name], xy))
+    return tuple(("=".join(names), xy) for names, xy in out)
+
+
+def metrics_html(rows: tuple[Row, ...]) -> str:
+    """The table as HTML; each row carries ``data-key`` and its value cell ``data-value`` for tests."""
+    cells = []
+    for r in rows:
+        cells.append(
+            f'<tr data-key="{html.escape(r.key, quote=True)}" title="{html.escape(r.note, quote=True)}">'
+            f'<td style="padding:1px 8px 1px 0">{html.escape(r.label)}</td>'
+            f'<td data-value="{html.escape(r.text(), quote=True)}" style="text-align:right;'
+            f'font-variant-numeric:tabular-nums;padding:1px 4px">{html.escape(r.text())}</td>'
+            f'<td style="opacity:0.7">{html.escape(r.unit)}</td></tr>'
+        )
+    return (
+        '<table class="clm-metrics" style="width:100%;font-size:0.85em;border-collapse:collapse;'
+        'padding:0 0.75em">' + "".join(cells) + "</table>"
+    )

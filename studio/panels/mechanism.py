@@ -1,0 +1,182 @@
+"""Mechanism panel: topology, preset, and every parameter of the current design.
+
+Built from the registries (``core.mechanisms.MECHANISMS``, ``core.presets.PRESETS``) so new
+topologies and presets appear without touching the studio. The parameter inputs are
+rebuilt when the topology changes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+from core import mechanisms, presets
+from core.mechanisms.model import Mechanism
+from studio.panels._inputs import ValidatedNumbers, set_value
+from studio.state import DesignView, assembly_reason, preset_label, presets_for
+
+if TYPE_CHECKING:
+    from studio.app import Studio
+
+NO_PRESET = "(none)"
+
+
+def param_label(name: str, unit: str) -> str:
+    """Input label of a parameter, e.g. ``r4 [mm]``; tests find inputs by it."""
+    return f"{name} [{unit}]"
+
+
+def _step(kind: str) -> float:
+    return 0.001 if kind == "angle" else 0.01
+
+
+class MechanismPanel:
+    """Topology and preset dropdowns, a reset button, a status line and the parameter inputs."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        self._titles = {m.title: name for name, m in mechanisms.MECHANISMS.items()}
+        view = studio.session.view
+        self._numbers = ValidatedNumbers(studio)
+        self._mechanism: Mechanism | None = None
+        self._inputs: dict[str, viser.GuiNumberHandle[Any]] = {}
+        self.folder = gui.add_folder("Mechanism", order=order)
+        with self.folder:
+            self.topology = gui.add_dropdown("Topology", tuple(self._titles), initial_value=view.design.mechanism.title,
+                                             hint="the linkage; its first preset is loaded")
+            self.preset = gui.add_dropdown("Preset", self._preset_options(view),
+                                           initial_value=self._preset_value(view),
+                                           hint="named designs of this topology (paper appendices)")
+            self.reset = gui.add_button("Reset to preset", hint="discard parameter edits")
+            self.status = gui.add_markdown("")
+            self.params_folder = gui.add_folder("Parameters")
+        self.topology.on_update(self._on_topology)
+        self.preset.on_update(self._on_preset)
+        self.reset.on_click(self._on_reset)
+        self.show(view)
+
+    # Mirrors ------------------------------------------------------------------------------
+
+    def _preset_options(self, view: DesignView) -> tuple[str, ...]:
+        names = tuple(preset_label(n) for n in presets_for(view.design.mechanism.name))
+        return names if view.preset is not None and names else (NO_PRESET, *names)
+
+    @staticmethod
+    def _preset_value(view: DesignView) -> str:
+        return preset_label(view.preset) if view.preset is not None else NO_PRESET
+
+    def _full_preset(self, label: str) -> str | None:
+        mech = self.studio.session.view.design.mechanism.name
+        for name in presets_for(mech):
+            if preset_label(name) == label:
+                return name
+        return None
+
+    def _build_inputs(self, mech: Mechanism, values: dict[str, float]) -> None:
+        self._numbers.cancel_all()
+        gui = self.studio.server.gui
+        self.params_folder.remove()
+        with self.folder:
+            self.params_folder = gui.add_folder("Parameters")
+        self._inputs = {}
+        with self.params_folder:
+            for p in mech.params:
+                bounds = "periodic" if p.kind == "angle" else f"bounds [{p.lo:g}, {p.hi:g}] {p.unit}"
+                h = gui.add_number(param_label(p.name, p.unit), float(values[p.name]), step=_step(p.kind),
+                                   hint=f"{p.doc} ({p.kind}; {bounds})")
+                self._inputs[p.name] = h
+                self._numbers.bind(p.name, h, apply=self._setter(p.name), current=self._getter(p.name),
+                                   what=param_label(p.name, p.unit))
+        self._mechanism = mech
+
+    def _setter(self, name: str) -> Callable[[float], object]:
+        return lambda v: self.studio.session.set_param(name, v)
+
+    def _getter(self, name: str) -> Callable[[], float]:
+        return lambda: self.studio.session.view.values[name]
+
+    def close(self) -> None:
+        """Drop pending rejections of invalid entries (the server is going away)."""
+        self._numbers.cancel_all()
+
+    def show(self, view: DesignView) -> None:
+        """Mirror a design view into the controls (programmatic updates; callbacks ignore them)."""
+        mech = view.design.mechanism
+        values = view.values
+        if mech != self._mechanism:
+            self._build_inputs(mech, values)
+        set_value(self.topology, mech.title)
+        options = self._preset_options(view)
+        if tuple(self.preset.options) != options:
+            self.preset.options = options
+        set_value(self.preset, self._preset_value(view))
+        self.reset.disabled = view.preset is None or not view.edited
+        for name, h in self._inputs.items():
+            set_value(h, float(values[name]))
+        self.status.content = self._status(view)
+
+    @staticmethod
+    def _status(view: DesignView) -> str:
+        mech = view.design.mechanism
+        if view.preset is None:
+            return f"**{mech.title}**, no preset."
+        src = presets.get(view.preset).source
+        edited = view.edited
+        line = f"**{mech.title}** · preset **{preset_label(view.preset)}**" + (f" · {src}" if src else "")
+        return line + (f"  \nEdited: {', '.join(edited)}" if edited else "")
+
+    # Callbacks ----------------------------------------------------------------------------
+
+    def _revert(self) -> None:
+        view = self.studio.session.view
+        set_value(self.topology, view.design.mechanism.title)
+        set_value(self.preset, self._preset_value(view))
+
+    def _on_topology(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        name = self._titles.get(self.topology.value)
+        try:
+            if name is None:
+                raise ValueError(f"unknown topology {self.topology.value!r}")
+            view = self.studio.session.select_mechanism(name)
+        except ValueError as exc:
+            self._revert()
+            self.studio.notify(event.client, "Topology not changed", str(exc))
+            return
+        self.studio.refresh(fit_camera=True)
+        self._warn_if_broken(event.client, view)
+
+    def _on_preset(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None or self.preset.value == NO_PRESET:
+            return
+        name = self._full_preset(self.preset.value)
+        try:
+            if name is None:
+                raise ValueError(f"unknown preset {self.preset.value!r}")
+            view = self.studio.session.load_preset(name)
+        except ValueError as exc:
+            self._revert()
+            self.studio.notify(event.client, "Preset not loaded", str(exc))
+            return
+        self.studio.refresh(fit_camera=True)
+        self._warn_if_broken(event.client, view)
+
+    def _warn_if_broken(self, client: viser.ClientHandle, view: DesignView) -> None:
+        reason = assembly_reason(view)
+        if reason is not None:
+            self.studio.notify(client, "This design does not assemble",
+                               f"{reason}; it is drawn where it does. Edit its parameters to repair it.",
+                               color="yellow")
+
+    def _on_reset(self, event: viser.GuiEvent[Any]) -> None:
+        try:
+            self.studio.session.reset_to_preset()
+        except ValueError as exc:
+            if event.client is not None:
+                self.studio.notify(event.client, "Nothing to reset", str(exc))
+            return
+        self.studio.refresh()

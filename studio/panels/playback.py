@@ -1,0 +1,82 @@
+"""Playback panel: play/pause, speed, and a crank-angle slider to scrub the cycle."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+from studio.panels._inputs import set_value
+from studio.state import MAX_SPEED, Playback
+
+if TYPE_CHECKING:
+    from studio.app import Studio
+
+# While playing, the angle slider follows the animation at this rate (GUI messages are
+# broadcast to every client, so not at the frame rate).
+SLIDER_SYNC_PERIOD = 0.25
+
+
+class PlaybackPanel:
+    """Play/pause button, speed slider, crank-angle slider (degrees)."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        pb = studio.session.playback
+        self._last_sync = 0.0
+        self.folder = gui.add_folder("Playback", order=order)
+        with self.folder:
+            self.play = gui.add_button(self._play_label(pb), hint="start or stop the animation")
+            self.speed = gui.add_slider("Speed [x]", 0.1, MAX_SPEED, 0.1, float(pb.speed),
+                                        hint="1 = one crank revolution per target period T")
+            self.angle = gui.add_slider("Crank angle [deg]", 0.0, 359.0, 1.0, self._degrees(pb),
+                                        hint="input crank angle theta; dragging pauses the animation")
+        self.play.on_click(self._on_play)
+        self.speed.on_update(self._on_speed)
+        self.angle.on_update(self._on_angle)
+
+    @staticmethod
+    def _play_label(pb: Playback) -> str:
+        return "Pause" if pb.playing else "Play"
+
+    @staticmethod
+    def _degrees(pb: Playback) -> float:
+        return float(round(math.degrees(pb.angle)) % 360)
+
+    def show(self, pb: Playback) -> None:
+        """Mirror the playback state into the controls."""
+        self.play.label = self._play_label(pb)
+        set_value(self.speed, float(pb.speed))
+        set_value(self.angle, self._degrees(pb))
+
+    def tick(self, pb: Playback) -> None:
+        """Called by the animator every frame: keep the slider roughly in step while playing."""
+        now = time.monotonic()
+        if pb.playing and now - self._last_sync >= SLIDER_SYNC_PERIOD:
+            self._last_sync = now
+            set_value(self.angle, self._degrees(pb))
+
+    def _on_play(self, event: viser.GuiEvent[Any]) -> None:
+        session = self.studio.session
+        with session.lock:
+            pb = session.set_playing(not session.playback.playing)
+        self.show(pb)
+        self.studio.autosave()
+
+    def _on_speed(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        try:
+            self.studio.session.set_speed(float(self.speed.value))
+        except ValueError as exc:
+            set_value(self.speed, float(self.studio.session.playback.speed))
+            self.studio.notify(event.client, "Speed not changed", str(exc))
+
+    def _on_angle(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        pb = self.studio.session.scrub(math.radians(float(self.angle.value)))
+        self.play.label = self._play_label(pb)

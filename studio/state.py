@@ -1,0 +1,341 @@
+"""Session state of the studio: current design, target and playback, behind one lock.
+
+Pure (no viser): every GUI callback and the animation thread go through :class:`Session`,
+whose methods are atomic under ``Session.lock``. A design change builds a new immutable
+:class:`DesignView` (design + solution + evaluation + metric rows); readers take a snapshot and
+draw it without holding the lock. Rules: a parameter edit is refused (``ValueError``, nothing
+changes) when the value is not a finite number, a length is <= 0, a non-angle leaves its bounds,
+or the edit breaks the assembly of a design that assembles. Loading a preset, a file or a
+candidate never fails for assembly: a design that does not assemble is shown where it does,
+and edits are then accepted so the designer can repair it.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core import mechanisms, presets
+from core.design import Design
+from core.evaluate import Evaluation
+from core.kinematics import Backend, Solution, solve
+from core.mechanisms.params import Param
+from core.validate import check_params, design_from_dict, design_to_dict
+from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
+from studio.target import TargetSpec
+
+F64 = NDArray[np.float64]
+
+SESSION_FORMAT = "clm-studio-session"
+SESSION_VERSION = 1
+DEFAULT_PRESET = "stephenson1/X3"
+N_SAMPLES = 360
+MAX_SPEED = 10.0
+
+
+def _backend() -> Backend:
+    """``auto`` (numba) when the fast kernel is importable, else the numpy reference."""
+    try:
+        import core.solver_numba  # noqa: F401
+    except ImportError:
+        return "numpy"
+    return "auto"
+
+
+BACKEND: Backend = _backend()
+
+
+def presets_for(mechanism: str) -> tuple[str, ...]:
+    """Names of the registered presets of one mechanism, in registry order."""
+    return tuple(name for name, p in presets.PRESETS.items() if p.mechanism.name == mechanism)
+
+
+def preset_label(name: str) -> str:
+    """Short label of a preset inside its mechanism's list (``stephenson1/X3`` -> ``X3``)."""
+    return name.split("/", 1)[1] if "/" in name else name
+
+
+@dataclass(frozen=True)
+class DesignView:
+    """Everything drawn for one design: immutable, replaced as a whole on every change.
+
+    Attributes:
+        design: the one-member design (pop = 1).
+        preset: name of the preset it started from, or None.
+        target: the target settings.
+        solution: kinematics with joints over ``n_samples`` crank angles.
+        target_design: ``(n_samples, 2)`` target in the design frame (mm).
+        target_leg: ``(n_samples, 2)`` the same target mapped to the leg frame by the output stage (mm).
+        evaluation: every paper metric (``core.evaluate``), pop = 1.
+        rows: Metrics panel rows.
+        stance: ``(n_samples,)`` True on the stance half-cycle, or None without feature points.
+        features: feature points t1 ... t8 as ``(label, (x, y))`` in the leg frame (mm); coincident
+            ones share a label.
+    """
+
+    design: Design
+    preset: str | None
+    target: TargetSpec
+    solution: Solution
+    target_design: F64
+    target_leg: F64
+    evaluation: Evaluation
+    rows: tuple[Row, ...]
+    stance: NDArray[np.bool_] | None
+    features: tuple[tuple[str, tuple[float, float]], ...]
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.solution.theta.shape[0])
+
+    @property
+    def assembles(self) -> bool:
+        """True when the mechanism assembles over the whole cycle (and meets its own conditions)."""
+        return bool(self.solution.violation[0] == 0.0)
+
+    @property
+    def values(self) -> dict[str, float]:
+        return self.design.named(0)
+
+    @property
+    def edited(self) -> tuple[str, ...]:
+        """Parameters that differ from the preset's values (all of them if there is no preset)."""
+        names = self.design.mechanism.param_names
+        if self.preset is None:
+            return names
+        ref = presets.get(self.preset).values
+        return tuple(n for n, a, b in zip(names, self.design.params[0], ref, strict=True) if a != b)
+
+
+def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples: int = N_SAMPLES) -> DesignView:
+    """Solve a design (with joints) and derive what the studio shows; never raises for odd designs."""
+    sol = solve(design.mechanism, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
+    tgt = target.points(n_samples)
+    ev = evaluate_solution(sol, target.target(), target.period)
+    return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev),
+                      stance_mask(ev, n_samples), feature_labels(ev))
+
+
+def assembly_reason(view: DesignView) -> str | None:
+    """Why a design does not assemble over the whole cycle, or None if it does."""
+    sol = view.solution
+    if sol.violation[0] == 0.0:
+        return None
+    if not np.isfinite(sol.violation[0]):
+        return "the design has non-finite values"
+    bad = ~sol.valid[0]
+    if not bad.any():
+        return f"the mechanism violates its own conditions (violation {sol.violation[0]:.3g})"
+    first = float(np.degrees(sol.theta[np.argmax(bad)]))
+    return (
+        f"the mechanism does not assemble over {100.0 * bad.mean():.0f} % of the crank cycle "
+        f"(first at {first:.0f} deg; violation {sol.violation[0]:.2f} mm)"
+    )
+
+
+def check_value(param: Param, value: object) -> float:
+    """A typed value for one parameter, or ValueError with the reason (name, unit, bounds).
+
+    Lengths must be > 0; every non-angle must lie within the parameter's global bounds;
+    angles are periodic and only need to be finite.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{param.name} must be a number ({param.unit}), got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{param.name} must be a finite number ({param.unit}), got {v}")
+    if param.kind == "length" and v <= 0.0:
+        raise ValueError(f"{param.name} is a length and must be > 0 {param.unit}, got {v:g} {param.unit}")
+    if param.kind != "angle" and not param.lo <= v <= param.hi:
+        raise ValueError(
+            f"{param.name} = {v:g} {param.unit} is outside its bounds [{param.lo:g}, {param.hi:g}] {param.unit}"
+        )
+    return v
+
+
+@dataclass(frozen=True)
+class Playback:
+    """Animation state: playing, speed (x real time, one revolution per target period T), crank angle (rad)."""
+
+    playing: bool = True
+    speed: float = 1.0
+    angle: float = 0.0
+
+
+@dataclass
+class Session:
+    """The studio's shared state. Thread-safe: every method takes ``lock``.
+
+    Args:
+        view: the current design view (its design must assemble).
+        playback: animation state.
+    """
+
+    view: DesignView
+    playback: Playback = field(default_factory=Playback)
+    lock: threading.RLock = field(default_factory=threading.RLock, repr=False, compare=False)
+    version: int = 0
+
+    @classmethod
+    def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
+        """A session on a preset (the paper's Stephenson-I X3 by default), animating."""
+        return cls(build_view(presets.get(preset).design(), preset, target or TargetSpec()))
+
+    def snapshot(self) -> tuple[DesignView, Playback, int]:
+        """The current view, playback and version, read together."""
+        with self.lock:
+            return self.view, self.playback, self.version
+
+    def _commit(self, view: DesignView, keep_assembly: bool = False) -> DesignView:
+        """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design."""
+        if keep_assembly and self.view.assembles and not view.assembles:
+            raise ValueError(assembly_reason(view))
+        self.view = view
+        self.version += 1
+        return view
+
+    # Design -------------------------------------------------------------------------------
+
+    def load_preset(self, name: str) -> DesignView:
+        """Switch to a registered preset; ValueError (state unchanged) if the name is unknown."""
+        p = presets.get(name)
+        with self.lock:
+            return self._commit(build_view(p.design(), name, self.view.target))
+
+    def select_mechanism(self, name: str) -> DesignView:
+        """Switch topology: loads the mechanism's first preset (the registry gives no other design)."""
+        mech = mechanisms.get(name)
+        with self.lock:
+            if mech.name == self.view.design.mechanism.name:
+                return self.view
+            names = presets_for(mech.name)
+            if not names:
+                raise ValueError(f"{mech.title} has no preset yet; there is no design to start from")
+            return self.load_preset(names[0])
+
+    def reset_to_preset(self) -> DesignView:
+        """Back to the values of the preset the design started from."""
+        with self.lock:
+            if self.view.preset is None:
+                raise ValueError("the design did not start from a preset")
+            return self.load_preset(self.view.preset)
+
+    def set_param(self, name: str, value: object) -> DesignView:
+        """Change one parameter and re-solve; ValueError (state unchanged) with the reason if invalid.
+
+        Invalid: not a finite number, a length <= 0, a non-angle outside its bounds, or an
+        assembling design that would stop assembling.
+        """
+        with self.lock:
+            design = self.view.design
+            names = design.mechanism.param_names
+            if name not in names:
+                raise ValueError(f"{design.mechanism.name} has no parameter {name!r}; it has {', '.join(names)}")
+            v = check_value(design.mechanism.params[names.index(name)], value)
+            if v == design.named(0)[name]:
+                return self.view
+            new = design.replace(**{name: v})
+            return self._commit(build_view(new, self.view.preset, self.view.target, self.view.n_samples),
+                                keep_assembly=True)
+
+    def set_design(self, design: Design, preset: str | None = None) -> DesignView:
+        """Replace the whole design (a loaded file, a picked candidate); ValueError if malformed."""
+        if design.pop != 1:
+            raise ValueError(f"the studio shows one design at a time, got a population of {design.pop}")
+        check_params(design.mechanism, design.params)
+        with self.lock:
+            return self._commit(build_view(design, preset, self.view.target, self.view.n_samples))
+
+    def set_target(self, **changes: float) -> DesignView:
+        """Change target settings (``length``, ``height``, ``period``); ValueError if not positive."""
+        with self.lock:
+            target = replace(self.view.target, **changes)
+            if target == self.view.target:
+                return self.view
+            v = self.view
+            return self._commit(build_view(v.design, v.preset, target, v.n_samples))
+
+    # Playback -----------------------------------------------------------------------------
+
+    def set_playing(self, playing: bool) -> Playback:
+        with self.lock:
+            self.playback = replace(self.playback, playing=bool(playing))
+            return self.playback
+
+    def set_speed(self, speed: float) -> Playback:
+        """Playback speed as a multiple of real time (0 < speed <= MAX_SPEED)."""
+        if not (math.isfinite(speed) and 0.0 < speed <= MAX_SPEED):
+            raise ValueError(f"speed must be in (0, {MAX_SPEED:g}], got {speed}")
+        with self.lock:
+            self.playback = replace(self.playback, speed=float(speed))
+            return self.playback
+
+    def scrub(self, angle: float) -> Playback:
+        """Jump to a crank angle (rad) and pause, as dragging a time slider does."""
+        if not math.isfinite(angle):
+            raise ValueError(f"crank angle must be finite, got {angle}")
+        with self.lock:
+            self.playback = Playback(False, self.playback.speed, angle % (2.0 * math.pi))
+            return self.playback
+
+    def advance(self, dt: float) -> Playback:
+        """Move the crank by ``dt`` seconds of playback if playing (one revolution per target period)."""
+        with self.lock:
+            pb = self.playback
+            if pb.playing and dt > 0.0:
+                step = 2.0 * math.pi * pb.speed * dt / self.view.target.period
+                self.playback = replace(pb, angle=(pb.angle + step) % (2.0 * math.pi))
+            return self.playback
+
+    # Files --------------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """The session as JSON-ready data (``format``, ``version``, design, preset, target, playback)."""
+        with self.lock:
+            v, pb = self.view, self.playback
+            return {
+                "format": SESSION_FORMAT,
+                "version": SESSION_VERSION,
+                "design": design_to_dict(v.design),
+                "preset": v.preset,
+                "target": v.target.to_dict(),
+                "playback": {"playing": pb.playing, "speed": pb.speed, "angle": pb.angle},
+            }
+
+    @classmethod
+    def from_dict(cls, data: object) -> Session:
+        """A session from :meth:`to_dict` data; ValueError naming the first problem."""
+        if not isinstance(data, dict):
+            raise ValueError(f"a session must be a JSON object, got {type(data).__name__}")
+        if data.get("format") != SESSION_FORMAT:
+            raise ValueError(f"not a studio session (format {data.get('format')!r}, expected {SESSION_FORMAT!r})")
+        if data.get("version") != SESSION_VERSION:
+            raise ValueError(
+                f"unsupported session version {data.get('version')!r} (this studio reads {SESSION_VERSION})"
+            )
+        for key in ("design", "target"):
+            if key not in data:
+                raise ValueError(f"session has no {key!r}")
+        design = design_from_dict(data["design"])
+        preset = data.get("preset")
+        if preset is not None and (preset not in presets.PRESETS or presets.get(preset).mechanism != design.mechanism):
+            preset = None
+        view = build_view(design, preset, TargetSpec.from_dict(data["target"]))
+        pb = data.get("playback", {})
+        if not isinstance(pb, dict):
+            raise ValueError(f"playback must be an object, got {pb!r}")
+        playing, speed, angle = pb.get("playing", True), pb.get("speed", 1.0), pb.get("angle", 0.0)
+        if not isinstance(playing, bool):
+            raise ValueError(f"playback playing must be true or false, got {playing!r}")
+        for key, v in (("speed", speed), ("angle", angle)):
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise ValueError(f"playback {key} must be a finite number, got {v!r}")
+        session = cls(view)
+        session.set_speed(float(speed))
+        session.playback = Playback(playing, float(speed), float(angle) % (2.0 * math.pi))
+        return session

@@ -1,0 +1,175 @@
+"""The studio in a real (headless) browser: load, animate, edit, refuse, stay consistent across tabs."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from playwright.sync_api import Error as PlaywrightError
+from playwright.sync_api import expect
+
+from core import presets
+
+ROOT = Path(__file__).resolve().parents[2]
+X3 = presets.get("stephenson1/X3")
+
+# Everything a page shows of the design, in one round trip: input values by label text, and
+# metric values by row key. (One evaluation instead of dozens of locator queries matters when
+# the browser renders WebGL in software.)
+SHOWN_JS = """() => {
+  const got = {};
+  for (const l of document.querySelectorAll('label[for]')) {
+    const el = document.getElementById(l.htmlFor);
+    if (el && el.tagName === 'INPUT') got[l.textContent] = el.value;
+  }
+  for (const td of document.querySelectorAll('table.clm-metrics tr[data-key] td[data-value]'))
+    got['metric ' + td.parentElement.dataset.key] = td.dataset.value;
+  return got;
+}"""
+MATCHES_JS = f"(exp) => {{ const got = ({SHOWN_JS})(); return Object.entries(exp).every(([k, v]) => got[k] === v); }}"
+
+
+def shown(page: Any) -> dict[str, str]:
+    return page.evaluate(SHOWN_JS)
+
+
+def expected_of(view: Any) -> dict[str, str]:
+    """What a page must show for a session view: every parameter input and every metric."""
+    exp = {f"{p.name} [{p.unit}]": f"{view.values[p.name]:g}" for p in view.design.mechanism.params}
+    exp.update({f"metric {r.key}": r.text() for r in view.rows})
+    return exp
+
+
+def expect_design_of(page: Any, view: Any, timeout: float = 20_000) -> None:
+    """Wait until the page shows the view's design and metrics; on timeout, fail with the difference."""
+    exp = expected_of(view)
+    try:
+        page.wait_for_function(MATCHES_JS, arg=exp, timeout=timeout, polling=100)
+    except PlaywrightError:
+        got = shown(page)
+        diff = {k: (got.get(k), v) for k, v in exp.items() if got.get(k) != v}
+        raise AssertionError(f"page differs from the session (shown, expected): {diff}") from None
+
+
+def param_input(page: Any, name: str, unit: str = "mm") -> Any:
+    """The number input of a design parameter, found by its label (``r4 [mm]``)."""
+    return page.get_by_label(f"{name} [{unit}]", exact=True)
+
+
+def crank_angle(page: Any) -> float:
+    """Value of the crank-angle slider (its label points at the slider root, which holds the thumb)."""
+    root = page.locator("label", has_text="Crank angle [deg]").get_attribute("for")
+    return float(page.locator(f'[id="{root}"] [role="slider"]').get_attribute("aria-valuenow"))
+
+
+def wait_until_changes(read: Any, what: str, timeout: float = 15.0) -> None:
+    first = read()
+    deadline = time.monotonic() + timeout
+    while read() == first:
+        assert time.monotonic() < deadline, f"{what} did not change within {timeout:g} s"
+        time.sleep(0.2)
+
+
+def notification(page: Any, title: str, reason: str) -> Any:
+    return page.locator(".mantine-Notification-root").filter(has_text=title).filter(has_text=reason).first
+
+
+def test_page_loads_offline_and_plays_the_x3_design(page: Any, studio: Any, blocked: list[str]) -> None:
+    view = studio.session.view
+    assert view.preset == "stephenson1/X3"
+    expect_design_of(page, view)
+    page.get_by_role("button", name="Play", exact=True).click()
+    expect(page.get_by_role("button", name="Pause", exact=True)).to_be_visible()
+    assert studio.session.playback.playing
+    # The GUI follows the animation (the crank-angle slider moves by itself) ...
+    wait_until_changes(lambda: crank_angle(page), "the crank-angle slider")
+    # ... and the canvas renders the moving mechanism: two captures a moment apart differ.
+    canvas = page.locator("canvas").first
+    wait_until_changes(lambda: canvas.screenshot(), "the scene")
+    assert blocked == []
+
+
+def test_editing_a_parameter_re_solves_and_updates_the_metrics(page: Any, studio: Any) -> None:
+    before = studio.session.view
+    expect_design_of(page, before)
+    param_input(page, "r4").fill("130")
+    old_mse = next(r for r in before.rows if r.key == "mse").text()
+    expect(page.locator('tr[data-key="mse"] td[data-value]')).not_to_have_attribute("data-value", old_mse)
+    after = studio.session.view
+    assert after.values["r4"] == 130.0 and after.edited == ("r4",)
+    expect_design_of(page, after)
+    expect(page.get_by_text("Edited: r4")).to_be_visible()
+
+
+def test_an_invalid_entry_is_refused_with_a_notification_and_the_design_kept(page: Any, studio: Any) -> None:
+    before = studio.session.view
+    expect_design_of(page, before)
+    field = param_input(page, "r4")
+    for typed, reason in (("-5", "must be > 0"), ("500", "does not assemble")):
+        field.fill(typed)
+        expect(notification(page, "r4 [mm] not applied", reason)).to_be_visible()
+        expect(field).to_have_value(f"{X3.values[7]:g}")
+        assert studio.session.view is before
+    expect_design_of(page, before)
+
+
+def test_two_pages_stay_consistent_and_a_reload_gets_the_current_state(
+    page: Any, open_page: Any, studio: Any, ready: Any
+) -> None:
+    a, b = page, open_page()
+    expect_design_of(a, studio.session.view)
+    param_input(a, "r1").fill("57")
+    expect(param_input(b, "r1")).to_have_value("57")
+    view = studio.session.view
+    assert view.values["r1"] == 57.0
+    expect_design_of(a, view)
+    expect_design_of(b, view)
+    b.reload()
+    ready(b)
+    expect_design_of(b, view)
+
+
+def test_choosing_another_preset_loads_it(page: Any, studio: Any) -> None:
+    expect_design_of(page, studio.session.view)
+    page.get_by_label("Preset", exact=True).click()
+    page.get_by_role("option", name="X0", exact=True).click()
+    expect(param_input(page, "r4")).to_have_value(f"{presets.get('stephenson1/X0').values[7]:g}")
+    view = studio.session.view
+    assert view.preset == "stephenson1/X0"
+    expect_design_of(page, view)
+
+
+def test_clm_studio_serves_on_loopback_opens_animating_and_stops_on_ctrl_c(browser: Any, ready: Any) -> None:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0"], cwd=ROOT, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        assert proc.stdout is not None
+        line = ""
+        deadline = time.monotonic() + 60
+        while "CLM Studio:" not in line:
+            assert time.monotonic() < deadline and proc.poll() is None, "no URL printed"
+            line = proc.stdout.readline()
+        url = re.search(r"http://localhost:(\d+)", line)
+        assert url, line
+        ctx = browser.new_context(viewport={"width": 900, "height": 700})
+        ctx.set_default_timeout(30_000)
+        page = ctx.new_page()
+        page.goto(f"http://127.0.0.1:{url.group(1)}/")
+        ready(page)
+        expect(page.get_by_role("button", name="Pause", exact=True)).to_be_visible()
+        wait_until_changes(lambda: crank_angle(page), "the crank-angle slider")
+        ctx.close()
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0
+        assert "CLM Studio stopped." in proc.stdout.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

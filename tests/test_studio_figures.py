@@ -1,0 +1,205 @@
+"""Pure builders of the studio's drawings: link geometry, layout, camera fit, scene frames, plotly figures."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core import mechanisms, presets
+from core.mechanisms.model import Ground
+from studio.figures import make_bench_figure
+from studio.geometry import (
+    EDGE_CRANK,
+    EDGE_GROUND,
+    EDGE_LINK,
+    SCENE_SCALE,
+    camera_pose,
+    closed_polyline,
+    frame_index,
+    hold_last_valid,
+    layout,
+    link_edges,
+    link_segments,
+    to_scene,
+)
+from studio.scene import build_frames
+from studio.state import Session, build_view
+
+
+@pytest.fixture(scope="module")
+def x3_view():
+    return Session.default("stephenson1/X3").view
+
+
+@pytest.mark.parametrize("name", sorted(mechanisms.MECHANISMS))
+def test_every_drawn_edge_is_rigid_over_the_cycle(name: str) -> None:
+    preset = next(p for p in presets.PRESETS.values() if p.mechanism.name == name)
+    sol = preset.design().solve(90, backend="numpy")
+    edges = link_edges(preset.mechanism)
+    seg = link_segments(sol.joints[0], edges.pairs)
+    lengths = np.linalg.norm(seg[..., 1, :] - seg[..., 0, :], axis=-1)  # (n_samples, n_edges)
+    lengths = lengths[sol.valid[0]]  # samples where the mechanism assembles
+    assert len(lengths) > 0
+    np.testing.assert_allclose(lengths, np.broadcast_to(lengths[:1], lengths.shape), rtol=1e-9, atol=1e-9)
+    # Every moving body is drawn complete; the ground only through its construction ties.
+    names = preset.mechanism.joint_names
+    drawn = {frozenset((names[a], names[b])) for a, b in edges.pairs}
+    for body in preset.mechanism.bodies():
+        if not all(isinstance(preset.mechanism.steps[names.index(p)], Ground) for p in body):
+            assert {frozenset((p, q)) for p in body for q in body if p != q} <= drawn
+
+
+def test_stephenson1_edges_are_classified_ground_crank_and_links() -> None:
+    m = mechanisms.get("stephenson1")
+    edges = link_edges(m)
+    names = m.joint_names
+    kinds = {frozenset((names[a], names[b])): k for (a, b), k in zip(edges.pairs, edges.kinds, strict=True)}
+    assert kinds[frozenset("AD")] == EDGE_GROUND
+    assert {kinds[frozenset(e)] for e in ("AB", "AF", "BF")} == {EDGE_CRANK}
+    assert {kinds[frozenset(e)] for e in ("BC", "DC", "DE", "CE", "EG", "FG", "FP", "GP")} == {EDGE_LINK}
+
+
+@given(n=st.integers(3, 60), holes=st.sets(st.integers(0, 59), max_size=5))
+@settings(max_examples=40, deadline=None)
+def test_closed_polyline_joins_neighbours_and_skips_segments_touching_nan(n: int, holes: set[int]) -> None:
+    theta = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    pts = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
+    holes = {h for h in holes if h < n}
+    pts[list(holes)] = np.nan
+    seg = closed_polyline(pts)
+    expected = sum(1 for i in range(n) if i not in holes and (i + 1) % n not in holes)
+    assert seg.shape == (expected, 2, 2)
+    assert np.isfinite(seg).all()
+    # Every segment joins sample i to sample i + 1 (chord of one step on the unit circle).
+    np.testing.assert_allclose(np.linalg.norm(seg[:, 1] - seg[:, 0], axis=-1), 2 * np.sin(np.pi / n), rtol=1e-9)
+
+
+def test_to_scene_scales_millimetres_to_metres_on_the_z0_plane() -> None:
+    p = to_scene(np.array([[[100.0, -50.0]]]), offset=(10.0, 0.0))
+    assert p.shape == (1, 1, 3) and p.dtype == np.float32
+    np.testing.assert_allclose(p[0, 0], [110.0 * SCENE_SCALE, -50.0 * SCENE_SCALE, 0.0], rtol=1e-6)
+
+
+@given(
+    d=st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(1, 800), st.floats(1, 800)),
+    g=st.tuples(st.floats(-500, 500), st.floats(-500, 500), st.floats(1, 800), st.floats(1, 800)),
+    gap=st.floats(0, 200),
+)
+@settings(max_examples=50, deadline=None)
+def test_leg_view_sits_right_of_the_mechanism_centred_on_it(d, g, gap) -> None:
+    dp = np.array([[d[0], d[1]], [d[0] + d[2], d[1] + d[3]]])
+    gp = np.array([[g[0], g[1]], [g[0] + g[2], g[1] + g[3]]])
+    lay = layout(dp, gp, gap)
+    moved = gp + lay.leg_offset
+    assert moved[:, 0].min() == pytest.approx(dp[:, 0].max() + gap)
+    assert moved[:, 1].mean() == pytest.approx(dp[:, 1].mean())
+    both = np.concatenate([dp, moved])
+    np.testing.assert_allclose(lay.scene, [*both.min(0), *both.max(0)])
+
+
+@given(
+    b=st.tuples(st.floats(-1000, 1000), st.floats(-1000, 1000), st.floats(10, 2000), st.floats(10, 2000)),
+    fov=st.floats(math.radians(20), math.radians(90)),
+    aspect=st.floats(0.5, 3.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_camera_looks_straight_down_and_sees_the_whole_scene(b, fov: float, aspect: float) -> None:
+    bounds = np.array([b[0], b[1], b[0] + b[2], b[1] + b[3]])
+    pos, look = camera_pose(bounds, fov, aspect)
+    np.testing.assert_allclose(pos[:2], look[:2])
+    assert pos[2] > 0.0 and look[2] == 0.0
+    for x in bounds[[0, 2]] * SCENE_SCALE:
+        for y in bounds[[1, 3]] * SCENE_SCALE:
+            # Pinhole projection onto normalized device coordinates.
+            ndc_y = (y - pos[1]) / (pos[2] * math.tan(fov / 2))
+            ndc_x = (x - pos[0]) / (pos[2] * math.tan(fov / 2) * aspect)
+            assert abs(ndc_x) <= 1.0 + 1e-9 and abs(ndc_y) <= 1.0 + 1e-9
+
+
+@given(valid=st.lists(st.booleans(), min_size=1, max_size=50))
+@settings(max_examples=80, deadline=None)
+def test_hold_last_valid_points_each_sample_at_the_latest_valid_one_cyclically(valid: list[bool]) -> None:
+    hold = hold_last_valid(np.array(valid))
+    if not any(valid):
+        assert hold is None
+        return
+    n = len(valid)
+    for i in range(n):
+        j = hold[i]
+        assert valid[j]
+        gap = (i - j) % n  # j is at or before i, and nothing valid lies strictly between them
+        assert not any(valid[(j + d) % n] for d in range(1, gap + 1))
+
+
+def test_scene_frames_hold_the_last_assembled_pose_where_the_mechanism_does_not_assemble() -> None:
+    view = Session.default("stephenson1/X3").view
+    broken = build_view(view.design.replace(r4=131.8), "stephenson1/X3", view.target)
+    valid = broken.solution.valid[0]
+    assert 0 < valid.sum() < len(valid)
+    f = build_frames(broken)
+    assert np.isfinite(f.links).all() and np.isfinite(f.joints).all() and np.isfinite(f.foot).all()
+    i = int(np.argmin(valid))  # first sample that does not assemble
+    np.testing.assert_array_equal(f.links[i], f.links[i - 1])
+    assert len(f.path) < len(valid)  # the path is drawn only where it exists
+
+
+@given(k=st.integers(-1000, 1000), n=st.sampled_from([90, 360, 720]), jitter=st.floats(-0.49, 0.49))
+@settings(max_examples=60, deadline=None)
+def test_frame_index_is_the_nearest_sample_wrapped(k: int, n: int, jitter: float) -> None:
+    angle = (k + jitter) * 2.0 * math.pi / n
+    assert frame_index(angle, n) == k % n
+
+
+def test_scene_frames_follow_the_solution(x3_view) -> None:
+    f = build_frames(x3_view)
+    sol = x3_view.solution
+    n = x3_view.n_samples
+    assert f.links.shape == (n, len(link_edges(x3_view.design.mechanism).pairs), 2, 3)
+    assert f.link_colors.shape == f.links.shape[1:] and f.link_colors.dtype == np.uint8
+    np.testing.assert_allclose(f.foot[:, 0, :2], sol.point[0] * SCENE_SCALE, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(f.leg_foot[:, 0, :2], sol.leg[0] * SCENE_SCALE, rtol=1e-5, atol=1e-6)
+    assert f.pivot_names == ("A", "D") and f.joints.shape == (n, 6, 3)
+    assert f.path.shape == (n, 2, 3) and f.leg_target.shape == (n, 2, 3)
+    # The leg view is drawn beside the mechanism, not on top of it.
+    assert f.layout.leg_offset[0] + f.layout.leg[0] > f.layout.design[2]
+
+
+def test_bench_figure_draws_the_closed_path_and_the_target_with_mm_axes(x3_view) -> None:
+    leg, tgt = x3_view.solution.leg[0], x3_view.target_leg
+    fig = make_bench_figure(leg, tgt)
+    by_name = {t.name: t for t in fig.data}
+    path, target = by_name["bench trajectory"], by_name["target"]
+    assert len(path.x) == len(leg) + 1 and (path.x[0], path.y[0]) == (path.x[-1], path.y[-1])
+    np.testing.assert_allclose(np.c_[target.x[:-1], target.y[:-1]], tgt)
+    assert "mm" in fig.layout.xaxis.title.text and "mm" in fig.layout.yaxis.title.text
+    assert fig.layout.yaxis.scaleanchor == "x"  # equal scales: the path is not distorted
+
+
+@given(split=st.integers(1, 89), shift=st.integers(0, 89))
+@settings(max_examples=40, deadline=None)
+def test_bench_figure_colours_stance_and_swing_covering_every_sample_once(split: int, shift: int) -> None:
+    n = 90
+    theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    leg = np.stack([np.cos(theta), np.sin(theta)], -1)
+    stance = np.roll(np.arange(n) < split, shift)
+    fig = make_bench_figure(leg, None, stance=stance)
+    by_name = {t.name: t for t in fig.data}
+    for name, mask in (("stance", stance), ("swing", ~stance)):
+        xs = np.array([v for v in by_name[name].x if v is not None], dtype=float)
+        ys = np.array([v for v in by_name[name].y if v is not None], dtype=float)
+        drawn = {int(np.argmin(np.hypot(leg[:, 0] - x, leg[:, 1] - y))) for x, y in zip(xs, ys, strict=True)}
+        # One contiguous arc: its own samples plus the joint to the first sample of the other phase.
+        assert set(np.flatnonzero(mask)) <= drawn
+        assert len(drawn) == mask.sum() + 1
+
+
+def test_bench_figure_labels_feature_points_and_marks_the_foot() -> None:
+    leg = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    fig = make_bench_figure(leg, features={"t1": (0.0, 0.0), "t2": (1.0, 0.0)}, foot=(1.0, 1.0))
+    by_name = {t.name: t for t in fig.data}
+    assert list(by_name["feature points"].text) == ["t1", "t2"]
+    assert (by_name["foot"].x[0], by_name["foot"].y[0]) == (1.0, 1.0)

@@ -1,0 +1,392 @@
+"""Studio session state: opening design, validated edits, playback, session files, thread safety."""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from core import presets
+from core.kinematics import solve
+from core.trajectory import FEATURE_NAMES
+from studio.metrics import feature_labels, metrics_html, min_transmission_angle
+from studio.state import (
+    MAX_SPEED,
+    Playback,
+    Session,
+    build_view,
+    check_value,
+    preset_label,
+    presets_for,
+)
+from studio.target import TargetSpec
+
+X3 = "stephenson1/X3"
+
+
+@pytest.fixture(scope="module")
+def x3_session_data() -> dict:
+    return Session.default().to_dict()
+
+
+@pytest.fixture
+def session(x3_session_data: dict) -> Session:
+    return Session.from_dict(x3_session_data)
+
+
+def rows(view) -> dict:
+    return {r.key: r for r in view.rows}
+
+
+# Opening state ------------------------------------------------------------------------------
+
+
+def test_default_session_is_the_paper_x3_design_animating_against_the_paper_target(session: Session) -> None:
+    view = session.view
+    assert view.preset == X3
+    assert view.design.mechanism.name == "stephenson1"
+    np.testing.assert_array_equal(view.design.params[0], presets.get(X3).values)
+    assert view.target == TargetSpec(300.0, 100.0, 2.0)
+    assert session.playback.playing
+    assert view.edited == ()
+    assert view.solution.joints is not None and view.solution.joints.shape == (1, 360, 8, 2)
+
+
+# Paper Appendix B-1 MSE (mm) of the Stephenson-I stages; spec allows 0.6 mm (one-sample vs exact).
+@pytest.mark.parametrize(("row", "paper_mse"), [("X0", 9.91), ("X1", 5.09), ("X2", 4.80), ("X3", 3.97)])
+def test_shape_error_row_reproduces_the_papers_mse(row: str, paper_mse: float) -> None:
+    view = Session.default(f"stephenson1/{row}").view
+    assert abs(rows(view)["mse"].value - paper_mse) < 0.6
+
+
+def test_x1_width_and_apex_rows_meet_the_papers_subtask1_objectives() -> None:
+    # Paper §3.2.3: X1 has f2 = (l - 300)^2 and f3 = (y_min + 100)^2 both below 0.01 mm^2.
+    r = rows(Session.default("stephenson1/X1").view)
+    assert (r["width"].value - 300.0) ** 2 < 0.01
+    assert (r["y_min"].value + 100.0) ** 2 < 0.01
+
+
+def test_every_registered_preset_opens_and_reports_whether_it_assembles() -> None:
+    for name in presets.PRESETS:
+        view = Session.default(name).view
+        assert view.preset == name
+        assert preset_label(name) in {preset_label(n) for n in presets_for(view.design.mechanism.name)}
+        assert view.assembles == (view.solution.violation[0] == 0.0)
+        if not view.assembles:
+            assert rows(view)["feasible"].value is False and rows(view)["why"].text() != "-"
+
+
+# Target --------------------------------------------------------------------------------------
+
+
+@given(length=st.floats(10, 1000), height=st.floats(1, 500), n_quarter=st.integers(2, 200))
+@settings(max_examples=40, deadline=None)
+def test_compound_cycloid_passes_through_its_closed_form_points(length: float, height: float, n_quarter: int) -> None:
+    n = 4 * n_quarter
+    p = TargetSpec(length, height).points(n)
+    np.testing.assert_allclose(p[0], [0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(p[n // 4], [length / 2, -height], rtol=1e-12, atol=1e-9)  # arch apex
+    np.testing.assert_allclose(p[n // 2], [length, 0.0], rtol=1e-12, atol=1e-9)  # end of the arch
+    np.testing.assert_allclose(p[3 * n // 4], [length / 2, 0.0], rtol=1e-12, atol=1e-9)  # return line, halfway
+    assert p[:, 1].min() >= -height - 1e-9 and p[:, 1].max() <= 1e-9
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf, "300", True])
+def test_target_rejects_non_positive_or_non_numbers(bad: object) -> None:
+    with pytest.raises(ValueError, match="length"):
+        TargetSpec(length=bad)  # type: ignore[arg-type]
+
+
+def test_target_in_the_leg_frame_is_the_output_stage_image_of_the_design_frame_target(session: Session) -> None:
+    view = session.view
+    np.testing.assert_allclose(view.target_leg, view.design.output.apply(view.target_design))
+    # The paper's pantograph (k = -1 about (150, 0)) turns the hanging arch upward.
+    assert view.target_leg[:, 1].max() == pytest.approx(100.0)
+
+
+def test_changing_the_target_re_evaluates_the_shape_error(session: Session) -> None:
+    before = rows(session.view)["mse"].value
+    view = session.set_target(height=80.0)
+    assert view.target.height == 80.0
+    # Spec §3: the mean distance between sample i of the path and sample i of the target.
+    expected = np.linalg.norm(view.solution.point[0] - TargetSpec(300, 80).points(360), axis=-1).mean()
+    assert rows(view)["mse"].value == pytest.approx(expected, rel=1e-9)
+    assert rows(view)["mse"].value != before
+    with pytest.raises(ValueError):
+        session.set_target(period=-2.0)
+    assert session.view is view
+
+
+# Edits ---------------------------------------------------------------------------------------
+
+
+def test_a_valid_edit_re_solves_and_marks_the_parameter_edited(session: Session) -> None:
+    old = session.view
+    view = session.set_param("r4", 130.0)
+    assert view.values["r4"] == 130.0 and view.edited == ("r4",)
+    expected = solve(view.design.mechanism, view.design.params, 360, output=view.design.output, backend="numpy")
+    np.testing.assert_allclose(view.solution.point, expected.point, atol=1e-9)
+    assert old.values["r4"] == presets.get(X3).values[7]  # the old view is untouched
+    assert session.version == 1
+
+
+# r4 = 500 puts D so far from A that |BD| >= r4 - r1 > r2 + r3: the dyad C can never close.
+@pytest.mark.parametrize(
+    ("name", "value", "reason"),
+    [
+        ("r4", -5.0, "must be > 0"),
+        ("r4", 0.0, "must be > 0"),
+        ("r2", math.nan, "finite"),
+        ("r2", math.inf, "finite"),
+        ("r4", 600.0, "outside its bounds"),
+        ("r6", -501.0, "outside its bounds"),
+        ("x_a", 1e4, "outside its bounds"),
+        ("r4", "12", "must be a number"),
+        ("r4", 500.0, "does not assemble"),
+        ("nope", 1.0, "no parameter"),
+    ],
+)
+def test_an_invalid_edit_is_refused_with_its_reason_and_changes_nothing(
+    session: Session, name: str, value: object, reason: str
+) -> None:
+    old, version = session.view, session.version
+    with pytest.raises(ValueError, match=reason):
+        session.set_param(name, value)
+    assert session.view is old and session.version == version
+
+
+def test_angles_are_periodic_not_bounded(session: Session) -> None:
+    g = session.view.values["g"]
+    p0 = session.view.solution.point.copy()
+    view = session.set_param("g", g + 2.0 * math.pi)
+    np.testing.assert_allclose(view.solution.point, p0, atol=1e-9)
+
+
+@given(value=st.floats(allow_nan=True, allow_infinity=True, width=64), name=st.sampled_from(["r1", "r3", "r9", "r12"]))
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_after_any_edit_the_current_design_assembles(session: Session, name: str, value: float) -> None:
+    try:
+        session.set_param(name, value)
+    except ValueError:
+        pass
+    view = session.view
+    assert view.solution.violation[0] == 0.0
+    assert np.isfinite(view.solution.joints).all()
+
+
+def test_a_design_that_does_not_assemble_is_shown_and_can_be_repaired_by_edits(session: Session) -> None:
+    broken = presets.get(X3).design().replace(r4=500.0)  # |BD| >= r4 - r1 > r2 + r3
+    view = session.set_design(broken, X3)
+    assert not view.assembles and view.edited == ("r4",)
+    assert not session.set_param("r4", 400.0).assembles  # still broken: accepted, the designer is repairing
+    assert session.set_param("r4", 128.0).assembles
+    with pytest.raises(ValueError, match="does not assemble"):
+        session.set_param("r4", 500.0)  # now it assembles, breaking it again is refused
+    assert session.view.values["r4"] == 128.0
+
+
+def test_check_value_keeps_lengths_positive_and_in_bounds() -> None:
+    r1 = presets.get(X3).mechanism.params[4]
+    assert check_value(r1, 56) == 56.0 and isinstance(check_value(r1, 56), float)
+    for bad in (r1.lo - 1e-9, r1.hi + 1e-9, -1.0):
+        with pytest.raises(ValueError, match="r1"):
+            check_value(r1, bad)
+
+
+def test_reset_returns_to_the_preset_values(session: Session) -> None:
+    session.set_param("r4", 130.0)
+    view = session.reset_to_preset()
+    np.testing.assert_array_equal(view.design.params[0], presets.get(X3).values)
+    assert view.edited == ()
+
+
+def test_switching_topology_loads_its_first_preset_and_unknown_ones_are_refused(session: Session) -> None:
+    view = session.select_mechanism("stephenson3")
+    assert view.design.mechanism.name == "stephenson3" and view.preset == presets_for("stephenson3")[0]
+    assert session.select_mechanism("stephenson3") is view  # same topology: nothing to do
+    with pytest.raises(ValueError, match="unknown mechanism"):
+        session.select_mechanism("nine-bar")
+    assert session.view is view
+    with pytest.raises(ValueError, match="unknown preset"):
+        session.load_preset("stephenson1/X9")
+
+
+def test_concurrent_edits_leave_a_consistent_view(session: Session) -> None:
+    values = [float(v) for v in 128.33 + np.linspace(-1.5, 1.5, 16)]  # all assemble (crank margin 3.24 mm)
+    threads = [threading.Thread(target=session.set_param, args=("r4", v)) for v in values]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    view = session.view
+    assert view.values["r4"] in values
+    assert session.version == len(values)
+    fresh = build_view(view.design, view.preset, view.target)
+    np.testing.assert_allclose(view.solution.point, fresh.solution.point, atol=1e-12)
+
+
+# Playback ------------------------------------------------------------------------------------
+
+
+@given(speed=st.floats(0.1, MAX_SPEED), dt=st.floats(0.0, 0.5), start=st.floats(0.0, 6.28))
+@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_playback_turns_the_crank_once_per_target_period(
+    session: Session, speed: float, dt: float, start: float
+) -> None:
+    session.playback = Playback(True, speed, start)
+    pb = session.advance(dt)
+    expected = (start + 2.0 * math.pi * speed * dt / session.view.target.period) % (2.0 * math.pi)
+    assert math.isclose(pb.angle, expected, abs_tol=1e-9) or math.isclose(abs(pb.angle - expected), 2 * math.pi)
+
+
+def test_paused_playback_holds_and_scrubbing_pauses_and_wraps(session: Session) -> None:
+    pb = session.scrub(2.0 * math.pi + 1.0)
+    assert not pb.playing and pb.angle == pytest.approx(1.0)
+    assert session.advance(1.0).angle == pytest.approx(1.0)
+    assert session.set_playing(True).playing
+    for bad in (0.0, -1.0, math.nan, MAX_SPEED * 2):
+        with pytest.raises(ValueError, match="speed"):
+            session.set_speed(bad)
+
+
+# Session files -------------------------------------------------------------------------------
+
+
+def test_a_session_whose_design_does_not_assemble_still_loads(x3_session_data: dict) -> None:
+    data = json.loads(json.dumps(x3_session_data))
+    data["design"]["params"]["r4"] = 500.0
+    view = Session.from_dict(data).view
+    assert not view.assembles and rows(view)["feasible"].value is False
+
+
+def test_session_round_trips_through_json(session: Session) -> None:
+    session.set_param("r4", 131.5)
+    session.set_target(length=280.0)
+    session.scrub(1.25)
+    data = json.loads(json.dumps(session.to_dict()))
+    back = Session.from_dict(data)
+    np.testing.assert_array_equal(back.view.design.params, session.view.design.params)
+    assert back.view.design.output == session.view.design.output
+    assert back.view.preset == X3 and back.view.edited == ("r4",)
+    assert back.view.target == session.view.target
+    assert back.playback == session.playback
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d.update(format="other"), "not a studio session"),
+        (lambda d: d.update(version=99), "unsupported session version"),
+        (lambda d: d.pop("design"), "no 'design'"),
+        (lambda d: d["design"]["params"].update(r4=-1.0), "r4"),
+        (lambda d: d["target"].update(H="high"), "height"),
+        (lambda d: d.update(playback={"speed": math.nan}), "speed"),
+    ],
+)
+def test_a_malformed_session_is_refused_naming_the_problem(x3_session_data: dict, change, message: str) -> None:
+    data = json.loads(json.dumps(x3_session_data))
+    change(data)
+    with pytest.raises(ValueError, match=message):
+        Session.from_dict(data)
+
+
+# Metric rows ---------------------------------------------------------------------------------
+
+
+def test_transmission_angle_row_matches_the_angle_measured_from_the_joints(session: Session) -> None:
+    view = session.view
+    sol = view.solution
+    names = sol.joint_names
+    worst = math.inf
+    for step in view.design.mechanism.steps:
+        if type(step).__name__ != "Dyad":
+            continue
+        x, p, q = (sol.joints[0, :, names.index(n)] for n in (step.name, step.p, step.q))
+        u, v = p - x, q - x
+        cos = (u * v).sum(-1) / (np.linalg.norm(u, axis=-1) * np.linalg.norm(v, axis=-1))
+        mu = np.arccos(np.clip(cos, -1.0, 1.0))
+        worst = min(worst, float(np.minimum(mu, np.pi - mu).min()))
+    assert min_transmission_angle(sol) == pytest.approx(worst, abs=1e-9)
+
+
+def test_metrics_table_has_one_addressable_row_per_metric(session: Session) -> None:
+    r = session.view.rows
+    html = metrics_html(r)
+    assert len({x.key for x in r}) == len(r)
+    for x in r:
+        assert f'data-key="{x.key}"' in html and f'data-value="{x.text()}"' in html
+    wanted = {"feasible", "why", "mse", "h_s", "S", "I", "theta1", "theta2", "l_s", "h_m", "h_bar", "psi2", "psi4"}
+    assert wanted <= {x.key for x in r}
+
+
+def test_paper_metric_rows_show_the_evaluation_in_display_units(session: Session) -> None:
+    ev, r = session.view.evaluation, rows(session.view)
+    for key in ("mse", "h_s", "S", "I", "l_s", "h_m", "h_bar", "width", "y_min"):
+        assert r[key].value == pytest.approx(float(getattr(ev, key)[0]))
+    for key in ("theta1", "theta2"):
+        assert r[key].value == pytest.approx(math.degrees(float(getattr(ev, key)[0])))
+        assert r[key].unit == "deg"
+    for key in ("psi2", "psi4"):
+        assert r[key].value == pytest.approx(100.0 * float(getattr(ev, key)[0]))
+        assert r[key].unit == "%"
+    assert r["feasible"].value is bool(ev.feasible[0]) and r["why"].text() == "-"
+
+
+def test_an_unassemblable_design_is_reported_infeasible_with_the_reason() -> None:
+    view = build_view(presets.get(X3).design().replace(r4=500.0), X3, TargetSpec())
+    r = rows(view)
+    assert r["feasible"].value is False and "does not assemble" in r["why"].text()
+    assert view.stance is None and view.features == ()
+
+
+def test_stance_is_the_half_cycle_from_landing_to_take_off_and_holds_the_lowest_point(session: Session) -> None:
+    view = session.view
+    n, ev = view.n_samples, view.evaluation
+    assert view.stance is not None and abs(int(view.stance.sum()) - n // 2) <= 1
+    t3 = int(round(ev.times[0, FEATURE_NAMES.index("t3")] * n / ev.period)) % n
+    assert view.stance[t3]
+    lowest = int(np.argmin(view.solution.leg[0, :, 1]))
+    assert view.stance[lowest]
+
+
+def test_feature_labels_name_every_feature_point_once_merging_coincident_ones(session: Session) -> None:
+    labels = feature_labels(session.view.evaluation)
+    names = [n for label, _ in labels for n in label.split("=")]
+    assert sorted(names) == sorted(FEATURE_NAMES)
+    points = [xy for _, xy in labels]
+    assert len(set(points)) == len(points)
+
+
+# Session files on disk and the command line ----------------------------------------------------
+
+
+def test_clm_studio_refuses_a_malformed_session_file_with_one_line(tmp_path, capsys) -> None:
+    from studio.app import main
+
+    bad = tmp_path / "s.json"
+    bad.write_text('{"format": "clm-studio-session", "version": 1, "design": {"mechanism": "x"}}')
+    assert main(["--session", str(bad), "--port", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("clm-studio: error: ") and "s.json" in err[0]
+    bad.write_text("{not json")
+    assert main(["--session", str(bad), "--port", "0"]) == 2
+    assert "not JSON" in capsys.readouterr().err
+
+
+def test_the_studio_autosaves_its_session_after_every_change(tmp_path) -> None:
+    from studio.app import Studio, load_session
+
+    path = tmp_path / "session.json"
+    studio = Studio(Session.default(), host="127.0.0.1", port=0, session_path=path)
+    try:
+        assert load_session(path).view.values == studio.session.view.values
+        studio.session.set_param("r4", 129.0)
+        studio.refresh()
+        assert load_session(path).view.values["r4"] == 129.0
+    finally:
+        studio.close()
