@@ -6,27 +6,9 @@ A preset is addressed as ``mechanism/row`` (``stephenson1/X3``) or by a bare nam
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-import numpy as np
-
-from core.design import Design
-from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
-
-PAPER_PANTOGRAPH = OutputStage(k=-1.0, ox=150.0, oy=0.0)
-
-
-@dataclass(frozen=True)
-class Preset:
-    name: str
-    mechanism: Mechanism
-    values: tuple[float, ...]
-    output: OutputStage = field(default=IDENTITY)
-    source: str = ""
-
-    def design(self) -> Design:
-        return Design(self.mechanism, np.array([self.values]), self.output)
-
+from core.mechanisms import extra_presets, rtclm_presets
+from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.preset import PAPER_PANTOGRAPH, Preset
 
 # Appendix B, Stephenson-I: b, g, x_a, y_a, r1 ... r12 (rad, mm).
 _S1_ROWS: dict[str, tuple[str, str]] = {
@@ -67,8 +49,6 @@ def _values(text: str) -> tuple[float, ...]:
 
 
 def _paper_presets() -> dict[str, Preset]:
-    from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
-
     out = {
         f"stephenson1/{k}": Preset(f"stephenson1/{k}", STEPHENSON1, _values(v), PAPER_PANTOGRAPH, f"paper Appendix {src}")
         for k, (v, src) in _S1_ROWS.items()
@@ -80,10 +60,7 @@ def _paper_presets() -> dict[str, Preset]:
 
 
 def _all_presets() -> dict[str, Preset]:
-    # Imported here: those modules import Preset from this one.
-    from core.mechanisms import rtclm_presets
-
-    return {**_paper_presets(), **rtclm_presets.PRESETS}
+    return {**_paper_presets(), **extra_presets.PRESETS, **rtclm_presets.PRESETS}
 
 
 PRESETS: dict[str, Preset] = _all_presets()
@@ -94,3 +71,6 @@ def get(name: str) -> Preset:
     if name not in PRESETS:
         raise ValueError(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}")
     return PRESETS[name]
+
+
+__all__ = ["PAPER_PANTOGRAPH", "PRESETS", "Preset", "get"]

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from core.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
-from core.presets import Preset
+from core.preset import Preset
 
 NAN = float("nan")
 

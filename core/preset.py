@@ -1,0 +1,25 @@
+"""A named design: the unit the preset registry (``core.presets``) is made of."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from core.design import Design
+from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+
+# The paper's Stephenson presets map the design frame to the leg frame by this pantograph (spec §2).
+PAPER_PANTOGRAPH = OutputStage(k=-1.0, ox=150.0, oy=0.0)
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    mechanism: Mechanism
+    values: tuple[float, ...]
+    output: OutputStage = field(default=IDENTITY)
+    source: str = ""
+
+    def design(self) -> Design:
+        return Design(self.mechanism, np.array([self.values]), self.output)
