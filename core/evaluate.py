@@ -12,6 +12,7 @@ gait constraints (Eq. 30 order and 15 degree angles, Eq. 31) are reported separa
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from functools import lru_cache
 from typing import Any, Literal
 
 import numpy as np
@@ -144,8 +145,13 @@ def evaluate(
         trunk: front-to-rear hip distance of the quadruped (mm).
         backend: ``numpy``, ``numba`` or ``auto`` (numba when available) for the solver.
         phase_optimal: also compute the best-cyclic-shift shape error (O(n^2) per design).
+
+    With numba and without ``phase_optimal`` (the optimizer's path), one fused kernel solves and
+    analyses each design while its rows are in cache (``metrics_numba.run_designs``).
     """
     use_numba = _numba_ready(backend)
+    if use_numba and not phase_optimal:
+        return _evaluate_fused(design, n_samples, target, period, obstacle, trunk)
     sol = design.solve(n_samples, joints=False, backend="numba" if use_numba else "numpy")
     return evaluate_paths(
         sol.point,
@@ -161,6 +167,57 @@ def evaluate(
     )
 
 
+@lru_cache(maxsize=8)
+def _default_target(period: float) -> Target:
+    return cycloid_target(period=period)
+
+
+def _target_samples(tgt: Target, n: int) -> F64:
+    """``tgt.sample(n)``; the default target's samples are built once per (period, n)."""
+    return _cycloid_samples(tgt.period, n) if tgt is _default_target(tgt.period) else tgt.sample(n)
+
+
+# Private caches, only read (writable: numba compiles another specialization for read-only arrays).
+@lru_cache(maxsize=8)
+def _cycloid_samples(period: float, n: int) -> F64:
+    return _default_target(period).sample(n)
+
+
+@lru_cache(maxsize=4)
+def _layouts(trunk: float) -> tuple[F64, F64, F64, F64]:
+    """Leg offsets and phases of the biped and of the quadruped (the kernels' layout arrays)."""
+    quad = quadruped(trunk)
+    f64 = np.float64
+    return (np.asarray(BIPED.offsets, dtype=f64), np.asarray(BIPED.phases, dtype=f64),
+            np.asarray(quad.offsets, dtype=f64), np.asarray(quad.phases, dtype=f64))
+
+
+def _evaluate_fused(
+    design: Design, n: int, target: Target | None, period: float, obstacle: tuple[float, float], trunk: float
+) -> Evaluation:
+    """``evaluate`` through ``metrics_numba.run_designs``: solve and analyse each design in one pass.
+
+    The same results as ``design.solve`` followed by ``evaluate_paths(..., kernel=True)``, without
+    the ``(pop, n_samples, 2)`` paths: nothing per sample is allocated, nothing makes a second pass.
+    """
+    # Imported here: PARALLEL_MIN_POP is read at call time (tests lower it to run the parallel kernel).
+    from core import metrics_numba as K
+    from core.kinematics import PARALLEL_MIN_POP, assembly_violation, prepare, sample_angles
+
+    prep = prepare(design.mechanism, design.params)
+    tgt = _default_target(float(period)) if target is None else target
+    a, b = float(obstacle[0]), float(obstacle[1])
+    out = design.output
+    pop = prep.vals.shape[0]
+    mmin, neg, broken, index, pts, tans, S = K.run_designs(
+        prep.program.ops, prep.vals, sample_angles(n), prep.program.tracked, (out.k, out.ox, out.oy),
+        _target_samples(tgt, n), float(period), a, b, *_layouts(float(trunk)), pop >= PARALLEL_MIN_POP,
+    )
+    kin = assembly_violation(prep, mmin, neg, broken)
+    return _assemble(_kernel_results(index, pts, tans, S, float(period), n), np.full(pop, np.nan), kin, tgt,
+                     period, (a, b), trunk, n)
+
+
 def _kernel(
     point: F64, leg: F64, dleg: F64 | None, target: F64, period: float, a: float, b: float, trunk: float
 ) -> tuple[FeaturePoints, F64, F64, F64, F64, F64, F64, F64, F64, F64]:
@@ -169,18 +226,23 @@ def _kernel(
 
     pop, n = leg.shape[:2]
     dleg = periodic_derivative(np.nan_to_num(leg)) if dleg is None else np.asarray(dleg).reshape(leg.shape)
-    quad = quadruped(trunk)
     index = np.empty((pop, 8))
     pts = np.empty((pop, 8, 2))
     tans = np.empty((pop, 8, 2))
     S = np.empty((pop, K.N_SCALARS))
     K.run(
         np.ascontiguousarray(leg), np.ascontiguousarray(dleg, dtype=np.float64), np.ascontiguousarray(point),
-        np.ascontiguousarray(target, dtype=np.float64), float(period), float(a), float(b),
-        np.asarray(BIPED.offsets, dtype=np.float64), np.asarray(BIPED.phases, dtype=np.float64),
-        np.asarray(quad.offsets, dtype=np.float64), np.asarray(quad.phases, dtype=np.float64),
+        np.ascontiguousarray(target, dtype=np.float64), float(period), float(a), float(b), *_layouts(float(trunk)),
         index, pts, tans, S,
     )
+    return _kernel_results(index, pts, tans, S, period, n)
+
+
+def _kernel_results(
+    index: F64, pts: F64, tans: F64, S: F64, period: float, n: int
+) -> tuple[FeaturePoints, F64, F64, F64, F64, F64, F64, F64, F64, F64]:
+    from core import metrics_numba as K
+
     fp = FeaturePoints(
         index=index,
         times=index * (period / n),
@@ -226,30 +288,46 @@ def evaluate_paths(
     leg = leg[None] if leg.ndim == 2 else leg
     pop, n = leg.shape[:2]
     kin = np.zeros(pop) if kinematic_violation is None else np.asarray(kinematic_violation, dtype=np.float64)
-    tgt = cycloid_target(period=period) if target is None else target
+    tgt = _default_target(float(period)) if target is None else target
     a, b = float(obstacle[0]), float(obstacle[1])
-    target_n = tgt.sample(n)
+    target_n = _target_samples(tgt, n)
     if kernel:
-        fp, h_s, h_m, h_bar, psi2, psi4, step, err, width, y_min = _kernel(
-            point, leg, dleg, target_n, period, a, b, trunk
-        )
+        results = _kernel(point, leg, dleg, target_n, period, a, b, trunk)
     else:
         fp = feature_points(leg, dleg, period)
-        h_s = M.stance_fluctuation(leg, fp)
         wt = walking_trajectory(leg, dleg, fp)
-        h_m = M.crossing_height(wt)
-        h_bar = M.mean_crossing_height(wt)
-        psi2 = M.psi(wt, BIPED, a, b)
-        psi4 = M.psi(wt, quadruped(trunk), a, b)
-        step = wt.step
-        err = shape_mse(point, target_n)
         finite = np.asarray(np.isfinite(point).all(axis=(1, 2)), dtype=bool)
         p0 = np.where(finite[:, None, None], point, 0.0)
-        width = np.where(finite, p0[..., 0].max(1) - p0[..., 0].min(1), np.nan)
-        y_min = np.where(finite, p0[..., 1].min(1), np.nan)
+        results = (
+            fp,
+            M.stance_fluctuation(leg, fp),
+            M.crossing_height(wt),
+            M.mean_crossing_height(wt),
+            M.psi(wt, BIPED, a, b),
+            M.psi(wt, quadruped(trunk), a, b),
+            wt.step,
+            shape_mse(point, target_n),
+            np.where(finite, p0[..., 0].max(1) - p0[..., 0].min(1), np.nan),
+            np.where(finite, p0[..., 1].min(1), np.nan),
+        )
+    err_phase = mse_phase_optimal(point, target_n)[0] if phase_optimal else np.full(pop, np.nan)
+    return _assemble(results, err_phase, kin, tgt, period, (a, b), trunk, n)
+
+
+def _assemble(
+    results: tuple[FeaturePoints, F64, F64, F64, F64, F64, F64, F64, F64, F64],
+    err_phase: F64,
+    kin: F64,
+    tgt: Target,
+    period: float,
+    obstacle: tuple[float, float],
+    trunk: float,
+    n: int,
+) -> Evaluation:
+    """The Evaluation from the analysis results (kernel or numpy modules) and the kinematic violation."""
+    fp, h_s, h_m, h_bar, psi2, psi4, step, err, width, y_min = results
     l_s = M.stance_length(fp)
     theta = M.tangent_angles(fp)
-    err_phase = mse_phase_optimal(point, target_n)[0] if phase_optimal else np.full(pop, np.nan)
     selfx = np.abs(np.abs(fp.turning) - 1).astype(np.float64)
     path_viol = np.where(fp.valid, fp.root_violation + selfx, np.inf)
     # An unassemblable design's violation is the solver's continuous shortfall alone.
@@ -281,7 +359,7 @@ def evaluate_paths(
         times=fp.times,
         points=fp.points,
         constraints=cons,
-        obstacle=(a, b),
+        obstacle=(float(obstacle[0]), float(obstacle[1])),
         trunk=float(trunk),
         period=float(period),
         n_samples=n,

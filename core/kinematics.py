@@ -12,13 +12,13 @@ Two interpreters of the same compiled program: ``core.solver_numpy`` (reference)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from core import solver_numpy
-from core.mechanisms.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage
+from core.mechanisms.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage, Program
 
 F64 = NDArray[np.float64]
 Backend = Literal["auto", "numpy", "numba"]
@@ -114,6 +114,48 @@ def _crank_margin(ops: NDArray[np.int64], vals: F64) -> F64:
     return out
 
 
+class Prepared(NamedTuple):
+    """A population ready for the interpreters (see ``prepare``)."""
+
+    program: Program
+    vals: F64
+    derive_violation: F64
+    bad: NDArray[np.bool_]
+
+
+def prepare(mechanism: Mechanism, params: F64) -> Prepared:
+    """Check and compile a population: operand values ``(pop, n_steps, 3)`` (non-finite rows NaN),
+    the mechanism's derive violation ``(pop,)`` and the rows with non-finite parameters ``(pop,)``."""
+    params = np.atleast_2d(np.asarray(params, dtype=np.float64))
+    if params.shape[1] != mechanism.n_params:
+        raise ValueError(f"{mechanism.name} takes {mechanism.n_params} parameters, got {params.shape[1]}")
+    prog = mechanism.compile()
+    internal, derive_viol = mechanism.internal(params)
+    vals = np.ascontiguousarray(prog.operands(internal))
+    # Non-finite operands (bad input, or a coupling that has no solution) poison the whole row.
+    vals[~np.isfinite(vals).all(axis=(1, 2))] = np.nan
+    bad = np.asarray(~np.isfinite(params).all(axis=1), dtype=np.bool_)
+    return Prepared(prog, vals, derive_viol, bad)
+
+
+def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.bool_]) -> F64:
+    """``Solution.violation`` from the interpreters' cycle statistics.
+
+    Args:
+        prep: the population.
+        mmin, neg: see ``core.solver_numba.run``.
+        broken: ``(pop,)`` True where some sample has a non-finite joint.
+    """
+    margin = mmin[:, prep.program.ops[:, 0] == DYAD]
+    with np.errstate(invalid="ignore"):
+        shortfall = np.where(np.isfinite(margin), np.maximum(0.0, -margin), 0.0).sum(axis=1)
+        violation = shortfall + neg + np.nan_to_num(prep.derive_violation, nan=np.inf)
+    # Degenerate geometry (coincident points of an attachment) leaves NaN with no shortfall.
+    violation = np.where(broken & (violation == 0.0), 1e-9, violation)
+    violation[prep.bad] = np.inf
+    return violation
+
+
 def solve(
     mechanism: Mechanism,
     params: F64,
@@ -136,31 +178,27 @@ def solve(
         joints: also return every joint (memory: pop * n_samples * n_joints * 32 bytes).
         backend: ``numpy`` reference, ``numba`` kernel, or ``auto`` (numba).
     """
-    params = np.atleast_2d(np.asarray(params, dtype=np.float64))
-    if params.shape[1] != mechanism.n_params:
-        raise ValueError(f"{mechanism.name} takes {mechanism.n_params} parameters, got {params.shape[1]}")
-    prog = mechanism.compile()
-    internal, derive_viol = mechanism.internal(params)
-    vals = np.ascontiguousarray(prog.operands(internal))
-    # Non-finite operands (bad input, or a coupling that has no solution) poison the whole row.
-    vals[~np.isfinite(vals).all(axis=(1, 2))] = np.nan
-    bad = ~np.isfinite(params).all(axis=1)
+    prep = prepare(mechanism, params)
+    prog, vals = prep.program, prep.vals
     theta = sample_angles(n_samples)
     if backend == "numpy":
-        out = reduce_reference(prog.ops, vals, theta, prog.tracked, joints)
+        pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = reduce_reference(
+            prog.ops, vals, theta, prog.tracked, joints
+        )
+        leg, dleg = output.apply(point), output.apply_derivative(dpoint)
     else:
         from core import solver_numba
 
-        out = solver_numba.run(prog.ops, vals, theta, prog.tracked, joints, params.shape[0] >= PARALLEL_MIN_POP)
-    pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = out
+        out = solver_numba.solve_all(prog.ops, vals, theta, prog.tracked, joints, vals.shape[0] >= PARALLEL_MIN_POP,
+                                     stage=(output.k, output.ox, output.oy))
+        pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = (
+            out.pos, out.dpos, out.point, out.dpoint, out.valid, out.mmin, out.cmin, out.cmax, out.neg
+        )
+        assert out.leg is not None and out.dleg is not None
+        leg, dleg = out.leg, out.dleg
     dyads = np.flatnonzero(prog.ops[:, 0] == DYAD)
-    margin = mmin[:, dyads]
+    violation = assembly_violation(prep, mmin, neg, np.asarray((~valid).any(axis=1), dtype=np.bool_))
     with np.errstate(invalid="ignore"):
-        shortfall = np.where(np.isfinite(margin), np.maximum(0.0, -margin), 0.0).sum(axis=1)
-        violation = shortfall + neg + np.nan_to_num(derive_viol, nan=np.inf)
-        # Degenerate geometry (coincident points of an attachment) leaves NaN with no shortfall.
-        violation = np.where((~valid).any(axis=1) & (violation == 0.0), 1e-9, violation)
-        violation[bad] = np.inf
         mu_min = np.arccos(np.clip(cmax[:, dyads], -1.0, 1.0))
         mu_max = np.arccos(np.clip(cmin[:, dyads], -1.0, 1.0))
     mu_min[~np.isfinite(cmax[:, dyads])] = np.nan
@@ -172,11 +210,11 @@ def solve(
         djoints=dpos,
         point=point,
         dpoint=dpoint,
-        leg=output.apply(point),
-        dleg=output.apply_derivative(dpoint),
+        leg=leg,
+        dleg=dleg,
         valid=valid,
         violation=violation,
-        dyad_margin=margin,
+        dyad_margin=mmin[:, dyads],
         mu_min=mu_min,
         mu_max=mu_max,
         crank_margin=_crank_margin(prog.ops, vals),

@@ -1,23 +1,34 @@
 """Fast interpreter of a compiled mechanism (numba); the results of ``core.solver_numpy``.
 
 One generic interpreter of the step program (never one kernel per topology). Per design the
-steps run in the outer loop and the samples in the inner loop, on contiguous per-point rows
-``x, y, dx, dy`` of shape ``(n_steps, n_samples)``: every inner loop is a branch-free
-elementwise pass that LLVM turns into SIMD code. The kind of a step is decided outside it.
+steps run in the outer loop and the samples in the inner loop, on scratch rows ``x[j], y[j],
+dx[j], dy[j]`` of shape ``(n_steps, n_samples)`` indexed directly (no per-step array views):
+every inner loop is a branch-free elementwise pass that LLVM turns into SIMD code. The kind of
+a step is decided outside it. The inner loops are compute-bound (FMA and divider throughput),
+so the arithmetic is arranged for few operations per sample.
 
 Where it differs from the reference's arithmetic, for speed (agreement ~1e-12, tested to 1e-9):
-a dyad takes one sqrt and one divide per sample (see ``_dyad``); an attachment on a dyad link
-uses the link's length instead of measuring it; a crank rotates precomputed cos/sin of theta.
-The cycle statistics of a dyad (margin, cosine of the transmission angle) are the reference's
-formulas evaluated at the extreme |PQ|^2 of the cycle. With ``want_joints=False`` (the
-optimizer's path) nothing of size ``pop * n_samples * n_steps`` is allocated. Coordinates are
-assumed below ~1e75 mm (beyond, products in ``_dyad`` overflow).
+a dyad takes one sqrt and one divide per sample (see ``_dyad``); the derivative of a point on a
+link is that of a rigid body, dX = dP + omega rot90(X - P), with the link's rotation rate omega
+(the reference solves a 2 x 2 system, or differentiates a unit vector); an attachment on a dyad
+link uses the link's length instead of measuring it; a crank rotates precomputed cos/sin of
+theta. The cycle statistics of a dyad (margin, cosine of the transmission angle) are the
+reference's formulas evaluated at the extreme |PQ|^2 of the cycle, found in the dyad's own loop.
+With ``want_joints=False`` (the optimizer's path) nothing of size ``pop * n_samples * n_steps`` is
+allocated. Coordinates are assumed below ~1e75 mm (beyond, products in ``_dyad`` overflow).
+
+``core.metrics_numba.run_designs`` calls ``place`` directly (solve, then analyse each design
+while its rows are in cache).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-from numba import njit, prange
+from llvmlite import ir  # type: ignore[import-untyped]
+from numba import njit, prange, types
+from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from core.mechanisms.model import ATTACH, CRANK, DYAD, GROUND
@@ -27,12 +38,36 @@ F64 = NDArray[np.float64]
 # Designs per parallel task: scratch rows are allocated once per chunk, not per design.
 _CHUNK = 64
 
-_I64_MAX = np.int64(0x7FFFFFFFFFFFFFFF)
-_INF_BITS = np.int64(0x7FF0000000000000)
+_U64_MAX = np.uint64(0xFFFFFFFFFFFFFFFF)
+_INF_BITS = np.uint64(0x7FF0000000000000)
 
 # error_model="numpy": x / 0 gives inf or NaN as in numpy instead of raising (and allows SIMD).
 # fastmath "contract" only: fused multiply-adds; no flag that assumes away NaN or inf.
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
+
+
+@intrinsic
+def _bits(typingctx, v):
+    """The IEEE-754 bits of a float64, as a uint64 (a register move)."""
+    if v != types.float64:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.uint64(types.float64), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, v):
+    """The float64 with the given IEEE-754 bits."""
+    if v != types.uint64:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.uint64), codegen
 
 
 @njit(**_JIT)
@@ -49,17 +84,14 @@ def _ground(x, y, j, a, u, v, c, s):
     its derivative rows stay 0."""
     gx = c * u - s * v
     gy = s * u + c * v
-    xj, yj = x[j], y[j]
-    n = xj.shape[0]
     if a >= 0:
-        xa, ya = x[a], y[a]
-        for k in range(n):
-            xj[k] = gx + xa[k]
-            yj[k] = gy + ya[k]
+        for k in range(x.shape[1]):
+            x[j, k] = gx + x[a, k]
+            y[j, k] = gy + y[a, k]
     else:
-        for k in range(n):
-            xj[k] = gx + 0.0
-            yj[k] = gy + 0.0
+        for k in range(x.shape[1]):
+            x[j, k] = gx + 0.0
+            y[j, k] = gy + 0.0
 
 
 @njit(**_JIT)
@@ -68,74 +100,69 @@ def _crank(x, y, dx, dy, j, a, u, v, cp, sp, ct, st):
     # R(phase + theta) (u, v) = R(theta) R(phase) (u, v): rotate by the phase once per design.
     ru = cp * u - sp * v
     rv = sp * u + cp * v
-    xj, yj, dxj, dyj = x[j], y[j], dx[j], dy[j]
-    xa, ya = x[a], y[a]
-    for k in range(xj.shape[0]):
+    for k in range(x.shape[1]):
         c, s = ct[k], st[k]
         rx = c * ru - s * rv
         ry = s * ru + c * rv
-        xj[k] = xa[k] + rx
-        yj[k] = ya[k] + ry
-        dxj[k] = -ry
-        dyj[k] = rx
+        x[j, k] = x[a, k] + rx
+        y[j, k] = y[a, k] + ry
+        dx[j, k] = -ry
+        dy[j, k] = rx
+
+
+@njit(**_JIT, inline="always")
+def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
+    """Place X at sample k (see ``_dyad``); returns |PQ|^2."""
+    p_x, p_y = x[a, k], y[a, k]
+    wx = x[b, k] - p_x
+    wy = y[b, k] - p_y
+    d2 = wx * wx + wy * wy
+    t = k1 + d2
+    sh = sgn * np.sqrt(four_l1sq * d2 - t * t)
+    # At an exact fold (H = 0) X is still placed; only its derivative is infinite.
+    shs = sh if sh != 0.0 else 1.0
+    q = 1.0 / (d2 * shs)
+    half_inv_d2 = 0.5 * shs * q
+    inv_det = 2.0 * d2 * q if sh != 0.0 else np.inf
+    a1x = (t * wx - sh * wy) * half_inv_d2
+    a1y = (t * wy + sh * wx) * half_inv_d2
+    # X turns about P with omega = (X - Q) . (dQ - dP) / det[X - P, X - Q] (the reference's 2 x 2
+    # system solved for the link's rotation): dX = dP + omega rot90(X - P).
+    dpx, dpy = dx[a, k], dy[a, k]
+    omega = ((a1x - wx) * (dx[b, k] - dpx) + (a1y - wy) * (dy[b, k] - dpy)) * inv_det
+    x[j, k] = p_x + a1x
+    y[j, k] = p_y + a1y
+    dx[j, k] = dpx - omega * a1y
+    dy[j, k] = dpy + omega * a1x
+    return d2
 
 
 @njit(**_JIT)
 def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2):
-    """Place X with |PX| = l1, |QX| = l2; store |PQ|^2 per sample in d2row for the cycle statistics.
+    """Place X with |PX| = l1, |QX| = l2; return the cycle's min margin and min, max cos(mu).
 
     With w = Q - P, d2 = |w|^2, t = l1^2 - l2^2 + d2 (= 2 d along) and H = sqrt(4 l1^2 d2 - t^2)
     (= 2 d h): X - P = (t w + side H rot90(w)) / (2 d2), and det[X - P, X - Q] = side H / 2.
     One sqrt and one divide per sample: q = 1 / (d2 side H) gives both 1 / (2 d2) and 2 / (side H).
+
+    The margin and cos(mu) are monotone in d2, and so is their rounding: their extremes over the
+    cycle (ignoring NaN samples) are the reference's per-sample formulas at the smallest and
+    largest d2, found by integer min reductions that vectorize in the loop. As unsigned integers
+    the bits of d2 >= +0 order like its values and every NaN (either sign) sorts above +inf;
+    ``inf_bits - bits`` maps [0, inf] onto [inf_bits, 0] and every NaN above inf_bits again.
     """
     k1 = l1 * l1 - l2 * l2
     four_l1sq = 4.0 * (l1 * l1)
     sgn = float(side)
-    xj, yj, dxj, dyj = x[j], y[j], dx[j], dy[j]
-    px, py, dpx, dpy = x[a], y[a], dx[a], dy[a]
-    qx, qy, dqx, dqy = x[b], y[b], dx[b], dy[b]
-    for k in range(xj.shape[0]):
-        p_x, p_y = px[k], py[k]
-        wx = qx[k] - p_x
-        wy = qy[k] - p_y
-        d2 = wx * wx + wy * wy
-        t = k1 + d2
-        sh = sgn * np.sqrt(four_l1sq * d2 - t * t)
-        # At an exact fold (H = 0) X is still placed; only its derivative is infinite.
-        shs = sh if sh != 0.0 else 1.0
-        q = 1.0 / (d2 * shs)
-        half_inv_d2 = 0.5 * shs * q
-        inv_det = 2.0 * d2 * q if sh != 0.0 else np.inf
-        a1x = (t * wx - sh * wy) * half_inv_d2
-        a1y = (t * wy + sh * wx) * half_inv_d2
-        a2x = a1x - wx
-        a2y = a1y - wy
-        r1 = a1x * dpx[k] + a1y * dpy[k]
-        r2 = a2x * dqx[k] + a2y * dqy[k]
-        ox = p_x + a1x
-        oy = p_y + a1y
-        xj[k] = ox
-        yj[k] = oy
-        dxj[k] = (r1 * a2y - r2 * a1y) * inv_det
-        dyj[k] = (a1x * r2 - a2x * r1) * inv_det
-        d2row[k] = d2
-
-
-@njit(**_JIT)
-def _dyad_stats(d2row, l1, l2):
-    """Min over samples of the dyad margin, min and max of cos(mu), each ignoring NaN samples.
-
-    Both are monotone in d2 = |PQ|^2, and so is their rounding: their extremes over the cycle
-    are the reference's per-sample formulas at the smallest and largest d2 (two evaluations
-    instead of one per sample).
-    """
     dl = abs(l1 - l2)
     sl = l1 + l2
     s12 = l1 * l1 + l2 * l2
     den = 2.0 * l1 * l2
-    n = d2row.shape[0]
+    n = x.shape[1]
     if not (np.isfinite(dl) and np.isfinite(sl) and np.isfinite(s12) and np.isfinite(den) and den != 0.0):
         # Odd lengths: the reference's per-sample formulas, literally.
+        for k in range(n):
+            d2row[k] = _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq)
         mmin, cmin, cmax = np.inf, np.inf, -np.inf
         for k in range(n):
             d2 = d2row[k]
@@ -149,21 +176,15 @@ def _dyad_stats(d2row, l1, l2):
             cmin = c if c < cmin else cmin
             cmax = c if c > cmax else cmax
         return mmin, cmin, cmax
-    # d2 >= 0, so its bits (sign cleared, as NaN's sign varies) order like its values and
-    # every NaN sorts above +inf: integer min/max reductions vectorize, float ones do not.
-    bits = d2row.view(np.int64)
-    lo_bits = _I64_MAX
-    hi_bits = np.int64(-1)
+    lo_bits = _U64_MAX
+    hi_gap = _U64_MAX
     for k in range(n):
-        v = bits[k] & _I64_MAX
+        v = _bits(_dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq))
         lo_bits = min(lo_bits, v)
-        hi_bits = max(hi_bits, v if v <= _INF_BITS else np.int64(-1))
+        hi_gap = min(hi_gap, _INF_BITS - v)
     if lo_bits > _INF_BITS:  # every sample NaN
         return np.inf, np.inf, -np.inf
-    # Back to floats through the row (no scalar bitcast in numba); the row is spent.
-    bits[0] = lo_bits
-    bits[1] = hi_bits
-    lo, hi = d2row[0], d2row[1]
+    lo, hi = _from_bits(lo_bits), _from_bits(_INF_BITS - hi_gap)
     m_lo = np.sqrt(lo) - dl
     m_hi = sl - np.sqrt(hi)
     c_lo = (s12 - lo) / den
@@ -179,39 +200,42 @@ def _attach(x, y, dx, dy, j, a, b, u, v, known, length):
     measuring it: the same value up to rounding, and no sqrt or divide per sample.
     """
     if known:
-        _attach_rows(x, y, dx, dy, j, a, b, u, v, 1.0 / length)
+        inv = 1.0 / length
+        # P and Q lie on one rigid link: with U, V = (u, v) / |w|, X - P = U w + V rot90(w), and
+        # X turns with the link at omega = cross(w, dw) / |w|^2: dX = dP + omega rot90(X - P).
+        uu, vv, inv2 = u * inv, v * inv, inv * inv
+        for k in range(x.shape[1]):
+            p_x, p_y = x[a, k], y[a, k]
+            wx = x[b, k] - p_x
+            wy = y[b, k] - p_y
+            ax = uu * wx - vv * wy
+            ay = uu * wy + vv * wx
+            omega = (wx * (dy[b, k] - dy[a, k]) - wy * (dx[b, k] - dx[a, k])) * inv2
+            x[j, k] = p_x + ax
+            y[j, k] = p_y + ay
+            dx[j, k] = dx[a, k] - omega * ay
+            dy[j, k] = dy[a, k] + omega * ax
     else:
-        _attach_rows(x, y, dx, dy, j, a, b, u, v, np.nan)
+        for k in range(x.shape[1]):
+            p_x, p_y, dp_x, dp_y = x[a, k], y[a, k], dx[a, k], dy[a, k]
+            wx = x[b, k] - p_x
+            wy = y[b, k] - p_y
+            inv_len = 1.0 / np.sqrt(wx * wx + wy * wy)
+            ex = wx * inv_len
+            ey = wy * inv_len
+            dwx = dx[b, k] - dp_x
+            dwy = dy[b, k] - dp_y
+            t = ex * dwx + ey * dwy
+            dex = (dwx - ex * t) * inv_len
+            dey = (dwy - ey * t) * inv_len
+            x[j, k] = p_x + u * ex - v * ey
+            y[j, k] = p_y + u * ey + v * ex
+            dx[j, k] = dp_x + u * dex - v * dey
+            dy[j, k] = dp_y + u * dey + v * dex
 
 
 @njit(**_JIT)
-def _attach_rows(x, y, dx, dy, j, a, b, u, v, inv_length):
-    xj, yj, dxj, dyj = x[j], y[j], dx[j], dy[j]
-    px, py, dpx, dpy = x[a], y[a], dx[a], dy[a]
-    qx, qy, dqx, dqy = x[b], y[b], dx[b], dy[b]
-    measure = inv_length != inv_length
-    for k in range(xj.shape[0]):
-        p_x, p_y, dp_x, dp_y = px[k], py[k], dpx[k], dpy[k]
-        wx = qx[k] - p_x
-        wy = qy[k] - p_y
-        inv_len = 1.0 / np.sqrt(wx * wx + wy * wy) if measure else inv_length
-        ex = wx * inv_len
-        ey = wy * inv_len
-        dwx = dqx[k] - dp_x
-        dwy = dqy[k] - dp_y
-        t = ex * dwx + ey * dwy
-        dex = (dwx - ex * t) * inv_len
-        dey = (dwy - ey * t) * inv_len
-        ox = p_x + u * ex - v * ey
-        oy = p_y + u * ey + v * ex
-        xj[k] = ox
-        yj[k] = oy
-        dxj[k] = dp_x + u * dex - v * dey
-        dyj[k] = dp_y + u * dey + v * dex
-
-
-@njit(**_JIT)
-def _scratch(n_steps, n):
+def scratch(n_steps, n):
     """Scratch rows: x, y, dx, dy ``(n_steps, n)``; d2 and finiteness accumulators ``(n,)``.
 
     Derivative rows start at 0: ground steps never write theirs.
@@ -221,27 +245,12 @@ def _scratch(n_steps, n):
 
 
 @njit(**_JIT)
-def _designs(i0, i1, ops, vals, ct, st, tracked, sinks, links, want_joints,
-             pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg):
-    """Solve designs i0 .. i1 - 1 into their rows of the outputs, with one set of scratch rows."""
-    n_steps = ops.shape[0]
-    n = ct.shape[0]
-    x, y, dx, dy, d2row, acc = _scratch(n_steps, n)
-    for i in range(i0, i1):
-        _design(i, ops, vals, ct, st, tracked, sinks, links, want_joints, x, y, dx, dy, d2row, acc,
-                pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg)
-
-
-@njit(**_JIT)
-def _design(i, ops, vals, ct, st, tracked, sinks, links, want_joints, x, y, dx, dy, d2row, acc,
-            pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg):
-    """Solve design i into row i of the outputs, using the scratch rows given."""
-    n_steps = ops.shape[0]
-    n = ct.shape[0]
+def place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg):
+    """Solve design i into the scratch rows; its cycle statistics into row i of mmin, cmin, cmax, neg."""
     total_neg = 0.0
     # Steps often share an angle (one crank phase, one frame angle): cache the last cos, sin.
     last, c, s = 0.0, 1.0, 0.0
-    for j in range(n_steps):
+    for j in range(ops.shape[0]):
         kind, a, b, side = ops[j, 0], ops[j, 1], ops[j, 2], ops[j, 3]
         v0, v1, v2 = vals[i, j, 0], vals[i, j, 1], vals[i, j, 2]
         mmin[i, j] = np.inf
@@ -256,56 +265,201 @@ def _design(i, ops, vals, ct, st, tracked, sinks, links, want_joints, x, y, dx, 
                 _crank(x, y, dx, dy, j, a, v0, v1, c, s, ct, st)
         elif kind == DYAD:
             total_neg += _pos_part(-v0) + _pos_part(-v1)
-            _dyad(x, y, dx, dy, d2row, j, a, b, side, v0, v1)
-            mmin[i, j], cmin[i, j], cmax[i, j] = _dyad_stats(d2row, v0, v1)
+            mmin[i, j], cmin[i, j], cmax[i, j] = _dyad(x, y, dx, dy, d2row, j, a, b, side, v0, v1)
         else:  # ATTACH (run() rejects unknown kinds)
             ls, lc = links[j, 0], links[j, 1]
             _attach(x, y, dx, dy, j, a, b, v0, v1, ls >= 0, abs(vals[i, ls, lc]) if ls >= 0 else 1.0)
     neg[i] = total_neg
-    # Every step turns a non-finite input point into a non-finite output point, so a sample
-    # has every point finite iff the tracked point and the other sinks (points no later step
-    # uses) are finite. x - x is 0 for finite x and NaN for inf and NaN.
-    for k in range(n):
-        acc[k] = 0.0
+
+
+@njit(**_JIT)
+def all_finite(x, y, tracked, sinks, acc):
+    """acc[k] = 0 where every point of sample k is finite, else NaN.
+
+    Every step turns a non-finite input point into a non-finite output point, so a sample has
+    every point finite iff the tracked point and the other sinks (points no later step uses) are
+    finite. x - x is 0 for finite x and NaN for inf and NaN.
+    """
+    for k in range(x.shape[1]):
+        acc[k] = (x[tracked, k] - x[tracked, k]) + (y[tracked, k] - y[tracked, k])
     for sink in sinks:
-        xs, ys = x[sink], y[sink]
+        for k in range(x.shape[1]):
+            acc[k] += (x[sink, k] - x[sink, k]) + (y[sink, k] - y[sink, k])
+
+
+@njit(**_JIT)
+def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage,
+          pos, dpos, point, dpoint, leg, dleg, valid):
+    """Write design i's rows of the outputs from the scratch rows; point, dpoint, leg, dleg are
+    flat ``(pop, 2 n)`` views (interleaved stores by index vectorize, [k, 0] / [k, 1] pairs do not)."""
+    n = x.shape[1]
+    if sinks.shape[0] == 0:
         for k in range(n):
-            acc[k] += (xs[k] - xs[k]) + (ys[k] - ys[k])
-    valid_i = valid[i]
-    # Flat views: interleaved stores by index vectorize, [k, 0] / [k, 1] pairs do not.
-    pt, dpt = point[i].reshape(-1), dpoint[i].reshape(-1)
-    xt, yt, dxt, dyt = x[tracked], y[tracked], dx[tracked], dy[tracked]
+            acc[k] = 0.0
+    else:
+        all_finite(x, y, sinks[0], sinks[1:], acc)
     for k in range(n):
-        px, py = xt[k], yt[k]
-        valid_i[k] = (px - px) + (py - py) + acc[k] == 0.0
-        pt[2 * k] = px
-        pt[2 * k + 1] = py
-    for k in range(n):
-        dpt[2 * k] = dxt[k]
-        dpt[2 * k + 1] = dyt[k]
+        px, py = x[tracked, k], y[tracked, k]
+        valid[i, k] = (px - px) + (py - py) + acc[k] == 0.0
+        point[i, 2 * k] = px
+        point[i, 2 * k + 1] = py
+        dpoint[i, 2 * k] = dx[tracked, k]
+        dpoint[i, 2 * k + 1] = dy[tracked, k]
+    if want_leg:
+        _emit_leg(i, x, y, dx, dy, tracked, stage, leg, dleg)
     if want_joints:
         for k in range(n):
-            for j in range(n_steps):
+            for j in range(x.shape[0]):
                 pos[i, k, j, 0] = x[j, k]
                 pos[i, k, j, 1] = y[j, k]
                 dpos[i, k, j, 0] = dx[j, k]
                 dpos[i, k, j, 1] = dy[j, k]
 
 
+# No "contract": numpy rounds p * k, then adds; a fused multiply-add would round once.
+@njit(cache=True, nogil=True, error_model="numpy")
+def _emit_leg(i, x, y, dx, dy, tracked, stage, leg, dleg):
+    """Design i's rows of leg, dleg: ``OutputStage.apply`` and ``apply_derivative``, operation for operation."""
+    kk = stage[0]
+    cx, cy = (1.0 - kk) * stage[1], (1.0 - kk) * stage[2]
+    for k in range(x.shape[1]):
+        leg[i, 2 * k] = x[tracked, k] * kk + cx
+        leg[i, 2 * k + 1] = y[tracked, k] * kk + cy
+        dleg[i, 2 * k] = dx[tracked, k] * kk
+        dleg[i, 2 * k + 1] = dy[tracked, k] * kk
+
+
 @njit(**_JIT)
-def _run_serial(ops, vals, ct, st, tracked, sinks, links, want_joints,
-                pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg):
-    _designs(0, vals.shape[0], ops, vals, ct, st, tracked, sinks, links, want_joints,
-             pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg)
+def _designs(i0, i1, ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+             pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
+    """Solve designs i0 .. i1 - 1 into their rows of the outputs, with one set of scratch rows."""
+    x, y, dx, dy, d2row, acc = scratch(ops.shape[0], ct.shape[0])
+    for i in range(i0, i1):
+        place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg)
+        _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage,
+              pos, dpos, point, dpoint, leg, dleg, valid)
+
+
+@njit(**_JIT)
+def _flat(a, n):
+    """A ``(pop, n, 2)`` output as ``(pop, 2 n)``."""
+    return a.reshape(a.shape[0], 2 * n)
+
+
+@njit(**_JIT)
+def _run_serial(ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+                pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
+    n = ct.shape[0]
+    _designs(0, vals.shape[0], ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+             pos, dpos, _flat(point, n), _flat(dpoint, n), _flat(leg, n), _flat(dleg, n), valid, mmin, cmin, cmax,
+             neg)
 
 
 @njit(**_JIT, parallel=True)
-def _run_parallel(ops, vals, ct, st, tracked, sinks, links, want_joints,
-                  pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg):
+def _run_parallel(ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+                  pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
     pop = vals.shape[0]
+    n = ct.shape[0]
+    point, dpoint, leg, dleg = _flat(point, n), _flat(dpoint, n), _flat(leg, n), _flat(dleg, n)
     for c in prange((pop + _CHUNK - 1) // _CHUNK):
         _designs(c * _CHUNK, min(pop, (c + 1) * _CHUNK), ops, vals, ct, st, tracked, sinks, links, want_joints,
-                 pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg)
+                 want_leg, stage, pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)
+
+
+class Program(NamedTuple):
+    """A checked program ready for the kernels (see ``prepare``)."""
+
+    ops: NDArray[np.int64]
+    tracked: int
+    sinks: NDArray[np.int64]
+    links: NDArray[np.int64]
+
+
+class Outputs(NamedTuple):
+    """Everything ``solve`` gets from the kernel (shapes: see ``run``); leg, dleg None unless asked."""
+
+    pos: F64 | None
+    dpos: F64 | None
+    point: F64
+    dpoint: F64
+    leg: F64 | None
+    dleg: F64 | None
+    valid: NDArray[np.bool_]
+    mmin: F64
+    cmin: F64
+    cmax: F64
+    neg: F64
+
+
+_PREPARED: dict[tuple[bytes, tuple[int, ...], int], Program] = {}
+_ANGLES: dict[tuple[int, bytes], tuple[F64, F64]] = {}
+
+
+def prepare(ops: NDArray[np.int64], tracked: int) -> Program:
+    """Check a program and derive the kernel's tables (memoized: a few programs per process).
+
+    Raises:
+        ValueError: for a malformed program (a step using a later or missing point).
+    """
+    ops = np.ascontiguousarray(ops, dtype=np.int64)
+    tracked = int(tracked)
+    key = (ops.tobytes(), ops.shape, tracked)
+    prog = _PREPARED.get(key)
+    if prog is None:
+        _check_program(ops, tracked)
+        ops = ops.copy()
+        ops.setflags(write=False)
+        prog = Program(ops, tracked, _sinks(ops, tracked), _link_lengths(ops))
+        if len(_PREPARED) < 256:
+            _PREPARED[key] = prog
+    return prog
+
+
+def angles(theta: F64) -> tuple[F64, F64]:
+    """cos and sin of the sample angles (memoized for the usual uniform grids)."""
+    key = (theta.shape[0], theta.tobytes())
+    cs = _ANGLES.get(key)
+    if cs is None:
+        cs = (np.cos(theta), np.sin(theta))
+        if len(_ANGLES) < 64:
+            _ANGLES[key] = cs
+    return cs
+
+
+def solve_all(
+    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool,
+    stage: tuple[float, float, float] | None = None,
+) -> Outputs:
+    """``run``, plus the tracked point in the leg frame when ``stage = (k, ox, oy)`` is given
+    (``OutputStage.apply`` and ``apply_derivative``, in the same pass)."""
+    vals = np.ascontiguousarray(vals, dtype=np.float64)
+    theta = np.ascontiguousarray(theta, dtype=np.float64)
+    prog = prepare(ops, tracked)
+    n_steps = prog.ops.shape[0]
+    if vals.ndim != 3 or vals.shape[1:] != (n_steps, 3):
+        raise ValueError(f"ops {prog.ops.shape} and vals {vals.shape} do not match")
+    pop = vals.shape[0]
+    n = theta.shape[0]
+    ct, st = angles(theta)
+    shape = (pop, n, n_steps, 2) if want_joints else (0, 0, 0, 2)
+    pos, dpos = np.empty(shape), np.empty(shape)
+    want_leg = stage is not None
+    # One block for the paths: one large allocation that glibc can reuse from call to call
+    # (several 1 MB blocks get trimmed and faulted back in, page by page, every call).
+    block = np.empty((4 if want_leg else 2, pop, n, 2))
+    point, dpoint = block[0], block[1]
+    leg, dleg = (block[2], block[3]) if want_leg else (point[:0], point[:0])
+    valid = np.empty((pop, n), dtype=np.bool_)
+    mmin, cmin, cmax = np.empty((pop, n_steps)), np.empty((pop, n_steps)), np.empty((pop, n_steps))
+    neg = np.empty(pop)
+    k_o = (1.0, 0.0, 0.0) if stage is None else (float(stage[0]), float(stage[1]), float(stage[2]))
+    kernel = _run_parallel if parallel else _run_serial
+    kernel(prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, bool(want_joints), want_leg, k_o,
+           pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)
+    return Outputs(
+        pos if want_joints else None, dpos if want_joints else None, point, dpoint,
+        leg if want_leg else None, dleg if want_leg else None, valid, mmin, cmin, cmax, neg,
+    )
 
 
 def run(
@@ -334,26 +488,8 @@ def run(
             transmission angle ignoring NaN; +inf / -inf where none.
         neg: ``(pop,)`` total amount by which dyad lengths are negative (mm).
     """
-    ops = np.ascontiguousarray(ops, dtype=np.int64)
-    vals = np.ascontiguousarray(vals, dtype=np.float64)
-    theta = np.ascontiguousarray(theta, dtype=np.float64)
-    tracked = int(tracked)
-    _check_program(ops, vals, tracked)
-    pop, n_steps = vals.shape[:2]
-    n = theta.shape[0]
-    ct, st = np.cos(theta), np.sin(theta)
-    shape = (pop, n, n_steps, 2) if want_joints else (0, 0, 0, 2)
-    pos, dpos = np.empty(shape), np.empty(shape)
-    point, dpoint = np.empty((pop, n, 2)), np.empty((pop, n, 2))
-    valid = np.empty((pop, n), dtype=np.bool_)
-    mmin, cmin, cmax = np.empty((pop, n_steps)), np.empty((pop, n_steps)), np.empty((pop, n_steps))
-    neg = np.empty(pop)
-    kernel = _run_parallel if parallel else _run_serial
-    kernel(ops, vals, ct, st, tracked, _sinks(ops, tracked), _link_lengths(ops), bool(want_joints),
-           pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg)
-    if not want_joints:
-        return None, None, point, dpoint, valid, mmin, cmin, cmax, neg
-    return pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg
+    o = solve_all(ops, vals, theta, tracked, want_joints, parallel)
+    return o.pos, o.dpos, o.point, o.dpoint, o.valid, o.mmin, o.cmin, o.cmax, o.neg
 
 
 def _sinks(ops: NDArray[np.int64], tracked: int) -> NDArray[np.int64]:
@@ -383,11 +519,11 @@ def _link_lengths(ops: NDArray[np.int64]) -> NDArray[np.int64]:
     return out
 
 
-def _check_program(ops: NDArray[np.int64], vals: F64, tracked: int) -> None:
+def _check_program(ops: NDArray[np.int64], tracked: int) -> None:
     """The kernel checks no bounds: reject a malformed program (a bug, not a design) up front."""
+    if ops.ndim != 2 or ops.shape[1] != 4:
+        raise ValueError(f"malformed program: ops of shape {ops.shape}")
     n_steps = ops.shape[0]
-    if ops.ndim != 2 or ops.shape[1] != 4 or vals.ndim != 3 or vals.shape[1:] != (n_steps, 3):
-        raise ValueError(f"ops {ops.shape} and vals {vals.shape} do not match")
     if not 0 <= tracked < n_steps:
         raise ValueError(f"malformed program: tracked point {tracked} of {n_steps}")
     j = np.arange(n_steps)
