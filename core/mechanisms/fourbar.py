@@ -14,20 +14,13 @@ The crank turns fully iff the loop is Grashof with the crank shortest
 from __future__ import annotations
 
 from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import angle, length, offset, position
+from core.mechanisms.params import CRANK_LOOP, offset
 
 FOURBAR = Mechanism(
     name="fourbar",
     title="Four-bar with coupler point",
-    params=(
-        angle("b", "direction of the ground link A->D"),
-        angle("g", "crank phase at sample 0"),
-        position("x_a", "crank pivot A, x"),
-        position("y_a", "crank pivot A, y"),
-        length("r1", "crank AB"),
-        length("r2", "coupler BC"),
-        length("r3", "rocker DC"),
-        length("r4", "ground link AD"),
+    params=CRANK_LOOP
+    + (
         offset("r5", "coupler point P, along BC"),
         offset("r6", "coupler point P, across BC (left of B->C)"),
     ),

@@ -46,3 +46,17 @@ def position(name: str, doc: str = "", lo: float = -500.0, hi: float = 500.0) ->
 
 def angle(name: str, doc: str = "", lo: float = -3.141592653589793, hi: float = 3.141592653589793) -> Param:
     return Param(name, "angle", lo, hi, doc)
+
+
+# The first loop every crank-rocker leg here starts from: ground link A->D at angle b, crank AB
+# with phase g, coupler BC, rocker DC (four-bar, Watt-I, Stephenson-I/III share it).
+CRANK_LOOP: tuple[Param, ...] = (
+    angle("b", "direction of the ground link A->D"),
+    angle("g", "crank phase at sample 0"),
+    position("x_a", "crank pivot A, x"),
+    position("y_a", "crank pivot A, y"),
+    length("r1", "crank AB"),
+    length("r2", "coupler BC"),
+    length("r3", "rocker DC"),
+    length("r4", "ground link AD"),
+)

@@ -3,18 +3,9 @@
 from __future__ import annotations
 
 from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import Param, angle, length, offset, position
+from core.mechanisms.params import CRANK_LOOP, length, offset
 
-_HEAD: tuple[Param, ...] = (
-    angle("b", "direction of the ground link A->D"),
-    angle("g", "crank phase at sample 0"),
-    position("x_a", "crank pivot A, x"),
-    position("y_a", "crank pivot A, y"),
-    length("r1", "crank AB"),
-    length("r2", "link BC"),
-    length("r3", "link DC"),
-    length("r4", "ground link AD"),
-)
+_HEAD = CRANK_LOOP
 
 STEPHENSON1 = Mechanism(
     name="stephenson1",

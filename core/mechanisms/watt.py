@@ -17,20 +17,13 @@ reproduce the reported MSE (see the docs for the numbers).
 from __future__ import annotations
 
 from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import angle, length, offset, position
+from core.mechanisms.params import CRANK_LOOP, length, offset
 
 WATT1 = Mechanism(
     name="watt1",
     title="Watt-I six-bar",
-    params=(
-        angle("b", "direction of the ground link A->D"),
-        angle("g", "crank phase at sample 0"),
-        position("x_a", "crank pivot A, x"),
-        position("y_a", "crank pivot A, y"),
-        length("r1", "crank AB"),
-        length("r2", "coupler BC"),
-        length("r3", "rocker DC"),
-        length("r4", "ground link AD"),
+    params=CRANK_LOOP
+    + (
         offset("r5", "coupler point E, along C->B measured from B"),
         offset("r6", "coupler point E, across C->B (E = B + r5 e - r6 rot90(e))"),
         offset("r7", "rocker point F, along C->D measured from C"),
