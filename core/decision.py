@@ -202,11 +202,12 @@ def shortlist(
     # Collapse duplicate objective vectors to their first member.
     _, first = np.unique(F[front], axis=0, return_index=True)
     uniq = front[np.sort(first)]
-    if uniq.size == 1:
-        return Shortlist((int(uniq[0]),), (0.0,), best, tuple(int(i) for i in front), None)
     Fn, _, _ = normalize(F[uniq])
     live = Fn.max(axis=0) > 0.0
     Fn = Fn[:, live]
+    if uniq.size == 1 or not live.any():
+        # One distinct point, or points that differ only by rounding: nothing to trade off.
+        return Shortlist((int(uniq[0]),), (0.0,), best, tuple(int(i) for i in front), None)
     score = hyperplane_distance(Fn)
     to_ideal = np.linalg.norm(Fn, axis=1)
     quant = np.round(score / SCORE_TOL)

@@ -161,3 +161,10 @@ def test_front_and_best_match_brute_force(F: np.ndarray, data: st.DataObject) ->
     assert 1 <= len(sl.knees) <= 10
     assert set(sl.knees) <= set(sl.front)
     assert len({tuple(F[i]) for i in sl.knees}) == len(sl.knees)
+
+
+def test_a_front_that_differs_only_by_rounding_has_one_knee_and_no_error():
+    # Seen in a real stage: two members 1e-14 apart in f1 and 6e-12 in f2.
+    F = np.array([[6.62194761, 36.42620847], [6.62194761 + 1e-14, 36.42620847 - 6e-12]])
+    sl = shortlist(F)
+    assert len(sl.knees) == 1 and sl.knees[0] in (0, 1)

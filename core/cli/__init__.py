@@ -18,7 +18,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 # Command modules, in help order; each has register(sub) and run(args).
-COMMANDS = ("presets", "simulate", "evaluate")
+COMMANDS = ("presets", "simulate", "evaluate", "design", "compare")
 
 
 class CLIError(Exception):

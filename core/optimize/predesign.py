@@ -30,9 +30,14 @@ from core.design import Design
 from core.evaluate import Backend
 from core.mechanisms.model import Crank, Dyad, Ground, Mechanism, Operand
 from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec
-from core.optimize.subtasks import DEFAULT_TARGET, LABELS, load_target, shape_metrics
+from core.optimize.subtasks import DEFAULT_TARGET, LABELS, load_target, quantize, shape_metrics
 
 F64 = NDArray[np.float64]
+
+# Arc-length samples of the descriptors and grid of the start-point search (>= 4 harmonics each):
+# enough for 16 harmonics, and half the cost of fourier's defaults.
+N_RESAMPLE = 128
+N_GRID = 256
 
 
 @dataclass(frozen=True)
@@ -160,25 +165,45 @@ def place(design: Design, target: str = DEFAULT_TARGET, n_samples: int = 360, ba
     sol = design.solve(n_samples, joints=False, backend=backend)
     point = np.where(sol.violation[:, None, None] == 0.0, sol.point, np.nan)
     sim = fourier.similarity_transform(point, tgt)
-    if fit == "extent":
+    if fit == "hold":
+        sim = fit_extent(keep_rotation(sim, point, tgt), point, tgt)
+    elif fit == "extent":
         sim = fit_extent(sim, point, tgt)
     return apply_placement(plan, design.params, sim), sim
 
 
-def fit_extent(sim: fourier.Similarity, point: F64, target: F64) -> fourier.Similarity:
-    """Refine a least-squares similarity so the placed path has the target's width and lowest y exactly.
+def keep_rotation(sim: fourier.Similarity, point: F64, target: F64) -> fourier.Similarity:
+    """The least-squares scale and translation at zero rotation (same cyclic shift as ``sim``)."""
+    n = point.shape[1]
+    idx = (np.arange(n)[None, :] + sim.shift[:, None]) % n
+    src = np.take_along_axis(point, idx[..., None], 1)
+    zs = src[..., 0] + 1j * src[..., 1]
+    zq = target[None, :, 0] + 1j * target[None, :, 1]
+    cs, cq = zs - zs.mean(1, keepdims=True), zq - zq.mean(1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.real((np.conj(cs) * cq).sum(1)) / (np.abs(cs) ** 2).sum(1)
+    t = zq.mean(1) - scale * zs.mean(1)
+    return fourier.Similarity(scale=scale, rotation=np.zeros_like(scale), translation=np.stack([t.real, t.imag], -1),
+                              shift=sim.shift, phase=sim.phase, rms=sim.rms)
 
-    The path is scaled about its centroid by target width / placed width, then shifted in y so
-    its lowest point is the target's (the f2 and f3 inputs of subtask 1); rotation, cyclic shift
-    and the x alignment of the centroid are the least-squares ones.
+
+def fit_extent(sim: fourier.Similarity, point: F64, target: F64) -> fourier.Similarity:
+    """Refine a similarity so the placed path has the target's width and lowest y exactly.
+
+    The placed path is scaled about its centroid by target width / placed width, then shifted
+    in y so its lowest point is the target's (the f2 and f3 inputs of subtask 1); rotation,
+    cyclic shift and the x position of the centroid are kept.
 
     Args:
-        sim: least-squares similarity of ``point`` onto ``target``.
+        sim: a similarity of ``point`` onto ``target`` (least squares, or with rotation held).
         point: ``(pop, n, 2)`` design-frame paths (mm).
         target: ``(n, 2)`` target samples (mm).
     """
-    placed = fourier.apply_similarity(sim, point)
-    x, y = placed[..., 0], placed[..., 1]
+    # Extent and centroid do not depend on the cyclic shift: transform the samples as they are.
+    z = point[..., 0] + 1j * point[..., 1]
+    shift = sim.translation[:, 0] + 1j * sim.translation[:, 1]
+    w = (sim.scale * np.exp(1j * sim.rotation))[:, None] * z + shift[:, None]
+    x, y = w.real, w.imag
     width0, ymin0 = float(np.ptp(target[:, 0])), float(target[:, 1].min())
     with np.errstate(invalid="ignore", divide="ignore"):
         k = width0 / (x.max(1) - x.min(1))
@@ -192,23 +217,24 @@ def fit_extent(sim: fourier.Similarity, point: F64, target: F64) -> fourier.Simi
 
 
 def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-                      n_harmonics: int = fourier.DEFAULT_HARMONICS) -> ProblemSpec:
+                      n_harmonics: int = fourier.DEFAULT_HARMONICS, fit: str = "extent") -> ProblemSpec:
     """Predesign: objectives fd (Fourier-descriptor distance) and f1 (MSE after placement).
 
     Registered as ``predesign`` by ``core.optimize.subtasks`` (the module the problem registry loads).
     """
     tgt = load_target(target)
-    d_target = fourier.descriptors(tgt.sample(n_samples), n_harmonics)
+    d_target = fourier.descriptors(tgt.sample(n_samples), n_harmonics, N_RESAMPLE)
 
     def evaluate(design: Design) -> Metrics:
         out = shape_metrics(design, target, n_samples, backend)  # type: ignore[arg-type]
         sol = design.solve(n_samples, joints=False, backend=backend)
         point = np.where(sol.violation[:, None, None] == 0.0, sol.point, np.nan)
-        out["fd"] = fourier.descriptor_distance(fourier.descriptors(point, n_harmonics), d_target)
+        d = fourier.descriptors(point, n_harmonics, N_RESAMPLE)
+        out["fd"] = quantize(fourier.descriptor_distance(d, d_target, n_grid=N_GRID))
         return out
 
     def repair(design: Design) -> F64:
-        return place(design, target, n_samples, backend)[0]  # type: ignore[arg-type]
+        return place(design, target, n_samples, backend, fit)[0]  # type: ignore[arg-type]
 
     return ProblemSpec("predesign", evaluate, ("fd", "f1"), (ASSEMBLY,),
                        labels={**LABELS, "fd": "Fourier-descriptor distance (-)"}, repair=repair)

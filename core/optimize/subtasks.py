@@ -37,6 +37,13 @@ from core.targets import Target, parse_target
 F64 = NDArray[np.float64]
 
 DEFAULT_TARGET = "cycloid"
+# Added to the violation of a design that does not assemble (or whose path cannot be read). pymoo
+# sums constraint violations, and an unassembled member's other constraints are undefined (counted
+# 0): without a tier, a design at the edge of assembly (violation ~1e-9) would outrank every
+# assembled design that misses a threshold by a little, and a stage that starts infeasible drifts
+# to such degenerate designs. With it: feasible < assembled but over a threshold < unassembled,
+# and inside each tier the measure stays continuous (the shortfall in mm).
+ASSEMBLY_TIER = 1000.0
 WIDTH_BAND = 10.0  # mm: Eq. 20's 290 < l < 310 around L = 300
 WIDTH_STEEP = 5.0  # Eq. 20's factor outside the band
 # Eq. 22 and Eq. 23 thresholds.
@@ -96,16 +103,13 @@ def shape_metrics(design: Design, target: str = DEFAULT_TARGET, n_samples: int =
     tgt = load_target(target)
     ev = evaluate(design, n_samples, target=tgt, period=tgt.period, backend=backend,
                   phase_optimal=not tgt.has_time)
-    return metrics_of(ev, tgt)
+    return {k: quantize(v) for k, v in metrics_of(ev, tgt).items()}
 
 
 def metrics_of(ev: Evaluation, target: Target) -> Metrics:
     """Named metrics of an :class:`Evaluation` against a shape target (see :func:`shape_metrics`)."""
     width0, ymin0 = target_extent(target, ev.n_samples)
     f1 = ev.mse if target.has_time else ev.mse_phase
-    viol = np.where(np.isfinite(ev.violation), ev.violation, np.nan)
-    # A path the analysis cannot read (non-finite violation) is never feasible; keep it finite for pymoo.
-    viol = np.where(np.isnan(viol), 1e6, viol)
     return {
         "f1": f1,
         "f2": width_penalty(ev.width, width0),
@@ -122,8 +126,31 @@ def metrics_of(ev: Evaluation, target: Target) -> Metrics:
         "order": ev.constraints[:, 0],
         "theta1_margin": ev.constraints[:, 1],
         "theta2_margin": ev.constraints[:, 2],
-        "violation": viol,
+        "violation_mm": ev.violation,
+        "violation": tiered(ev.violation),
     }
+
+
+def quantize(values: F64) -> F64:
+    """Values rounded to 10 significant digits, and never finer than 1e-9 (NaN and inf unchanged).
+
+    Two designs whose metrics differ only by floating-point noise (~1e-14) then compare equal, so
+    a front never holds two "different" members closer than the knee-point code can normalise
+    (``core.decision.normalize`` treats such spans as zero and, as of this writing, fails when
+    every column of a front is such a span).
+    """
+    v = np.asarray(values, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mag = np.where(np.isfinite(v) & (v != 0.0), np.floor(np.log10(np.abs(v))), 0.0)
+    step = np.maximum(1e-9, 10.0 ** (mag - 9.0))
+    return np.where(np.isfinite(v), np.round(v / step) * step, v)
+
+
+def tiered(violation: F64) -> F64:
+    """``(pop,)`` assembly violation for pymoo: 0 where a design assembles, else ``ASSEMBLY_TIER`` + the
+    shortfall (mm); a non-finite violation (a path that cannot be read) becomes twice the tier."""
+    v = np.asarray(violation, dtype=np.float64)
+    return np.where(v > 0.0, ASSEMBLY_TIER + np.where(np.isfinite(v), v, ASSEMBLY_TIER), 0.0)
 
 
 def _evaluator(target: str, n_samples: int, backend: str) -> Any:
@@ -145,8 +172,8 @@ def _eq30(on: bool) -> tuple[Constraint, ...]:
 def _placer(place: str, target: str, n_samples: int, backend: str) -> Any:
     if place == "none":
         return None
-    if place not in ("lsq", "extent"):
-        raise ValueError(f"place must be 'none', 'lsq' or 'extent', got {place!r}")
+    if place not in ("lsq", "extent", "hold"):
+        raise ValueError(f"place must be 'none', 'lsq', 'extent' or 'hold', got {place!r}")
     from core.optimize.predesign import place as place_designs
 
     def repair(design: Design) -> F64:
@@ -173,39 +200,99 @@ def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
 
 @register("subtask2")
 def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float = EQ22["f1"],
-             f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], eq30: bool = False) -> ProblemSpec:
+             f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], eq30: bool = False,
+             place: str = "none") -> ProblemSpec:
     """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max))
     return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
-                       labels=LABELS)
+                       labels=LABELS, repair=_placer(place, target, n_samples, backend))
 
 
 @register("subtask3")
 def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float = EQ22["f1"],
              f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], h_s_max: float = EQ23["h_s"],
-             I_max: float = EQ23["I"], eq30: bool = False) -> ProblemSpec:
+             I_max: float = EQ23["I"], eq30: bool = False, place: str = "none") -> ProblemSpec:
     """Subtask 3 (Eqs. 21-23): objectives h_s, I under Eq. 22 and f4 <= 6.5, f5 <= 20."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max),
             Constraint("h_s", upper=h_s_max), Constraint("I", upper=I_max))
     return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
-                       labels=LABELS)
+                       labels=LABELS, repair=_placer(place, target, n_samples, backend))
 
 
 @register("single_level")
 def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-                 eq30: bool = False) -> ProblemSpec:
-    """Single-level optimization (§3.4.3): f1 ... f5 at once, subject to assembly."""
+                 eq30: bool = False, place: str = "none") -> ProblemSpec:
+    """Single-level optimization (§3.4.3): f1 ... f5 at once, subject to assembly.
+
+    Args:
+        place: as for ``subtask1`` (``none``, the paper's direct search, by default).
+    """
     return ProblemSpec("single_level", _evaluator(target, n_samples, backend), ("f1", "f2", "f3", "h_s", "I"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS)
+                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend))
 
 
 @register("predesign")
 def predesign(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-              n_harmonics: int = 16) -> ProblemSpec:
+              n_harmonics: int = 16, fit: str = "extent") -> ProblemSpec:
     """Predesign X0 (§3.1): Fourier-descriptor matching over the global box with analytic placement.
 
     See ``core.optimize.predesign`` (registered here, the module the problem registry imports).
     """
     from core.optimize.predesign import predesign_problem
 
-    return predesign_problem(target, n_samples, backend, n_harmonics)
+    return predesign_problem(target, n_samples, backend, n_harmonics, fit)
+
+
+# Options that are upper limits on a metric, and that metric: a configuration may give them
+# relative to the stage's start design ("start+0.5", "start*1.05"), see ``resolve_limits``.
+LIMIT_METRICS: dict[str, str] = {"f1_max": "f1", "f2_max": "f2", "f3_max": "f3", "h_s_max": "h_s", "I_max": "I"}
+
+
+def parse_relative(text: str) -> tuple[str, float]:
+    """``"start+0.5"`` -> ("+", 0.5), ``"start*1.05"`` -> ("*", 1.05).
+
+    Raises:
+        ValueError: anything else (negative offsets and factors below 1 included: a limit below
+            the start's own value would make the start infeasible).
+    """
+    t = text.replace(" ", "")
+    if len(t) > 6 and t.startswith("start") and t[5] in "+*":
+        try:
+            v = float(t[6:])
+        except ValueError:
+            v = float("nan")
+        if np.isfinite(v) and (v >= 0.0 if t[5] == "+" else v >= 1.0):
+            return t[5], v
+    raise ValueError(f"{text!r} is not a relative limit; use 'start+X' (X >= 0) or 'start*X' (X >= 1)")
+
+
+def resolve_limits(options: dict[str, Any], start: Metrics) -> dict[str, Any]:
+    """Options with relative limits replaced by numbers computed from the start design's metrics.
+
+    A limit is a number, a relative string (``"start+0.5"``, ``"start*1.05"``), or a list of
+    those meaning the loosest of them (``[4.0, "start+0.05"]``: 4, or a little above the start
+    if the start already exceeds 4, so a stage never starts infeasible).
+
+    Args:
+        options: problem options; values of ``LIMIT_METRICS`` keys may be relative or lists.
+        start: ``{metric: (1,)}`` metrics of the stage's start design (``shape_metrics``).
+
+    Raises:
+        ValueError: a relative limit on a metric the start does not have, or whose value is not finite.
+    """
+    out = dict(options)
+    for key, value in options.items():
+        if key not in LIMIT_METRICS or not isinstance(value, (str, list, tuple)):
+            continue
+        resolved = []
+        for item in value if isinstance(value, (list, tuple)) else [value]:
+            if not isinstance(item, str):
+                resolved.append(float(item))
+                continue
+            op, v = parse_relative(item)
+            base = float(np.asarray(start[LIMIT_METRICS[key]]).reshape(-1)[0])
+            if not np.isfinite(base):
+                raise ValueError(f"{key} = {value!r}: the start design has no finite {LIMIT_METRICS[key]}")
+            resolved.append(base + v if op == "+" else base * v)
+        out[key] = max(resolved)
+    return out

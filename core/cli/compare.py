@@ -1,0 +1,76 @@
+"""``clm compare DIR...``: the Appendix B-5-style table (method, time, MSE, S, I) of saved runs.
+
+Each argument is a ``clm design`` output directory (or its ``result.json``). A hierarchical run
+gives one row (its final pick), a single-level run three (smallest MSE, h_s and I, like the
+paper's Appendix B-4), a DP baseline one. ``--paper`` appends the paper's own printed
+Appendix B-5 values for reference (its times are MATLAB minutes on one core, converted to s).
+RTCLM runs add the columns h6 and h4.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from core.cli import CLIError
+from core.cli.design import table
+from core.optimize.result import decode_float
+
+# Appendix B-5 as printed: method, time (min), MSE (mm), S (%), I (mm/s).
+PAPER_B5 = (
+    ("paper: DP+SQP (printed)", 1.6e-4, 19.80, 14.78, 33.52),
+    ("paper: DP+GA (printed)", 0.32, 19.63, 17.04, 53.56),
+    ("paper: DP+GA+SQP (printed)", 0.34, 14.36, 5.94, 116.20),
+    ("paper: FS and DP-based [9] (printed)", 2.18, 9.91, 4.17, 49.8),
+    ("paper: hierarchical, ours (printed)", 7.69, 3.97, 0.95, 0.90),
+)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "compare",
+        help="compare saved design runs (method, time, MSE, S, I)",
+        description="Print one table of the runs saved by 'clm design --out DIR': method, wall time and the "
+        "chosen designs' MSE, S and I (Appendix B-5 style).",
+    )
+    p.add_argument("runs", nargs="+", type=Path, metavar="DIR", help="output directories (or result.json files)")
+    p.add_argument("--paper", action="store_true", help="append the paper's printed Appendix B-5 rows")
+    p.set_defaults(func=run)
+
+
+def load_rows(path: Path) -> list[dict[str, Any]]:
+    """The summary rows of one saved run (see ``DesignRun.rows``)."""
+    f = path / "result.json" if path.is_dir() else path
+    try:
+        data = json.loads(f.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CLIError(f"{str(f)!r} not found (expected a 'clm design --out' directory)") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise CLIError(f"cannot read {str(f)!r}: {e}") from None
+    except json.JSONDecodeError as e:
+        raise CLIError(f"{f}: not valid JSON: {e.msg} at line {e.lineno}") from None
+    if not isinstance(data, dict) or data.get("format") != "clm-design":
+        raise CLIError(f"{f}: not a 'clm design' result")
+    rows = data.get("rows") or []
+    if not rows:
+        return [{"label": f"{data.get('name', f.parent.name)}: no result ({data.get('status')})", "time": float("nan")}]
+    numeric = {"time", "mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4", "violation", "dp"}
+    return [{k: (decode_float(v) if k in numeric else v) for k, v in r.items()} for r in rows]
+
+
+def run(args: argparse.Namespace) -> int:
+    rows: list[dict[str, Any]] = []
+    for p in args.runs:
+        rows += load_rows(p)
+    extra = [k for k in ("h6", "h4") if any(k in r for r in rows)]
+    header = ["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)"] + [f"{k} (mm)" for k in extra]
+    out = []
+    for r in rows:
+        label = r["label"] + ("" if r.get("status", "complete") == "complete" else f" [{r['status']}]")
+        out.append([label, r.get("time", float("nan"))] + [r.get(k, float("nan")) for k in ("mse", "S", "I", *extra)])
+    if args.paper:
+        out += [[name, 60.0 * t, mse, s, i] + [float("nan")] * len(extra) for name, t, mse, s, i in PAPER_B5]
+    print(table(header, out))
+    return 0

@@ -1,0 +1,201 @@
+"""``clm design CONFIG.toml --out DIR``: run a whole design from a configuration file.
+
+Progress goes to stderr (a bar redrawn in place on a terminal, a line per 10 % otherwise),
+the summary table to stdout. DIR receives ``result.json`` (configuration, every stage's
+population, fronts, shortlist, picks, settings, seeds, timings, versions; lossless floats) and
+one CSV per stage (``<k>_<stage>.csv``: every member's parameters, objectives, constraint
+values and metrics, with its feasibility, front membership, knee rank and pick). Ctrl-C stops
+between generations and still writes the partial result (exit code 130).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import signal
+import sys
+import threading
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from core.cli import CLIError
+from core.optimize.config import DesignRun, load_config, run_design
+from core.optimize.result import StageResult, dumps
+from core.optimize.stage import Progress
+
+BAR = 24
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "design",
+        help="run a hierarchical design (or a baseline) from a TOML configuration",
+        description="Run the stages of a design configuration (see docs/optimization.md and assets/configs/), "
+        "print a summary table and write result.json and one CSV per stage into --out.",
+    )
+    p.add_argument("config", type=Path, help="configuration file (TOML)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory (created if missing)")
+    p.add_argument("--seed", type=int, default=None, metavar="N", help="override the configuration's seed")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=run)
+
+
+class ProgressBar:
+    """Per-generation progress on a stream: redrawn in place on a terminal, else a line per 10 %."""
+
+    def __init__(self, stream: TextIO, n_stages: int) -> None:
+        self.stream, self.n_stages = stream, n_stages
+        self.tty = bool(getattr(stream, "isatty", lambda: False)())
+        self.last: tuple[int, int] = (-1, -1)
+
+    def __call__(self, p: Progress) -> None:
+        frac = min(1.0, p.fraction)
+        done = int(round(BAR * frac))
+        best = ""
+        if p.feasible.any():
+            vals = p.F[p.feasible].min(axis=0)
+            best = "  best " + " ".join(f"{o}={v:.4g}" for o, v in zip(p.objectives, vals, strict=True))
+        else:
+            best = f"  no feasible member (least violation {np.min(p.cv):.3g})" if p.cv.size else ""
+        line = (f"[{p.index + 1}/{self.n_stages} {p.stage}] {'#' * done}{'.' * (BAR - done)} "
+                f"gen {p.generation}/{p.n_gen}  {p.elapsed:.1f} s{best}")
+        if self.tty:
+            if self.last[0] not in (-1, p.index):
+                self.stream.write("\n")  # keep the finished stage's last line
+            self.last = (p.index, 0)
+            self.stream.write("\r\033[K" + line)
+        else:
+            decile = int(10 * frac)
+            if (p.index, decile) != self.last:
+                self.last = (p.index, decile)
+                self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty and self.last[0] != -1:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def stage_rows(res: StageResult) -> tuple[list[str], list[list[Any]]]:
+    """CSV header and rows of one stage result (one row per member)."""
+    names = list(res.mechanism.param_names)
+    metrics = [k for k in res.metrics if k not in res.objectives]
+    header = (["member", "feasible", "front", "knee_rank", "picked", "cv"] + names + list(res.objectives)
+              + [f"g[{c}]" for c in res.constraints] + metrics)
+    knee = {i: r for r, i in enumerate(res.shortlist.knees)}
+    front = set(res.front)
+    rows = []
+    for i in range(res.pop):
+        rows.append([i, int(res.feasible[i]), int(i in front), knee.get(i, ""), int(res.picked == i),
+                     float(res.cv[i])] + [float(v) for v in res.X[i]] + [float(v) for v in res.F[i]]
+                    + [float(v) for v in res.G[i]] + [float(res.metrics[k][i]) for k in metrics])
+    return header, rows
+
+
+def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
+    """result.json and the per-stage CSVs; returns the files written."""
+    out.mkdir(parents=True, exist_ok=True)
+    written = [out / "result.json"]
+    (out / "result.json").write_text(dumps(run_.to_dict()), encoding="utf-8")
+    for res in run_.results:
+        path = out / f"{res.index}_{res.name}.csv"
+        header, rows = stage_rows(res)
+        with path.open("w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(header)
+            w.writerows([[_cell(v) for v in r] for r in rows])
+        written.append(path)
+    if run_.baseline is not None:
+        b = run_.baseline.to_dict()
+        path = out / f"{run_.baseline.method}.csv"
+        with path.open("w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            keys = list(b["params"]) + list(b["metrics"]) + ["dp", "time"]
+            w.writerow(keys)
+            w.writerow([_cell(v) for v in [*b["params"].values(), *b["metrics"].values(), b["dp"], b["time"]]])
+        written.append(path)
+    return written
+
+
+def _cell(v: Any) -> Any:
+    if isinstance(v, float):
+        return repr(v) if np.isfinite(v) else ("nan" if np.isnan(v) else ("inf" if v > 0 else "-inf"))
+    return v
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}" if np.isfinite(v) else "-"
+    return str(v)
+
+
+def table(header: list[str], rows: list[list[Any]]) -> str:
+    """A plain text table with right-aligned columns (the first left-aligned)."""
+    cells = [header] + [[_fmt(v) for v in r] for r in rows]
+    widths = [max(len(r[j]) for r in cells) for j in range(len(header))]
+    lines = []
+    for r in cells:
+        parts = [r[0].ljust(widths[0])] + [c.rjust(w) for c, w in zip(r[1:], widths[1:], strict=True)]
+        lines.append("  ".join(parts).rstrip())
+    return "\n".join(lines)
+
+
+def summary(run_: DesignRun) -> str:
+    """The end-of-run table: one line per stage (or the baseline) with its pick's metrics."""
+    c = run_.config
+    lines = [f"{c.name}: {c.method}, {c.mechanism.name}, seed {c.seed}, {run_.status}, wall {run_.wall_time:.1f} s"]
+    if run_.baseline is not None:
+        b = run_.baseline
+        m = b.metrics
+        lines.append(table(["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)", "h_s (mm)", "violation"],
+                           [[b.to_dict()["title"], b.time, m["mse"], m["S"], m["I"], m["h_s"], m["violation"]]]))
+        return "\n".join(lines)
+    show = [k for k in ("mse", "S", "I", "h_s", "f2", "f3", "h6", "h4") if any(k in r.metrics for r in run_.results)]
+    header = ["stage", "status", "gen", "time (s)", "evals", "feasible", "front", "pick", *show]
+    rows = []
+    for r in run_.results:
+        i = r.picked
+        vals = [float(r.metrics[k][i]) if (i is not None and k in r.metrics) else float("nan") for k in show]
+        rows.append([r.name, r.status, r.generation, float(r.timings["total"]), r.n_evals,
+                     f"{int(r.feasible.sum())}/{r.pop}", len(r.front), "-" if i is None else i, *vals])
+    lines.append(table(header, rows))
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    if args.seed is not None:
+        if args.seed < 0:
+            raise CLIError(f"--seed must be >= 0, got {args.seed}")
+        config = replace(config, seed=args.seed)
+    if args.out.exists() and not args.out.is_dir():
+        raise CLIError(f"--out {str(args.out)!r} exists and is not a directory")
+    n = max(1, len(config.stages))
+    bar = None if args.quiet else ProgressBar(sys.stderr, n)
+    cancel = threading.Event()
+    old = None
+
+    def on_sigint(signum: int, frame: Any) -> None:
+        # First Ctrl-C: stop between generations and keep the partial result; a second one aborts.
+        if cancel.is_set():
+            raise KeyboardInterrupt
+        cancel.set()
+        print("\nclm: stopping after this generation (Ctrl-C again to abort)", file=sys.stderr)
+
+    if threading.current_thread() is threading.main_thread():
+        old = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        result = run_design(config, bar, cancel)
+    finally:
+        if old is not None:
+            signal.signal(signal.SIGINT, old)
+        if bar is not None:
+            bar.close()
+    write_outputs(args.out, result)
+    print(summary(result))
+    print(f"wrote {args.out / 'result.json'}")
+    return 0 if result.status == "complete" else 130

@@ -1,0 +1,102 @@
+"""``clm design`` writes result.json and one CSV per stage; ``clm compare`` prints the comparison table."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.cli import main
+from core.optimize.pipeline import Pipeline
+
+TINY = """
+name = "tiny"
+preset = "stephenson1/X0"
+seed = 4
+n_samples = 72
+
+[algorithm]
+pop_size = 12
+
+[[stages]]
+name = "subtask1"
+box = "subtask1"
+n_gen = 3
+pick = "best:f1"
+
+[[stages]]
+name = "subtask2"
+box = "subtask2"
+n_gen = 2
+pick = "knee"
+[stages.options]
+f1_max = "start+1.0"
+"""
+
+BASELINE = """
+name = "dp"
+method = "dp_ga"
+mechanism = "stephenson1"
+seed = 1
+n_samples = 72
+[baseline]
+n_points = 12
+pop_size = 12
+n_gen = 3
+"""
+
+
+@pytest.fixture(scope="module")
+def outputs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    root = tmp_path_factory.mktemp("design")
+    (root / "tiny.toml").write_text(TINY)
+    (root / "dp.toml").write_text(BASELINE)
+    assert main(["design", str(root / "tiny.toml"), "--out", str(root / "h"), "--quiet"]) == 0
+    assert main(["design", str(root / "dp.toml"), "--out", str(root / "b"), "--quiet"]) == 0
+    return root / "h", root / "b", ""
+
+
+def test_design_writes_result_json_and_a_csv_per_stage(outputs: tuple[Path, Path, str]) -> None:
+    h, _, _ = outputs
+    assert sorted(p.name for p in h.iterdir()) == ["0_subtask1.csv", "1_subtask2.csv", "result.json"]
+    data = json.loads((h / "result.json").read_text())
+    assert data["status"] == "complete" and data["config"]["name"] == "tiny"
+    pipe = Pipeline.from_dict(data["pipeline"])
+    with (h / "1_subtask2.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    res = pipe.results[1]
+    assert res is not None and len(rows) == res.pop
+    assert [int(r["picked"]) for r in rows].index(1) == res.picked
+    np.testing.assert_array_equal([float(r["h_s"]) for r in rows], res.F[:, 0])
+    np.testing.assert_array_equal([float(r["r1"]) for r in rows], res.X[:, 4])
+    assert sum(int(r["front"]) for r in rows) == len(res.front)
+
+
+def test_design_prints_a_summary_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "t.toml").write_text(TINY.replace("n_gen = 3", "n_gen = 1").replace("n_gen = 2", "n_gen = 1"))
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(tmp_path / "o")]) == 0
+    cap = capsys.readouterr()
+    lines = cap.out.splitlines()
+    assert lines[1].split()[:4] == ["stage", "status", "gen", "time"]
+    assert lines[2].split()[:3] == ["subtask1", "complete", "1"]
+    assert "[1/2 subtask1]" in cap.err and "[2/2 subtask2]" in cap.err  # progress on stderr
+
+
+def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], capsys: pytest.CaptureFixture[str]) -> None:
+    h, b, _ = outputs
+    assert main(["compare", str(h), str(b / "result.json"), "--paper"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:3] == ["method", "time", "(s)"]
+    assert out[1].startswith("tiny: subtask2 pick") and out[2].startswith("dp: DP+GA")
+    assert any(line.startswith("paper: DP+SQP (printed)") for line in out)
+    data = json.loads((h / "result.json").read_text())
+    mse = data["rows"][0]["mse"]
+    assert f"{mse:.4g}" in out[1].split()
+
+
+def test_compare_refuses_a_directory_without_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["compare", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.startswith("clm: error: ")

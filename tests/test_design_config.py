@@ -1,0 +1,146 @@
+"""Design configurations: strict validation (errors name the key), and the shipped examples parse."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.cli import main
+from core.mechanisms import MECHANISMS
+from core.optimize.config import load_config, parse_config
+
+ASSETS = Path(__file__).resolve().parents[1] / "assets" / "configs"
+
+
+def base() -> dict:  # type: ignore[type-arg]
+    return {
+        "name": "t",
+        "mechanism": "stephenson1",
+        "seed": 1,
+        "n_samples": 72,
+        "algorithm": {"name": "nsga2", "pop_size": 10},
+        "stages": [
+            {"name": "predesign", "box": "global", "n_gen": 2, "pick": "best:f1"},
+            {"name": "subtask1", "box": "subtask1", "n_gen": 2},
+            {"name": "subtask2", "box": "subtask2", "n_gen": 2, "options": {"f1_max": "start+0.5"}},
+        ],
+    }
+
+
+def with_(path: str, value: object) -> dict:  # type: ignore[type-arg]
+    d = base()
+    cur = d
+    keys = path.split(".")
+    for k in keys[:-1]:
+        cur = cur[int(k)] if k.isdigit() else cur.setdefault(k, {})
+    if value is KeyError:
+        del cur[keys[-1]]
+    else:
+        cur[keys[-1]] = value
+    return d
+
+
+BAD = [
+    ("colour", "red", "colour: unknown key"),
+    ("mechanism", "hoeken", "mechanism: unknown mechanism"),
+    ("mechanism", KeyError, "mechanism: missing"),
+    ("preset", "stephenson3/paper", "preset: preset is a stephenson3 design"),
+    ("seed", -1, "seed: must be >= 0"),
+    ("seed", 1.5, "seed: expected an integer"),
+    ("n_samples", 73, "n_samples: must be even"),
+    ("backend", "gpu", "backend: 'gpu' is not one of"),
+    ("method", "annealing", "method: 'annealing' is not one of"),
+    ("output.k", 0.0, "output.k: must be non-zero"),
+    ("output.z", 1.0, "output.z: unknown key"),
+    ("target.curve", "missing.csv", "target.curve: file"),
+    ("target.L", -300.0, "target.L: must be > 0"),
+    ("target.H", "tall", "target.H: expected a number"),
+    ("bounds.r1", [200.0, 100.0], "bounds.r1: impossible bounds"),
+    ("bounds.r1", [-5.0, 100.0], "bounds.r1: a length must stay > 0"),
+    ("bounds.r1", 5.0, "bounds.r1: expected [lower, upper]"),
+    ("bounds.q7", [0.0, 1.0], "bounds.q7: unknown key"),
+    ("algorithm.name", "simplex", "algorithm.name: 'simplex' is not one of"),
+    ("algorithm.pop_size", 1, "algorithm.pop_size: must be >= 2"),
+    ("algorithm.options.mutation_rate", 0.1, "algorithm.options.mutation_rate: unknown key"),
+    ("algorithm.options.crossover_eta", "high", "algorithm.options.crossover_eta: expected a number"),
+    ("stages", [], "stages: missing"),
+    ("stages.0.n_gen", 0, "stages[0].n_gen: must be >= 1"),
+    ("stages.0.n_gen", "many", "stages[0].n_gen: expected an integer"),
+    ("stages.0.problem", "subtask9", "stages[0].problem: unknown problem"),
+    ("stages.0.box", "local", "stages[0].box: 'local' is not"),
+    ("stages.0.box", {"s": 0.1}, "stages[0].box: a box table needs both"),
+    ("stages.0.box", {"s": -0.1, "d": 5.0}, "stages[0].box.s: must be > 0"),
+    ("stages.0.pick", "best:mse", "stages[0].pick: 'best:mse': no objective 'mse'"),
+    ("stages.0.pick", "random", "stages[0].pick: unknown pick rule"),
+    ("stages.0.stop_below", [1.0], "stages[0].stop_below: expected 2 numbers"),
+    ("stages.0.fixed", ["x_z"], "stages[0].fixed[0]: stephenson1 has no parameter 'x_z'"),
+    ("stages.0.speed", 3, "stages[0].speed: unknown key"),
+    ("stages.1.name", "predesign", "stages[1].name: duplicate stage name"),
+    ("stages.2.options.f1_max", "start-1", "stages[2].options.f1_max: 'start-1' is not a relative limit"),
+    ("stages.2.options.f1_max", -2.0, "stages[2].options.f1_max: must be >= 0"),
+    ("stages.2.options.f9_max", 1.0, "stages[2].options.f9_max: unknown key"),
+    ("stages.2.options.place", "somewhere", "stages[2].options: place must be"),
+    ("stages.2.options.eq30", 1, "stages[2].options.eq30: expected true or false"),
+    ("stages.0.algorithm.pop_size", 0, "stages[0].algorithm.pop_size: must be >= 2"),
+    ("baseline.n_gen", 5, "baseline: only for the DP methods"),
+]
+
+
+@pytest.mark.parametrize(("path", "value", "message"), BAD, ids=[b[0] for b in BAD])
+def test_invalid_entries_are_named_in_the_error(path: str, value: object, message: str) -> None:
+    with pytest.raises(ValueError) as e:
+        parse_config(with_(path, value))
+    assert str(e.value).startswith(message), str(e.value)
+
+
+def test_a_valid_config_keeps_relative_limits_for_run_time() -> None:
+    c = parse_config(base())
+    assert [s.name for s in c.stages] == ["predesign", "subtask1", "subtask2"]
+    assert c.stages[2].options["f1_max"] == "start+0.5"
+    assert (c.stages[0].s, c.stages[1].s, c.stages[1].d) == (None, 0.2, 20.0)
+    assert c.start.output.k == -1.0  # the paper's pantograph by default for shape targets
+    np.testing.assert_allclose(c.start.params[0], 0.5 * (c.mechanism.lower + c.mechanism.upper))
+
+
+def test_bounds_narrow_the_mechanism() -> None:
+    c = parse_config(with_("bounds.r1", [40.0, 60.0]))
+    i = c.mechanism.param_names.index("r1")
+    assert (c.mechanism.lower[i], c.mechanism.upper[i]) == (40.0, 60.0)
+
+
+def test_predesign_needs_a_placeable_mechanism() -> None:
+    d = with_("mechanism", "rtclm_primary")
+    with pytest.raises(ValueError, match=r"^stages\[0\]\.problem: predesign places designs analytically"):
+        parse_config(d)
+
+
+def test_a_csv_target_is_resolved_against_the_config_directory(tmp_path: Path) -> None:
+    (tmp_path / "c.csv").write_text("x,y\n0,0\n100,0\n100,50\n0,50\n")
+    c = parse_config(with_("target.curve", "c.csv"), tmp_path)
+    assert c.stages[0].options["target"] == str((tmp_path / "c.csv").resolve())
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in ASSETS.glob("*.toml")))
+def test_shipped_configs_parse(name: str) -> None:
+    mech = "watt1" if name.startswith("watt1") else None
+    if mech is not None and mech not in MECHANISMS:
+        with pytest.raises(ValueError, match="^mechanism: unknown mechanism 'watt1'"):
+            load_config(ASSETS / name)
+        return
+    c = load_config(ASSETS / name)
+    assert c.stages or c.method.startswith("dp_")
+
+
+def test_cli_reports_a_bad_config_in_one_line_with_exit_2(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    f = tmp_path / "bad.toml"
+    f.write_text('mechanism = "stephenson1"\n[[stages]]\nname = "subtask1"\nn_gen = "lots"\n')
+    assert main(["design", str(f), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["clm: error: stages[0].n_gen: expected an integer, got a string"]
+    f.write_text("mechanism = [\n")
+    assert main(["design", str(f), "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err.startswith("clm: error: ")
+    assert not (tmp_path / "out").exists()
