@@ -15,36 +15,55 @@ import json
 import os
 import sys
 import threading
+import time
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 import viser
 
-from studio.geometry import frame_index
+from studio.candidates import candidates
+from studio.chains import ChainStage, chain_for, find
+from studio.exports import design_json, figure_html, slug, trajectories_csv
+from studio.geometry import frame_index, inset_positions
 from studio.panels.bench import BenchPanel
+from studio.panels.files import FilesPanel
+from studio.panels.history import HistoryPanel
 from studio.panels.mechanism import MechanismPanel
 from studio.panels.metrics import MetricsPanel
+from studio.panels.pareto import ParetoPanel, pareto_figure
+from studio.panels.pick import PickPanel
 from studio.panels.playback import PlaybackPanel
+from studio.panels.stages import StagesPanel
 from studio.panels.target import TargetPanel
-from studio.scene import DEFAULT_ASPECT, FPS, Animator, MechanismScene
+from studio.panels.walking import WalkingPanel
+from studio.scene import DEFAULT_ASPECT, FPS, Animator, CandidateInset, InsetMarker, MechanismScene
 from studio.state import DesignView, Session
+from studio.study import Runner, StudyView, study_view
 
 BRAND = (31, 119, 180)
+# While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
+# the session file is still written after every generation.
+STUDY_PUSH_PERIOD = 0.25
+# A Run click this soon after a run started is the second click of a double click (even if that
+# run already finished): it starts nothing.
+DOUBLE_CLICK = 1.0
 
 
 class Studio:
-    """The running studio: one viser server, one shared :class:`Session`, scene, panels, animator.
+    """The running studio: one viser server, one shared :class:`Session`, scene, panels, animator, runner.
 
     Every client sees the same server-level scene and GUI, so two tabs show the same state and
     a reload receives the current state. Callbacks mutate the session, then call
     :meth:`refresh`, which redraws what changed from the latest snapshot under a render lock
-    (so concurrent edits can never leave an older design on screen).
+    (so concurrent edits can never leave an older design on screen). Stages run in the
+    :class:`~studio.study.Runner`'s worker thread, which records every generation, saves the
+    session and refreshes (throttled).
 
     Args:
         session: the state to serve.
         host, port: where to listen (port 0: any free port).
-        session_path: if given, the session is written there after every change.
+        session_path: if given, the session is written there after every change and generation.
         fps: animation frame rate pushed to the clients.
     """
 
@@ -58,19 +77,31 @@ class Studio:
     ) -> None:
         self.session = session
         self.session_path = session_path
-        self._render_lock = threading.Lock()
+        self._render_lock = threading.RLock()
         self._save_lock = threading.Lock()
         self._shown: DesignView | None = None
+        self._study_key: object = None
+        self._inset_key: object = None
+        self._last_push = 0.0
+        self._last_start = -DOUBLE_CLICK
         self.server = viser.ViserServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
                                         show_logo=False)
         self.server.gui.main_panel.dock_right()
         self.scene = MechanismScene(self.server)
+        self.inset = CandidateInset(self.server, self._on_inset_pick)
+        self.runner = Runner(session.lock, lambda: self.session.study, self._on_generation, self._on_finish)
         self.playback = PlaybackPanel(self, order=0)
-        self.metrics = MetricsPanel(self, order=1)
-        self.mechanism = MechanismPanel(self, order=2)
-        self.target = TargetPanel(self, order=3)
-        self.bench = BenchPanel(self, order=4)
+        self.stages = StagesPanel(self, order=1)
+        self.pareto = ParetoPanel(self, order=2)
+        self.pick_panel = PickPanel(self, order=3)
+        self.metrics = MetricsPanel(self, order=4)
+        self.mechanism = MechanismPanel(self, order=5)
+        self.target = TargetPanel(self, order=6)
+        self.walking = WalkingPanel(self, order=7)
+        self.history = HistoryPanel(self, order=8)
+        self.bench = BenchPanel(self, order=9)
+        self.files = FilesPanel(self, order=10)
         self.refresh(fit_camera=True)
         self.server.on_client_connect(self._on_connect)
         self.animator = Animator(self._tick, fps)
@@ -82,25 +113,81 @@ class Studio:
         shown = "localhost" if host in ("127.0.0.1", "localhost") else host
         return f"http://{shown}:{self.server.get_port()}"
 
+    def chain(self) -> tuple[ChainStage, ...]:
+        """The stages offered for the editor's mechanism."""
+        return chain_for(self.session.view.design.mechanism)
+
     # State -> screen ----------------------------------------------------------------------
+
+    def study_view(self) -> StudyView:
+        with self.session.lock:
+            view = self.session.view
+            return study_view(self.session.study, view.design, self.chain(), view.target)
 
     def refresh(self, fit_camera: bool = False) -> None:
         """Show the latest session state; refit every camera if asked (a new design to frame)."""
         with self._render_lock:
             view, pb, _ = self.session.snapshot()
-            if view is not self._shown:
+            changed = view is not self._shown
+            if changed:
                 self.scene.show(view, frame_index(pb.angle, view.n_samples))
                 self.mechanism.show(view)
                 self.metrics.show(view)
                 self.target.show(view)
+                self.walking.show(view)
                 self.bench.show(view)
                 self._shown = view
-                self.autosave()
             self.playback.show(pb)
+            sv = self.study_view()
+            study_changed = sv.key != self._study_key
+            if changed or study_changed:
+                self._show_study(sv)
+                self._last_push = time.monotonic()
             if fit_camera:
                 self.scene.fit_camera()
                 for client in self.server.get_clients().values():
                     self._fit_client(client)
+        if changed or study_changed:
+            self.autosave()
+
+    def _show_study(self, sv: StudyView) -> None:
+        self.stages.show(sv)
+        self.pareto.show(sv)
+        self.pick_panel.show(sv)
+        self.history.show(sv)
+        self._show_inset(sv)
+        self._study_key = sv.key
+
+    def _show_inset(self, sv: StudyView) -> None:
+        frames = self.scene.frames
+        if frames is None:
+            return
+        box = frames.composition.inset
+        r = sv.result(sv.viewing)
+        key = (tuple(np.round(box, 6)), id(r), sv.shown)
+        if key == self._inset_key:
+            return
+        self._inset_key = key
+        if r is None or r.pop == 0:
+            self.inset.place(box, "after a run: its knee candidates (K1 ...) and best members")
+            self.inset.show((), np.zeros((0, 2)), None)
+            return
+        spec = sv.specs.get(sv.viewing or "")
+        labels = dict(spec.problem.labels) if spec is not None else {}
+        if len(r.objectives) == 1:
+            xy = np.stack([r.F[:, 0], r.cv], axis=1)
+            axes = f"x: {labels.get(r.objectives[0], r.objectives[0])}, y: violation"
+        else:
+            xy = r.F[:, :2]
+            axes = " · ".join(f"{'xy'[k]}: {labels.get(o, o)}" for k, o in enumerate(r.objectives[:2]))
+        front = np.array(sorted(set(r.front)), dtype=np.intp)
+        marks = [c for c in candidates(r) if c.kind in ("knee", "best", "fallback")]
+        members = np.array([c.member for c in marks] + front.tolist(), dtype=np.intp)
+        pos = inset_positions(xy[members], box) if len(members) else np.zeros((0, 2))
+        markers = tuple(InsetMarker(c.member, c.tag, c.kind, (float(pos[j, 0]), float(pos[j, 1])))
+                        for j, c in enumerate(marks))
+        self.inset.place(box, axes + " (scaled)")
+        self.inset.show(markers, pos[len(marks):], sv.shown)
 
     def _fit_client(self, client: viser.ClientHandle) -> None:
         try:
@@ -135,10 +222,165 @@ class Studio:
         self.playback.tick(pb)
 
     def notify(
-        self, client: viser.ClientHandle, title: str, body: str, color: Literal["red", "yellow"] = "red"
+        self, client: viser.ClientHandle, title: str, body: str, color: Literal["red", "yellow", "green"] = "red"
     ) -> None:
         """Tell one client something about its own action (red: refused; yellow: a warning)."""
         client.add_notification(title, body, color=color, auto_close_seconds=8.0, with_close_button=True)
+
+    # Stages, picks, history -----------------------------------------------------------------
+
+    def start_run(self) -> bool:
+        """Run the stage selected in the Stages panel (ValueError naming the problem if it cannot start).
+
+        Returns:
+            False if the click was the second of a double click (nothing started).
+        """
+        session = self.session
+        with session.lock:
+            if time.monotonic() - self._last_start < DOUBLE_CLICK:
+                return False
+            chain = self.chain()
+            sv = self.study_view()
+            if sv.next_stage is None:
+                raise ValueError(f"no stage is available for {session.view.design.mechanism.title}")
+            stage = find(chain, sv.next_stage)
+            settings = session.study.settings_for(stage)
+            view, from_pick = session.view, session.study.from_pick
+            self.runner.start(lambda study: study.plan(stage, settings, view.design, view.target, from_pick, chain))
+            self._last_start = time.monotonic()
+        self.refresh()
+        return True
+
+    def _on_generation(self, _progress: object) -> None:
+        self.autosave()
+        if time.monotonic() - self._last_push >= STUDY_PUSH_PERIOD:
+            self.refresh()
+
+    def _on_finish(self) -> None:
+        """A run ended: animate the finished stage's pick, redraw everything, save."""
+        session = self.session
+        design = None
+        with session.lock:
+            st = session.study.status
+            r = session.study.result(st.stage)
+            if r is not None and r.pop > 0 and st.ok:
+                i = session.study.shown_member(st.stage)
+                if i is not None:
+                    session.study.shown[st.stage or ""] = i
+                    design = r.pick(i)
+        if design is not None:
+            try:
+                session.set_design(design)
+            except ValueError:
+                pass  # a member outside the parameters' hard limits stays listed but is not loaded
+        self.refresh()
+        self.autosave()
+
+    def pick(self, stage: str, member: int, client: viser.ClientHandle | None) -> None:
+        """Show member ``member`` of ``stage``: it becomes the editor's design (animated at once)."""
+        session = self.session
+        try:
+            with session.lock:
+                if session.study.status.running:
+                    raise ValueError("a stage is running; pick when it has finished")
+                r = session.study.show(stage, member)
+                design = r.pick(member)
+                session.set_design(design)
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Not picked", str(exc))
+            self.refresh()
+            return
+        self.refresh()
+
+    def _on_inset_pick(self, member: int, client: viser.ClientHandle) -> None:
+        with self.session.lock:
+            stage = self.study_view().viewing
+        if stage is not None:
+            self.pick(stage, member, client)
+
+    def use_for_next(self, stage: str, client: viser.ClientHandle | None) -> None:
+        """Pass the shown member of ``stage`` on to the next stage (shown with its search box)."""
+        session = self.session
+        try:
+            with session.lock:
+                member = session.study.shown_member(stage)
+                if member is None:
+                    raise ValueError(f"{stage} has nothing to pass on")
+                session.study.use_for_next(stage, member, self.chain())
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Not passed on", str(exc))
+        self.refresh()
+
+    def view_stage(self, stage: str, client: viser.ClientHandle | None) -> None:
+        """Show a stage of the lineage again (its front, candidates, and its shown member animated)."""
+        session = self.session
+        try:
+            with session.lock:
+                r = session.study.result(stage)
+                if r is None:
+                    raise ValueError(f"{stage} has no result")
+                session.study.viewing = stage
+                session.study.touch()
+                i = session.study.shown_member(stage)
+                if i is not None:
+                    session.set_design(r.pick(i))
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Stage not shown", str(exc))
+        self.refresh()
+
+    def restore_branch(self, j: int, client: viser.ClientHandle | None) -> None:
+        try:
+            with self.session.lock:
+                self.session.study.restore_branch(j)
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Branch not restored", str(exc))
+        self.refresh()
+
+    # Files -------------------------------------------------------------------------------
+
+    def session_file(self) -> tuple[str, bytes]:
+        data = json.dumps(self.session.to_dict(), indent=1) + "\n"
+        return f"clm-session-{time.strftime('%Y%m%d-%H%M%S')}.json", data.encode()
+
+    def design_file(self) -> tuple[str, bytes]:
+        view = self.session.view
+        return f"{slug(view.preset or view.design.mechanism.name)}-design.json", design_json(view)
+
+    def trajectories_file(self) -> tuple[str, bytes]:
+        view = self.session.view
+        return f"{slug(view.preset or view.design.mechanism.name)}-trajectories.csv", trajectories_csv(view)
+
+    def pareto_file(self) -> tuple[str, bytes]:
+        sv = self.study_view()
+        fig = pareto_figure(sv)
+        if fig is None:
+            raise ValueError("no stage result to chart yet; run a stage first")
+        return f"pareto-{slug(sv.viewing or 'stage')}.html", figure_html(fig, f"CLM Studio: {sv.viewing}")
+
+    def scene_file(self) -> tuple[str, bytes]:
+        view = self.session.view
+        html = self.scene.record_html(view.target.period)
+        return f"{slug(view.preset or view.design.mechanism.name)}-scene.html", html.encode()
+
+    def load_session_bytes(self, name: str, content: bytes, client: viser.ClientHandle | None) -> bool:
+        """Replace the session by an uploaded one; a malformed file is refused, naming the problem."""
+        try:
+            try:
+                data = json.loads(content.decode("utf-8-sig"))
+            except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise ValueError(f"not JSON ({exc})") from None
+            other = Session.from_dict(data)
+            self.session.restore(other)
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Session not loaded", f"{name or 'upload'}: {exc}. The current session is kept.")
+            return False
+        self.refresh(fit_camera=True)
+        return True
 
     def autosave(self) -> None:
         """Write the session file, if any (atomically: a crash never leaves half a file)."""
@@ -148,10 +390,14 @@ class Studio:
             save_session(self.session, self.session_path)
 
     def close(self) -> None:
-        """Stop the animation, pending input checks and the server."""
+        """Stop a run, the animation, pending input checks and the server."""
+        self.runner.stop()
+        self.runner.join(10.0)
         self.animator.stop()
         self.mechanism.close()
         self.target.close()
+        self.walking.close()
+        self.stages.close()
         self.server.stop()
 
 

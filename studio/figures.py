@@ -107,3 +107,125 @@ def make_bench_figure(
     fig.update_yaxes(title_text="y (mm)", showgrid=True, gridcolor="#e5e5e5", zeroline=False,
                      scaleanchor="x", scaleratio=1, constrain="domain")
     return fig
+
+
+def _axis_range(values: F64, focus: F64) -> list[float] | None:
+    """A range covering the focus values (the feasible ones) with a margin, and the rest within one span of them."""
+    focus = focus[np.isfinite(focus)]
+    if len(focus) == 0:
+        return None
+    lo, hi = float(focus.min()), float(focus.max())
+    span = hi - lo if hi > lo else max(abs(hi), 1.0) * 0.1
+    near = values[np.isfinite(values) & (values >= lo - span) & (values <= hi + span)]
+    lo, hi = min(lo, float(near.min(initial=lo))), max(hi, float(near.max(initial=hi)))
+    pad = 0.06 * (hi - lo if hi > lo else span)
+    return [lo - pad, hi + pad]
+
+
+def objective_label(name: str, labels: Mapping[str, str]) -> str:
+    """Axis title of an objective: its problem label with unit (``f1 = MSE (mm)``), else its name."""
+    return labels.get(name, name)
+
+
+def make_pareto_figure(
+    F: F64,
+    cv: F64,
+    *,
+    objectives: tuple[str, ...],
+    labels: Mapping[str, str] | None = None,
+    front: tuple[int, ...] | NDArray[np.intp] = (),
+    knees: tuple[int, ...] = (),
+    best: tuple[int, ...] = (),
+    shown: int | None = None,
+    passed: int | None = None,
+    title: str = "",
+) -> go.Figure:
+    """The population of a stage in objective space: 2-D for two objectives, 3-D for three or more.
+
+    Args:
+        F: ``(pop, n_obj)`` objectives (+inf or NaN where undefined: such members are not drawn).
+        cv: ``(pop,)`` total constraint violation (0: feasible).
+        objectives: objective names (F's columns).
+        labels: axis titles with units by objective name (``ProblemSpec.labels``).
+        front: indices of the feasible non-dominated members.
+        knees: knee candidates (ranked); drawn as ``K1``, ``K2``, ...
+        best: best member per objective (``Shortlist.best``).
+        shown: the member the designer picked (animated in the editor), marked.
+        passed: the member passed on to the next stage, if different, marked too.
+        title: figure title.
+
+    With one objective the chart is objective against constraint violation. Member indices
+    are in each point's hover text and ``customdata``.
+    """
+    F = np.asarray(F, dtype=np.float64).reshape(-1, len(objectives))
+    cv = np.asarray(cv, dtype=np.float64).reshape(-1)
+    labels = labels or {}
+    n_obj = len(objectives)
+    drawable = np.isfinite(F).all(axis=1)
+    feasible = drawable & (cv <= 0.0)
+    on_front = np.zeros(len(F), dtype=bool)
+    on_front[np.asarray(front, dtype=np.intp)] = True
+    on_front &= feasible
+    if n_obj == 1:
+        coords = np.stack([F[:, 0], np.where(np.isfinite(cv), cv, np.nan)], axis=1)
+        titles = [objective_label(objectives[0], labels), "violation (0 = feasible)"]
+    else:
+        coords = F[:, : min(n_obj, 3)]
+        titles = [objective_label(o, labels) for o in objectives[:3]]
+    three = coords.shape[1] == 3
+    fig = go.Figure()
+
+    def add(name: str, idx: NDArray[np.intp] | list[int], marker: dict[str, object], text: list[str] | None = None,
+            show_in_legend: bool = True) -> None:
+        idx = np.asarray(idx, dtype=np.intp)
+        idx = idx[np.asarray(drawable)[idx]] if len(idx) else idx
+        hover = [f"member #{i}" + ("" if feasible[i] else f", violation {cv[i]:.3g}") for i in idx]
+        common: dict[str, object] = {"name": name, "customdata": idx.tolist(), "hovertext": hover,
+                                     "showlegend": show_in_legend, "marker": marker}
+        if text is not None:
+            common.update(text=text, mode="markers+text", textposition="top center")
+        else:
+            common["mode"] = "markers"
+        pts = coords[idx]
+        if three:
+            fig.add_trace(go.Scatter3d(x=pts[:, 0], y=pts[:, 1], z=pts[:, 2], **common))
+        else:
+            fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], **common))
+
+    size = 4 if three else 7
+    add("infeasible", np.flatnonzero(drawable & ~feasible),
+        {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"})
+    add("feasible", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.7), "size": size})
+    add("Pareto front", np.flatnonzero(on_front), {"color": palette.css(palette.PATH), "size": size + 1})
+    if knees:
+        add("knee candidates", list(knees), {"color": palette.css(palette.KNEE), "size": size + 5,
+                                             "symbol": "diamond", "line": {"color": "black", "width": 1}},
+            text=[f"K{j + 1}" for j in range(len(knees))])
+    extra = [b for b in dict.fromkeys(best) if b not in knees]
+    if extra:
+        names = [f"best {objectives[best.index(b)]}" for b in extra]
+        add("best per objective", extra, {"color": palette.css(palette.BEST), "size": size + 4, "symbol": "square",
+                                          "line": {"color": "black", "width": 1}}, text=names)
+    if passed is not None and passed != shown and 0 <= passed < len(F):
+        add("passed on", [passed], {"color": "rgba(0,0,0,0)", "size": size + 12,
+                                    "line": {"color": palette.css(palette.PASSED), "width": 3}})
+    if shown is not None and 0 <= shown < len(F):
+        add("picked", [shown], {"color": "rgba(0,0,0,0)", "size": size + 14,
+                                "line": {"color": palette.css(palette.FOOT), "width": 3}})
+    fig.update_layout(
+        title={"text": title, "font": {"size": 13}, "x": 0.0, "xanchor": "left"},
+        margin={"l": 55, "r": 36, "t": 45 if title else 10, "b": 45},
+        modebar={"orientation": "v"},
+        legend={"orientation": "h", "yanchor": "top", "y": -0.18, "x": 0.0, "font": {"size": 10}},
+        plot_bgcolor="white",
+        showlegend=True,
+    )
+    if three:
+        fig.update_layout(scene={"xaxis": {"title": {"text": titles[0]}}, "yaxis": {"title": {"text": titles[1]}},
+                                 "zaxis": {"title": {"text": titles[2]}}}, margin={"l": 0, "r": 0, "b": 0})
+    else:
+        for axis, k in (("xaxis", 0), ("yaxis", 1)):
+            rng = _axis_range(coords[:, k], coords[feasible, k])
+            fig.update_layout({axis: {"title": {"text": titles[k]}, "showgrid": True, "gridcolor": "#e5e5e5",
+                                      "zeroline": False, **({"range": rng} if rng else {})}})
+    return fig

@@ -166,3 +166,60 @@ def hold_last_valid(valid: NDArray[np.bool_]) -> NDArray[np.int64] | None:
 def frame_index(angle: float, n_samples: int) -> int:
     """Sample nearest to an input crank angle (rad), wrapped to ``[0, n_samples)``."""
     return int(round(angle / (2.0 * math.pi) * n_samples)) % n_samples
+
+
+@dataclass(frozen=True)
+class Composition:
+    """Where the walking view and the candidates inset sit around the two top views (mm, scene coordinates).
+
+    Attributes:
+        walk_offset: ``(2,)`` shift placing the walking view (world frame) below the top views, left-aligned.
+        inset: ``(4,)`` the candidates inset's square, right of the leg view.
+        bounds: ``(4,)`` everything together (for the camera).
+    """
+
+    walk_offset: F64
+    inset: F64
+    bounds: F64
+
+
+def compose(lay: Layout, walk_bounds: F64 | None, gap: float = 60.0) -> Composition:
+    """Place the walking view (if any) below the top views and a square inset right of the leg view.
+
+    Args:
+        lay: the two top views.
+        walk_bounds: ``(4,)`` bounds of the walking view in its own frame (mm), or None.
+        gap: space between views (mm).
+    """
+    s = lay.scene
+    leg = lay.leg + np.concatenate([lay.leg_offset, lay.leg_offset])
+    side = max(leg[3] - leg[1], 0.6 * (leg[2] - leg[0]), 1.0)
+    cy = 0.5 * (leg[1] + leg[3])
+    inset = np.array([leg[2] + gap, cy - 0.5 * side, leg[2] + gap + side, cy + 0.5 * side])
+    parts = [s, inset]
+    offset = np.zeros(2)
+    if walk_bounds is not None:
+        w = np.asarray(walk_bounds, dtype=np.float64)
+        offset = np.array([s[0] - w[0], s[1] - 1.5 * gap - w[3]])
+        parts.append(w + np.concatenate([offset, offset]))
+    stack = np.stack(parts)
+    bounds = np.concatenate([stack[:, :2].min(axis=0), stack[:, 2:].max(axis=0)])
+    return Composition(offset, inset, bounds)
+
+
+def inset_positions(values: F64, box: F64, margin: float = 0.1) -> F64:
+    """Points ``(n, 2)`` (two objectives, any units) scaled into a square ``(4,)`` box (mm), min-max per axis.
+
+    Non-finite rows go to the box's lower-left corner; a constant axis sits in the middle.
+    """
+    v = np.asarray(values, dtype=np.float64).reshape(-1, 2)
+    ok = np.isfinite(v).all(axis=1)
+    out = np.empty_like(v)
+    inner = box + np.array([1.0, 1.0, -1.0, -1.0]) * margin * (box[2] - box[0])
+    for k in range(2):
+        col = v[ok, k]
+        lo, hi = (float(col.min()), float(col.max())) if len(col) else (0.0, 1.0)
+        u = np.where(ok, (v[:, k] - lo) / (hi - lo), 0.0) if hi > lo else np.full(len(v), 0.5)
+        out[:, k] = inner[k] + np.clip(u, 0.0, 1.0) * (inner[k + 2] - inner[k])
+    out[~ok] = box[:2]
+    return out

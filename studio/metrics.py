@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.evaluate import CONSTRAINT_NAMES, Evaluation, evaluate_paths
+from core.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths
 from core.kinematics import Solution
 from core.targets import Target
 from core.trajectory import FEATURE_NAMES
@@ -69,10 +69,20 @@ class Row:
         return f"{v:.{self.digits}f}"
 
 
-def evaluate_solution(solution: Solution, target: Target, period: float) -> Evaluation:
-    """Every paper metric of a solved population, via ``core.evaluate`` (crank period ``period``, s)."""
+def evaluate_solution(solution: Solution, target: Target, period: float,
+                      obstacle: tuple[float, float] = DEFAULT_OBSTACLE) -> Evaluation:
+    """Every paper metric of a solved population, via ``core.evaluate`` (crank period ``period``, s).
+
+    A target without a time law (a curve of points only) is compared at the best cyclic shift.
+    """
     return evaluate_paths(solution.point, solution.leg, solution.dleg, solution.violation,
-                          target=target, period=period)
+                          target=target, period=period, obstacle=obstacle, phase_optimal=not target.has_time)
+
+
+def shape_error(ev: Evaluation, i: int = 0) -> float:
+    """The MSE row: time-aligned, or at the best cyclic shift when that was computed (untimed target)."""
+    phase = float(ev.mse_phase[i])
+    return phase if np.isfinite(phase) else float(ev.mse[i])
 
 
 def min_transmission_angle(solution: Solution, i: int = 0) -> float:
@@ -109,7 +119,7 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0) -> tuple[Row, ..
     return (
         Row("feasible", "Feasible", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
         Row("why", "Why not", why or "-", note="reason the bench trajectory is not well defined"),
-        Row("mse", "MSE (shape error)", float(ev.mse[i]), "mm",
+        Row("mse", "MSE (shape error)", shape_error(ev, i), "mm",
             note="mean distance to the target, sample against sample (design frame)"),
         Row("h_s", "Body fluctuation hₛ", float(ev.h_s[i]), "mm", note="max - min of y over the stance"),
         Row("S", "Straightness S", float(ev.S[i]), "%", note="h_s / l_s"),

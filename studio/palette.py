@@ -15,6 +15,15 @@ STANCE: RGB = (31, 119, 180)
 SWING: RGB = (44, 160, 44)
 TARGET: RGB = (255, 127, 14)
 FRAME: RGB = (205, 205, 205)
+FEASIBLE: RGB = (120, 150, 190)
+INFEASIBLE: RGB = (214, 39, 40)
+KNEE: RGB = (255, 127, 14)
+BEST: RGB = (44, 160, 44)
+PASSED: RGB = (148, 103, 189)
+OBSTACLE_CLEAR: RGB = (44, 160, 44)
+OBSTACLE_HIT: RGB = (214, 39, 40)
+TRUNK: RGB = (60, 60, 60)
+LEGS: tuple[RGB, ...] = ((31, 119, 180), (255, 127, 14), (148, 103, 189), (140, 86, 75))
 
 
 def css(c: RGB, alpha: float = 1.0) -> str:

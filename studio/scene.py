@@ -24,9 +24,11 @@ from studio.geometry import (
     EDGE_CRANK,
     EDGE_GROUND,
     SCENE_SCALE,
+    Composition,
     Layout,
     camera_pose,
     closed_polyline,
+    compose,
     hold_last_valid,
     layout,
     link_edges,
@@ -34,6 +36,7 @@ from studio.geometry import (
     to_scene,
 )
 from studio.state import DesignView
+from studio.walking import WalkFrames
 
 F32 = NDArray[np.float32]
 U8 = NDArray[np.uint8]
@@ -66,6 +69,8 @@ class SceneFrames:
         feature_names: their labels (``t1``, ``t6=t7=t8``).
         layout: where the views sit (mm).
         marker: marker size (m), scaled with the drawing.
+        composition: where the walking view and the candidates inset sit (mm).
+        walk: the walking view's scene geometry, or None without a walking trajectory.
     """
 
     links: F32
@@ -85,10 +90,77 @@ class SceneFrames:
     feature_names: tuple[str, ...]
     layout: Layout
     marker: float
+    composition: Composition
+    walk: WalkScene | None = None
 
     @property
     def n_samples(self) -> int:
         return int(self.links.shape[0])
+
+
+@dataclass(frozen=True)
+class WalkScene:
+    """Scene-ready walking view (walk-local coordinates, metres; the /walk frame carries the offset).
+
+    Attributes:
+        body: ``(n_samples, 1 + n_legs, 2, 3)`` trunk and hip-to-foot legs per crank sample.
+        body_colors: ``(1 + n_legs, 2, 3)`` uint8.
+        feet: ``(n_samples, n_legs, 3)`` feet per crank sample; feet_colors ``(n_legs, 3)``.
+        trails: ``(m, 2, 3)`` the feet's paths over one stride; trail_colors ``(m, 2, 3)``.
+        ground: ``(1, 2, 3)`` the ground line; obstacle ``(4, 2, 3)`` the obstacle's outline.
+        hit: a foot path enters the obstacle where it stands.
+        text: h_m, h_bar, psi2, psi4 of the design.
+        title_at, text_at: label positions (walk-local, m).
+    """
+
+    body: F32
+    body_colors: U8
+    feet: F32
+    feet_colors: U8
+    trails: F32
+    trail_colors: U8
+    ground: F32
+    obstacle: F32
+    hit: bool
+    text: str
+    title_at: tuple[float, float, float]
+    text_at: tuple[float, float, float]
+
+
+def walk_text(view: DesignView) -> str:
+    """The walking metrics shown beside the walking view."""
+    ev, (a, b) = view.evaluation, view.walk.obstacle
+    return (f"hₘ {float(ev.h_m[0]):.1f} mm · h̄ {float(ev.h_bar[0]):.1f} mm · "
+            f"ψ₂({a:g}, {b:g}) {100.0 * float(ev.psi2[0]):.1f} % · ψ₄({a:g}, {b:g}) {100.0 * float(ev.psi4[0]):.1f} %")
+
+
+def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
+    """Scene geometry of a walking view (pure)."""
+    n_legs = wf.feet.shape[1]
+    leg_rgb = np.array([palette.LEGS[j % len(palette.LEGS)] for j in range(n_legs)])
+    body = np.concatenate([wf.trunk[:, None], wf.legs], axis=1)
+    body_colors = np.repeat(vertex_colours(np.concatenate([[palette.TRUNK], leg_rgb]))[:, None, :], 2, axis=1)
+    seg = np.stack([wf.trails[:, :-1], wf.trails[:, 1:]], axis=2)  # (n_legs, m - 1, 2, 2)
+    trail_colors = np.repeat(np.repeat(vertex_colours(leg_rgb)[:, None, None, :], seg.shape[1], 1), 2, 2)
+    x0, y0, x1, y1 = wf.bounds
+    pad = 0.04 * (x1 - x0)
+    ground = np.array([[[x0 - pad, wf.ground], [x1 + pad, wf.ground]]])
+    r = wf.obstacle
+    outline = np.stack([r, np.roll(r, -1, axis=0)], axis=1)
+    return WalkScene(
+        body=_lift(to_scene(body), Z_LINES),
+        body_colors=body_colors,
+        feet=_lift(to_scene(wf.feet), Z_MARKERS),
+        feet_colors=vertex_colours(leg_rgb),
+        trails=_lift(to_scene(seg.reshape(-1, 2, 2)), 0.5 * Z_LINES),
+        trail_colors=trail_colors.reshape(-1, 2, 3),
+        ground=to_scene(ground),
+        obstacle=_lift(to_scene(outline), Z_LINES),
+        hit=wf.hit,
+        text=walk_text(view),
+        title_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.16 * (y1 - y0)) * SCENE_SCALE, 0.0),
+        text_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.02 * (y1 - y0)) * SCENE_SCALE, 0.0),
+    )
 
 
 def _lift(p: F32, z: float) -> F32:
@@ -146,6 +218,7 @@ def build_frames(view: DesignView) -> SceneFrames:
         foot, leg_foot = pose[:, 0], np.broadcast_to(view.design.output.apply(pivot), leg.shape)
     else:
         pose, foot, leg_foot = joints[hold], point[hold], leg[hold]
+    wf = view.walking
     return SceneFrames(
         links=_lift(to_scene(link_segments(pose, edges.pairs)), Z_LINES),
         link_colors=link_colors,
@@ -164,6 +237,8 @@ def build_frames(view: DesignView) -> SceneFrames:
         feature_names=tuple(name for name, _ in view.features),
         layout=lay,
         marker=0.01 * extent * SCENE_SCALE,
+        composition=compose(lay, None if wf is None else wf.bounds),
+        walk=None if wf is None else build_walk_scene(wf, view),
     )
 
 
@@ -222,6 +297,20 @@ class MechanismScene:
                                               precision="float32", point_shading="flat")
         self.leg_title = scene.add_label("/leg/title", "Bench trajectory (leg frame): stance, swing, target",
                                          anchor="bottom-left")
+        self.walk = scene.add_frame("/walk", show_axes=False)
+        self.walk_ground = scene.add_line_segments("/walk/ground", empty_seg, palette.FRAME, thickness=1.5,
+                                                   thickness_units="screen")
+        self.walk_trails = scene.add_line_segments("/walk/trails", empty_seg, palette.FRAME, thickness=1.0,
+                                                   thickness_units="screen")
+        self.walk_obstacle = scene.add_line_segments("/walk/obstacle", empty_seg, palette.OBSTACLE_CLEAR,
+                                                     thickness=3.0, thickness_units="screen")
+        self.walk_body = scene.add_line_segments("/walk/body", empty_seg, palette.TRUNK, thickness=4.0,
+                                                 thickness_units="screen")
+        self.walk_feet = scene.add_point_cloud("/walk/feet", one, palette.FOOT, point_shape="circle",
+                                               precision="float32", point_shading="flat")
+        self.walk_title = scene.add_label("/walk/title", "Walking (world frame): trunk, feet, obstacle a × b",
+                                          anchor="bottom-left")
+        self.walk_text = scene.add_label("/walk/metrics", "", anchor="bottom-left", font_screen_scale=0.85)
 
     @property
     def frames(self) -> SceneFrames | None:
@@ -254,9 +343,31 @@ class MechanismScene:
             g = lay.leg
             pad = 0.06 * max(g[2] - g[0], g[3] - g[1])
             self.leg_title.position = ((g[0] - pad) * SCENE_SCALE, (g[3] + 1.4 * pad) * SCENE_SCALE, 0.0)
+            self._show_walk(frames)
             self._show_labels(frames)
             self._draw(index)
         return frames
+
+    def _show_walk(self, frames: SceneFrames) -> None:
+        w = frames.walk
+        for node in (self.walk_ground, self.walk_trails, self.walk_obstacle, self.walk_body, self.walk_feet,
+                     self.walk_title, self.walk_text):
+            node.visible = w is not None
+        if w is None:
+            return
+        off = frames.composition.walk_offset
+        self.walk.position = (off[0] * SCENE_SCALE, off[1] * SCENE_SCALE, 0.0)
+        self.walk_ground.points = w.ground
+        self.walk_trails.colors = w.trail_colors
+        self.walk_trails.points = w.trails
+        self.walk_obstacle.colors = np.array(palette.OBSTACLE_HIT if w.hit else palette.OBSTACLE_CLEAR, dtype=np.uint8)
+        self.walk_obstacle.points = w.obstacle
+        self.walk_body.colors = w.body_colors
+        self.walk_feet.point_size = frames.marker * 1.1
+        self.walk_feet.colors = w.feet_colors
+        self.walk_title.position = w.title_at
+        self.walk_text.position = w.text_at
+        self.walk_text.text = w.text
 
     def _show_labels(self, frames: SceneFrames) -> None:
         """Static labels: ground pivots (design view) and feature points (leg view)."""
@@ -283,6 +394,9 @@ class MechanismScene:
         self.joints.points = f.joints[i]
         self.foot.points = f.foot[i]
         self.leg_foot.points = f.leg_foot[i]
+        if f.walk is not None:
+            self.walk_body.points = f.walk.body[i]
+            self.walk_feet.points = f.walk.feet[i]
         self._index = i
         self.frames_pushed += 1
 
@@ -296,12 +410,40 @@ class MechanismScene:
                 self._draw(index)
             return True
 
+    def record_html(self, period: float, fps: float = 30.0) -> str:
+        """A self-contained HTML page replaying one crank revolution of the current design (viser's
+        scene serializer with its bundled client: works offline).
+
+        Args:
+            period: seconds per revolution in the recording.
+            fps: recorded frames per second.
+        """
+        with self._lock:
+            f = self._frames
+            if f is None:
+                raise ValueError("nothing to record yet")
+            n_frames = max(2, min(f.n_samples, int(round(period * fps))))
+            serializer = self.server.get_scene_serializer()
+            index = self._index
+            try:
+                for k in range(n_frames):
+                    with self.server.atomic():
+                        self._draw(int(round(k * f.n_samples / n_frames)))
+                    serializer.insert_sleep(period / n_frames)
+            except BaseException:
+                serializer.serialize()  # stop recording
+                raise
+            finally:
+                with self.server.atomic():
+                    self._draw(index)
+            return serializer.as_html()
+
     def fit_camera(self, client: viser.ClientHandle | None = None, aspect: float = DEFAULT_ASPECT) -> None:
         """Frame both views: the server's initial camera, or one client's camera."""
         f = self._frames
         if f is None:
             return
-        pos, look = camera_pose(f.layout.scene, FOV, aspect)
+        pos, look = camera_pose(f.composition.bounds, FOV, aspect)
         if client is None:
             cam = self.server.initial_camera
             cam.fov = FOV
@@ -349,3 +491,89 @@ class Animator:
             last = now
             next_at = max(next_at + self._period, time.perf_counter())
             self._stop.wait(max(0.0, next_at - time.perf_counter()))
+
+
+@dataclass(frozen=True)
+class InsetMarker:
+    """A clickable candidate in the scene's inset: member, tag (``K1``), kind, position (mm, scene)."""
+
+    member: int
+    tag: str
+    kind: str
+    xy: tuple[float, float]
+
+
+class CandidateInset:
+    """The candidates of the shown stage as clickable spheres in a square beside the bench trajectory.
+
+    The square is the first two objectives (min-max scaled); grey dots are the rest of the front.
+    Clicking a sphere calls ``on_pick(member, client)``.
+    """
+
+    def __init__(self, server: viser.ViserServer, on_pick: Callable[[int, viser.ClientHandle], None]) -> None:
+        self.server = server
+        self.on_pick = on_pick
+        self._lock = threading.Lock()
+        self._markers: tuple[InsetMarker, ...] = ()
+        self._spheres: dict[int, viser.IcosphereHandle] = {}
+        self._labels: list[viser.LabelHandle] = []
+        self._radius = 0.0
+        empty_seg = np.zeros((1, 2, 3), dtype=np.float32)
+        scene = server.scene
+        self.border = scene.add_line_segments("/candidates/border", empty_seg, palette.FRAME, thickness=1.0,
+                                              thickness_units="screen")
+        self.front = scene.add_point_cloud("/candidates/front", np.zeros((1, 3), dtype=np.float32), palette.FEASIBLE,
+                                           point_shape="circle", precision="float32", point_shading="flat")
+        self.title = scene.add_label("/candidates/title", "Candidates: click one to pick it", anchor="bottom-left")
+        self.note = scene.add_label("/candidates/note", "", anchor="top-left", font_screen_scale=0.8)
+
+    def place(self, box: NDArray[np.float64], axes: str) -> None:
+        """Draw the square ``[x0, y0, x1, y1]`` (mm) with its title and the axes' names."""
+        x0, y0, x1, y1 = box
+        corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        with self.server.atomic():
+            self.border.points = to_scene(np.stack([corners, np.roll(corners, -1, axis=0)], axis=1))
+            self.title.position = (x0 * SCENE_SCALE, (y1 + 0.03 * (y1 - y0)) * SCENE_SCALE, 0.0)
+            self.note.position = (x0 * SCENE_SCALE, (y0 - 0.03 * (y1 - y0)) * SCENE_SCALE, 0.0)
+            self.note.text = axes
+        self._radius = 0.022 * (x1 - x0) * SCENE_SCALE
+
+    def show(self, markers: tuple[InsetMarker, ...], front: NDArray[np.float64], shown: int | None) -> None:
+        """Show candidates (rebuilt when they change) and the front; colour the shown member."""
+        with self._lock, self.server.atomic():
+            if markers != self._markers:
+                for h in self._spheres.values():
+                    h.remove()
+                for label in self._labels:
+                    label.remove()
+                self._spheres, self._labels = {}, []
+                scene = self.server.scene
+                for m in markers:
+                    pos = (m.xy[0] * SCENE_SCALE, m.xy[1] * SCENE_SCALE, 2 * Z_MARKERS)
+                    h = scene.add_icosphere(f"/candidates/pick_{m.member}", radius=self._radius, subdivisions=2,
+                                            color=self._colour(m, shown), position=pos)
+                    h.on_click(self._clicked(m.member))
+                    self._spheres[m.member] = h
+                    self._labels.append(scene.add_label(f"/candidates/tag_{m.member}", m.tag, anchor="bottom-center",
+                                                        font_screen_scale=0.8,
+                                                        position=(pos[0], pos[1] + 1.2 * self._radius, 0.0)))
+                self._markers = markers
+            else:
+                for m in markers:
+                    self._spheres[m.member].color = self._colour(m, shown)
+            self.front.visible = len(front) > 0
+            if len(front):
+                self.front.point_size = 0.6 * self._radius
+                self.front.points = _lift(to_scene(front), Z_MARKERS)
+
+    @staticmethod
+    def _colour(m: InsetMarker, shown: int | None) -> tuple[int, int, int]:
+        if m.member == shown:
+            return palette.FOOT
+        return palette.KNEE if m.kind == "knee" else palette.BEST if m.kind == "best" else palette.PATH
+
+    def _clicked(self, member: int) -> Callable[[viser.SceneNodePointerEvent[viser.IcosphereHandle]], None]:
+        def handler(event: viser.SceneNodePointerEvent[viser.IcosphereHandle]) -> None:
+            self.on_pick(member, event.client)
+
+        return handler

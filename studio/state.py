@@ -27,12 +27,15 @@ from core.kinematics import Backend, Solution, solve
 from core.mechanisms.params import Param
 from core.validate import check_params, design_from_dict, design_to_dict
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
-from studio.target import TargetSpec
+from studio.study import Study
+from studio.target import Curve, TargetSpec
+from studio.walking import WalkFrames, WalkSpec, build_walk
 
 F64 = NDArray[np.float64]
 
 SESSION_FORMAT = "clm-studio-session"
-SESSION_VERSION = 1
+SESSION_VERSION = 2
+READS_VERSIONS = (1, 2)  # version 1: no walk, no study
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0
@@ -76,6 +79,8 @@ class DesignView:
         stance: ``(n_samples,)`` True on the stance half-cycle, or None without feature points.
         features: feature points t1 ... t8 as ``(label, (x, y))`` in the leg frame (mm); coincident
             ones share a label.
+        walk: walking view settings (the obstacle (a, b) is also ψ's).
+        walking: the walking view's geometry, or None without a well-defined bench trajectory.
     """
 
     design: Design
@@ -88,6 +93,8 @@ class DesignView:
     rows: tuple[Row, ...]
     stance: NDArray[np.bool_] | None
     features: tuple[tuple[str, tuple[float, float]], ...]
+    walk: WalkSpec = field(default_factory=WalkSpec)
+    walking: WalkFrames | None = None
 
     @property
     def n_samples(self) -> int:
@@ -112,13 +119,16 @@ class DesignView:
         return tuple(n for n, a, b in zip(names, self.design.params[0], ref, strict=True) if a != b)
 
 
-def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples: int = N_SAMPLES) -> DesignView:
+def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples: int = N_SAMPLES,
+               walk: WalkSpec | None = None) -> DesignView:
     """Solve a design (with joints) and derive what the studio shows; never raises for odd designs."""
+    walk = walk or WalkSpec()
     sol = solve(design.mechanism, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
     tgt = target.points(n_samples)
-    ev = evaluate_solution(sol, target.target(), target.period)
+    ev = evaluate_solution(sol, target.target(), target.period, walk.obstacle)
+    walking = build_walk(sol.leg[0], sol.dleg[0], target.period, walk) if ev.feasible[0] else None
     return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev),
-                      stance_mask(ev, n_samples), feature_labels(ev))
+                      stance_mask(ev, n_samples), feature_labels(ev), walk, walking)
 
 
 def assembly_reason(view: DesignView) -> str | None:
@@ -180,11 +190,17 @@ class Session:
     playback: Playback = field(default_factory=Playback)
     lock: threading.RLock = field(default_factory=threading.RLock, repr=False, compare=False)
     version: int = 0
+    study: Study = field(default_factory=Study)
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
         """A session on a preset (the paper's Stephenson-I X3 by default), animating."""
         return cls(build_view(presets.get(preset).design(), preset, target or TargetSpec()))
+
+    def _rebuild(self, design: Design, preset: str | None, target: TargetSpec | None = None,
+                 walk: WalkSpec | None = None) -> DesignView:
+        v = self.view
+        return build_view(design, preset, target or v.target, v.n_samples, walk or v.walk)
 
     def snapshot(self) -> tuple[DesignView, Playback, int]:
         """The current view, playback and version, read together."""
@@ -205,7 +221,7 @@ class Session:
         """Switch to a registered preset; ValueError (state unchanged) if the name is unknown."""
         p = presets.get(name)
         with self.lock:
-            return self._commit(build_view(p.design(), name, self.view.target))
+            return self._commit(self._rebuild(p.design(), name))
 
     def select_mechanism(self, name: str) -> DesignView:
         """Switch topology: loads the mechanism's first preset (the registry gives no other design)."""
@@ -240,8 +256,7 @@ class Session:
             if v == design.named(0)[name]:
                 return self.view
             new = design.replace(**{name: v})
-            return self._commit(build_view(new, self.view.preset, self.view.target, self.view.n_samples),
-                                keep_assembly=True)
+            return self._commit(self._rebuild(new, self.view.preset), keep_assembly=True)
 
     def set_design(self, design: Design, preset: str | None = None) -> DesignView:
         """Replace the whole design (a loaded file, a picked candidate); ValueError if malformed."""
@@ -249,16 +264,39 @@ class Session:
             raise ValueError(f"the studio shows one design at a time, got a population of {design.pop}")
         check_params(design.mechanism, design.params)
         with self.lock:
-            return self._commit(build_view(design, preset, self.view.target, self.view.n_samples))
+            return self._commit(self._rebuild(design, preset))
 
     def set_target(self, **changes: float) -> DesignView:
-        """Change target settings (``length``, ``height``, ``period``); ValueError if not positive."""
+        """Change the compound cycloid (``length``, ``height``, ``period``); ValueError if not positive.
+
+        Editing the cycloid while an uploaded curve is the target goes back to the cycloid.
+        """
         with self.lock:
-            target = replace(self.view.target, **changes)
+            target = replace(self.view.target, curve=None, **changes)
             if target == self.view.target:
                 return self.view
             v = self.view
-            return self._commit(build_view(v.design, v.preset, target, v.n_samples))
+            return self._commit(self._rebuild(v.design, v.preset, target))
+
+    def set_curve(self, curve: Curve | None) -> DesignView:
+        """Make an uploaded curve the target (None: back to the compound cycloid)."""
+        with self.lock:
+            v = self.view
+            target = v.target.with_curve(curve)
+            if curve is None and v.target.curve is not None:
+                target = TargetSpec(v.target.length, v.target.height)
+            if target == v.target:
+                return v
+            return self._commit(self._rebuild(v.design, v.preset, target))
+
+    def set_walk(self, **changes: object) -> DesignView:
+        """Change the walking view (``layout``, ``a``, ``b``, ``place``, ``trunk``); ValueError if invalid."""
+        with self.lock:
+            v = self.view
+            walk = replace(v.walk, **changes)  # type: ignore[arg-type]
+            if walk == v.walk:
+                return v
+            return self._commit(self._rebuild(v.design, v.preset, walk=walk))
 
     # Playback -----------------------------------------------------------------------------
 
@@ -295,7 +333,8 @@ class Session:
     # Files --------------------------------------------------------------------------------
 
     def to_dict(self) -> dict[str, Any]:
-        """The session as JSON-ready data (``format``, ``version``, design, preset, target, playback)."""
+        """The session as JSON-ready data: design, preset, target, walk, playback and the study
+        (pipeline, branches, picks, run settings)."""
         with self.lock:
             v, pb = self.view, self.playback
             return {
@@ -304,19 +343,22 @@ class Session:
                 "design": design_to_dict(v.design),
                 "preset": v.preset,
                 "target": v.target.to_dict(),
+                "walk": v.walk.to_dict(),
                 "playback": {"playing": pb.playing, "speed": pb.speed, "angle": pb.angle},
+                "study": self.study.to_dict(),
             }
 
     @classmethod
     def from_dict(cls, data: object) -> Session:
-        """A session from :meth:`to_dict` data; ValueError naming the first problem."""
+        """A session from :meth:`to_dict` data (or a version-1 file); ValueError naming the first problem."""
         if not isinstance(data, dict):
             raise ValueError(f"a session must be a JSON object, got {type(data).__name__}")
         if data.get("format") != SESSION_FORMAT:
             raise ValueError(f"not a studio session (format {data.get('format')!r}, expected {SESSION_FORMAT!r})")
-        if data.get("version") != SESSION_VERSION:
+        if data.get("version") not in READS_VERSIONS:
             raise ValueError(
-                f"unsupported session version {data.get('version')!r} (this studio reads {SESSION_VERSION})"
+                f"unsupported session version {data.get('version')!r} (this studio reads "
+                f"{', '.join(str(v) for v in READS_VERSIONS)})"
             )
         for key in ("design", "target"):
             if key not in data:
@@ -325,7 +367,9 @@ class Session:
         preset = data.get("preset")
         if preset is not None and (preset not in presets.PRESETS or presets.get(preset).mechanism != design.mechanism):
             preset = None
-        view = build_view(design, preset, TargetSpec.from_dict(data["target"]))
+        target = TargetSpec.from_dict(data["target"])
+        walk = WalkSpec.from_dict(data.get("walk", {}))
+        view = build_view(design, preset, target, walk=walk)
         pb = data.get("playback", {})
         if not isinstance(pb, dict):
             raise ValueError(f"playback must be an object, got {pb!r}")
@@ -335,7 +379,18 @@ class Session:
         for key, v in (("speed", speed), ("angle", angle)):
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
                 raise ValueError(f"playback {key} must be a finite number, got {v!r}")
-        session = cls(view)
+        session = cls(view, study=Study.from_dict(data.get("study"), target))
         session.set_speed(float(speed))
         session.playback = Playback(playing, float(speed), float(angle) % (2.0 * math.pi))
         return session
+
+    def restore(self, other: Session) -> None:
+        """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""
+        with self.lock:
+            if self.study.status.running:
+                raise ValueError("a stage is running; stop it before loading a session")
+            self.view = other.view
+            self.playback = other.playback
+            self.study = other.study
+            self.study.touch()
+            self.version += 1

@@ -1,29 +1,110 @@
-"""The target the studio compares against: the compound cycloid of spec §3 with the Target panel's L, H, T.
+"""The target the studio compares against: the compound cycloid of spec §3 (L, H, T) or a closed curve
+uploaded as CSV.
 
-The curve itself comes from ``core.targets``; this is the panel's small, validated, JSON-ready
-set of settings.
+The curves themselves come from ``core.targets``; this is the Target panel's small, validated,
+JSON-ready set of settings. The optimization problems take their target as an option string
+(``cycloid:L=..,H=..,T=..`` or a CSV path, ``core.targets.parse_target``): an uploaded curve is
+written once to a content-addressed CSV file (:func:`curve_file`) that reproduces it exactly.
 """
 
 from __future__ import annotations
 
+import csv
+import hashlib
+import io
 import math
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from core.targets import Target, compound_cycloid, cycloid_target
+from core.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample
 
 F64 = NDArray[np.float64]
+
+# Where uploaded curves are written for the optimization problems (content-addressed, shared).
+CURVE_DIR = Path(tempfile.gettempdir()) / "clm-studio" / "targets"
+MAX_CURVE_BYTES = 2_000_000
+
+
+@dataclass(frozen=True)
+class Curve:
+    """A closed target curve from a CSV upload (design frame).
+
+    Attributes:
+        name: file name it came from.
+        points: ``(m, 2)`` distinct points (mm), without a repeated closing point.
+        times: ``(m,)`` times from 0 (s), or None (then compared at the best cyclic shift).
+        period: one cycle (s); 2 s for a curve without times.
+    """
+
+    name: str
+    points: tuple[tuple[float, float], ...]
+    times: tuple[float, ...] | None
+    period: float
+
+    @staticmethod
+    def from_target(t: Target) -> Curve:
+        pts = tuple((float(x), float(y)) for x, y in np.asarray(t.points))
+        times = None if t.times is None else tuple(float(v) for v in np.asarray(t.times))
+        return Curve(t.name, pts, times, float(t.period))
+
+    @staticmethod
+    def from_csv(content: bytes, name: str) -> Curve:
+        """Parse an uploaded CSV (``x,y`` or ``x,y,t`` rows, optional header); ValueError naming the problem."""
+        if len(content) > MAX_CURVE_BYTES:
+            raise ValueError(f"{name}: {len(content)} bytes is too large for a target curve "
+                             f"(at most {MAX_CURVE_BYTES // 1000} kB)")
+        try:
+            text = content.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            raise ValueError(f"{name}: not a text file (expected CSV rows 'x,y' or 'x,y,t')") from None
+        return Curve.from_target(curve_from_rows(list(csv.reader(io.StringIO(text))), name))
+
+    def target(self) -> Target:
+        pts = np.array(self.points, dtype=np.float64)
+        times = None if self.times is None else np.array(self.times, dtype=np.float64)
+        return Target(self.name, pts, times, self.period)
+
+    def csv_text(self) -> str:
+        """CSV that ``core.targets`` reads back to exactly this curve (closed by repeating the first row)."""
+        rows = [(*p, *(() if self.times is None else (self.times[i],))) for i, p in enumerate(self.points)]
+        first = (*self.points[0], *(() if self.times is None else (self.times[0] + self.period,)))
+        head = "x,y" if self.times is None else "x,y,t"
+        return head + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in [*rows, first])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "points": [list(p) for p in self.points],
+                "times": None if self.times is None else list(self.times), "period": self.period}
+
+    @staticmethod
+    def from_dict(data: object) -> Curve:
+        """A curve saved by :meth:`to_dict`, validated like an upload."""
+        if not isinstance(data, dict) or "points" not in data:
+            raise ValueError(f"target curve must be an object with points, got {data!r:.80}")
+        name = str(data.get("name", "curve"))
+        pts, times = data["points"], data.get("times")
+        if not isinstance(pts, list) or (times is not None and (not isinstance(times, list) or len(times) != len(pts))):
+            raise ValueError("target curve: points must be a list of [x, y] and times null or one per point")
+        period = data.get("period", 2.0)
+        rows = [[str(v) for v in (*p, *(() if times is None else (times[i],)))] for i, p in enumerate(pts)]
+        if pts:
+            rows.append([str(v) for v in (*pts[0], *(() if times is None else (times[0] + period,)))])
+        return Curve.from_target(curve_from_rows(rows, name))
 
 
 @dataclass(frozen=True)
 class TargetSpec:
-    """The compound-cycloid target: step length L (mm), height H (mm), period T (s)."""
+    """The target: the compound cycloid with step length L (mm), height H (mm), period T (s), or
+    an uploaded ``curve`` (then ``period`` is the curve's)."""
 
     length: float = 300.0
     height: float = 100.0
     period: float = 2.0
+    curve: Curve | None = None
 
     def __post_init__(self) -> None:
         for name, unit in (("length", "mm"), ("height", "mm"), ("period", "s")):
@@ -31,23 +112,71 @@ class TargetSpec:
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"target {name} must be a positive number ({unit}), got {v!r}")
 
+    @property
+    def is_curve(self) -> bool:
+        return self.curve is not None
+
+    @property
+    def has_time(self) -> bool:
+        """False for a curve given without times (compared at the best cyclic shift)."""
+        return self.curve is None or self.curve.times is not None
+
+    def label(self) -> str:
+        if self.curve is not None:
+            return f"curve {self.curve.name} ({len(self.curve.points)} points, T = {self.period:g} s)"
+        return f"compound cycloid L = {self.length:g} mm, H = {self.height:g} mm, T = {self.period:g} s"
+
     def points(self, n_samples: int) -> F64:
-        """``(n_samples, 2)`` target in the design frame (mm), uniform in time over one period."""
+        """``(n_samples, 2)`` target in the design frame (mm), uniform in time (or arc length) over one cycle."""
+        if self.curve is not None:
+            c = self.curve
+            return resample(np.array(c.points), n_samples, None if c.times is None else np.array(c.times), c.period)
         return compound_cycloid(n_samples, float(self.length), float(self.height))[0]
 
     def target(self) -> Target:
         """The ``core.targets.Target`` for ``core.evaluate``."""
+        if self.curve is not None:
+            return self.curve.target()
         return cycloid_target(float(self.length), float(self.height), float(self.period))
 
-    def to_dict(self) -> dict[str, float]:
-        return {"L": float(self.length), "H": float(self.height), "T": float(self.period)}
+    def option(self) -> str:
+        """The target as the optimization problems' ``target`` option (``core.targets.parse_target``)."""
+        if self.curve is not None:
+            return str(curve_file(self.curve))
+        return f"cycloid:L={float(self.length)!r},H={float(self.height)!r},T={float(self.period)!r}"
+
+    def with_curve(self, curve: Curve | None) -> TargetSpec:
+        period = curve.period if curve is not None else self.period
+        return TargetSpec(self.length, self.height, period, curve)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"L": float(self.length), "H": float(self.height), "T": float(self.period)}
+        if self.curve is not None:
+            out["curve"] = self.curve.to_dict()
+        return out
 
     @staticmethod
     def from_dict(data: object) -> TargetSpec:
         if not isinstance(data, dict):
             raise ValueError(f"target must be an object {{L, H, T}}, got {data!r}")
-        unknown = [k for k in data if k not in ("L", "H", "T")]
+        unknown = [k for k in data if k not in ("L", "H", "T", "curve")]
         if unknown:
-            raise ValueError(f"unknown target key {unknown[0]!r}; expected L, H, T")
+            raise ValueError(f"unknown target key {unknown[0]!r}; expected L, H, T (and curve)")
         d = TargetSpec()
-        return TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period))
+        spec = TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period))
+        if data.get("curve") is not None:
+            spec = spec.with_curve(Curve.from_dict(data["curve"]))
+        return spec
+
+
+def curve_file(curve: Curve, directory: Path | None = None) -> Path:
+    """The curve as a CSV file named by its content (written if missing); its path."""
+    text = curve.csv_text()
+    folder = CURVE_DIR if directory is None else directory
+    path = folder / f"target-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
+    if not path.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(path)
+    return path

@@ -1,7 +1,7 @@
 """Browser tests: Playwright drives Debian's headless chromium against a studio started in-process.
 
-One studio and one page serve the whole module (a page load costs seconds under software
-WebGL); the session is reset to the opening design before every test. Every non-loopback
+One studio and one page serve every browser test (a page load costs seconds under software
+WebGL); the session is reset to the opening design, with no pipeline, before every test. Every non-loopback
 request (HTTP or websocket) is blocked and recorded, so the tests also prove the studio works
 offline. Skipped only when /usr/bin/chromium is missing (CI installs it).
 """
@@ -47,7 +47,7 @@ def browser() -> Iterator[Any]:
         b.close()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def studio(browser: Any) -> Iterator[Any]:
     """A studio on a free loopback port, on the default session (Stephenson-I X3, animating)."""
     from studio.app import Studio
@@ -58,7 +58,7 @@ def studio(browser: Any) -> Iterator[Any]:
     s.close()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def blocked() -> list[str]:
     """Non-loopback URLs the pages tried to reach (must stay empty)."""
     return []
@@ -102,9 +102,9 @@ def ready() -> Callable[[Any], None]:
     return wait_ready
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def page(browser: Any, studio: Any, blocked: list[str]) -> Iterator[Any]:
-    """The module's main page on the studio."""
+    """The main page on the studio, shared by every browser test."""
     ctx = _new_context(browser, blocked)
     yield open_studio(ctx, studio.server.get_port())
     ctx.close()
@@ -127,7 +127,7 @@ def open_page(browser: Any, studio: Any, blocked: list[str]) -> Iterator[Callabl
 
 @pytest.fixture(autouse=True)
 def fresh_session(request: pytest.FixtureRequest) -> None:
-    """Put the studio back on the opening design, paused, before each test that uses it.
+    """Put the studio back on the opening design, paused, with no pipeline, before each test that uses it.
 
     Paused because viser renders on demand: a still scene keeps software WebGL (and so the
     test) fast. The animation itself is tested explicitly.
@@ -135,11 +135,18 @@ def fresh_session(request: pytest.FixtureRequest) -> None:
     if "studio" not in request.fixturenames:
         return
     from studio.state import DEFAULT_PRESET
+    from studio.study import Study
     from studio.target import TargetSpec
+    from studio.walking import WalkSpec
 
     studio = request.getfixturevalue("studio")
-    d = TargetSpec()
+    studio.runner.stop()
+    studio.runner.join(30)
+    d, w = TargetSpec(), WalkSpec()
     studio.session.set_target(length=d.length, height=d.height, period=d.period)
+    studio.session.set_walk(layout=w.layout, a=w.a, b=w.b, place=w.place)
     studio.session.load_preset(DEFAULT_PRESET)
     studio.session.set_playing(False)
+    with studio.session.lock:
+        studio.session.study = Study()
     studio.refresh()

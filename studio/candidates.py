@@ -1,0 +1,139 @@
+"""What the Pick and History panels list, as plain data: candidates of a stage result, their labels,
+metric comparisons and the lineage summary. Pure (no viser).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.design import Design
+from core.optimize.result import StageResult
+
+# Metrics compared in the Pick panel after the stage's own objectives and constrained metrics.
+REPORT_METRICS = ("mse", "h_s", "S", "I", "width", "y_min", "h4", "h6")
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One entry of the Pick list.
+
+    Attributes:
+        member: row of the stage result.
+        kind: ``knee``, ``best`` or ``front``.
+        tag: short name (``K1``, ``best f1``, ``front 3``).
+        label: the dropdown text (tag, member, objective values); unique within a list.
+    """
+
+    member: int
+    kind: str
+    tag: str
+    label: str
+
+
+def _fmt(v: float) -> str:
+    if not math.isfinite(v):
+        return "-"
+    a = abs(v)
+    if a != 0.0 and (a < 1e-3 or a >= 1e5):
+        return f"{v:.3g}"
+    return f"{v:.3g}" if a < 1.0 else f"{v:.4g}"
+
+
+def objective_text(result: StageResult, i: int) -> str:
+    return ", ".join(f"{o} {_fmt(float(result.F[i, k]))}" for k, o in enumerate(result.objectives))
+
+
+def front_order(result: StageResult) -> tuple[int, ...]:
+    """The feasible front's distinct members, sorted by the first objective (then the others)."""
+    front = list(dict.fromkeys(result.shortlist.front))
+    if not front:
+        return ()
+    F = result.F[front]
+    order = np.lexsort(tuple(F[:, k] for k in range(F.shape[1] - 1, -1, -1)))
+    return tuple(front[j] for j in order)
+
+
+def candidates(result: StageResult) -> tuple[Candidate, ...]:
+    """Knee candidates (ranked), the best member per objective, then the whole front in order.
+
+    With nothing feasible: the least-violation member alone (the automatic pick's fallback).
+    """
+    sl = result.shortlist
+    out: list[Candidate] = []
+    seen: set[int] = set()
+
+    def add(i: int, kind: str, tag: str) -> None:
+        if i in seen:
+            return
+        seen.add(i)
+        out.append(Candidate(i, kind, tag, f"{tag} · #{i} · {objective_text(result, i)}"))
+
+    for j, i in enumerate(sl.knees):
+        add(i, "knee", f"K{j + 1}")
+    for o, i in zip(result.objectives, sl.best, strict=False):
+        add(i, "best", f"best {o}")
+    for j, i in enumerate(front_order(result)):
+        add(i, "front", f"front {j + 1}")
+    if not out and sl.fallback is not None:
+        add(sl.fallback, "fallback", "least violation")
+    return tuple(out)
+
+
+def compared_metrics(result: StageResult, constraint_metrics: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """Metric names the Pick panel compares: objectives, constrained metrics, then the paper's report metrics."""
+    names = list(result.objectives) + [m for m in constraint_metrics if m != "violation"]
+    names += [m for m in REPORT_METRICS if m in result.metrics]
+    names.append("violation")
+    return tuple(n for n in dict.fromkeys(names) if n in result.metrics)
+
+
+def comparison(result: StageResult, member: int, start: Mapping[str, float], names: tuple[str, ...],
+               labels: Mapping[str, str]) -> list[tuple[str, str, str]]:
+    """Rows ``(label, start value, candidate value)`` for the compared metrics."""
+    rows = []
+    for n in names:
+        cand = float(result.metrics[n][member])
+        rows.append((labels.get(n, n), _fmt(float(start.get(n, math.nan))), _fmt(cand)))
+    return rows
+
+
+def start_design(result: StageResult) -> Design:
+    """The design a stage started from (its box centre)."""
+    return Design(result.mechanism, np.asarray(result.box.center)[None, :], result.output)
+
+
+@dataclass(frozen=True)
+class HistoryRow:
+    """One stage of the lineage: name, status, pick and its objective values."""
+
+    name: str
+    title: str
+    status: str
+    generations: str
+    feasible: int
+    front: int
+    pick: str
+    values: str
+    parent: str
+
+
+def history_rows(results: list[StageResult | None], titles: Mapping[str, str], names: list[str],
+                 status: Mapping[str, str]) -> list[HistoryRow]:
+    """The lineage table: every stage of the pipeline, run or not."""
+    rows = []
+    for name, r in zip(names, results, strict=True):
+        title = titles.get(name, name)
+        if r is None:
+            rows.append(HistoryRow(name, title, "not run", "", 0, 0, "", "", ""))
+            continue
+        i = r.picked
+        rows.append(HistoryRow(
+            name, title, status.get(name, r.status), f"{r.generation}/{r.n_gen}", int(r.feasible.sum()),
+            len(set(r.front)), "" if i is None else f"#{i}", "" if i is None else objective_text(r, i),
+            "" if r.parent_pick is None else f"from #{r.parent_pick}",
+        ))
+    return rows

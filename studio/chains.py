@@ -1,0 +1,145 @@
+"""Which stages the Stages panel offers for a mechanism, and how each becomes a ``StageSpec``.
+
+A chain is the paper's hierarchy: predesign -> subtask 1 -> 2 -> 3 for the six-bars (spec §6
+boxes: global bounds, then 20 %/20 mm, 10 %/10 mm, 5 %/5 mm around the previous pick), RTCLM
+subtask 1 -> 2 for the RTCLM (paper §4.2, both over the global bounds as in ``clm design``'s
+configurations, early stop at [0.5, 0.5] mm). Stages whose problem is
+not registered are left out, and any registered problem can be run in a stage's place
+(``core.optimize.problem.problem_names``), so new problems appear without touching the studio.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from core.mechanisms.model import Mechanism
+from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
+from core.optimize.box import SUBTASK_STEPS
+from core.optimize.problem import ProblemSpec, make_problem, problem_names
+from core.optimize.stage import StageSpec
+from studio.target import TargetSpec
+
+MAX_POP = 2000
+MAX_GEN = 5000
+
+
+@dataclass(frozen=True)
+class ChainStage:
+    """One stage of a chain.
+
+    Attributes:
+        name: stage name (unique in its chain; also the default problem).
+        title: what the designer reads (``Subtask 1 -> X1``).
+        s, d: box rule around the previous pick (spec §6); ``s = None``: global bounds.
+        stop_below: early stop once a feasible member has every objective <= these (None: off).
+        pick: automatic pick when the stage completes (``StageResult.choose``); the designer can change it.
+        pop_size, n_gen: default population and generations offered in the panel.
+    """
+
+    name: str
+    title: str
+    s: float | None = None
+    d: float = 0.0
+    stop_below: tuple[float, ...] | None = None
+    pick: str = "knee"
+    pop_size: int = 40
+    n_gen: int = 30
+
+
+def _step(k: int) -> tuple[float, float]:
+    return SUBTASK_STEPS[k]
+
+
+SIX_BAR = (
+    ChainStage("predesign", "Predesign → X0", None, 0.0, pop_size=100, n_gen=40),
+    ChainStage("subtask1", "Subtask 1 → X1 (shape, position)", *_step(1)),
+    ChainStage("subtask2", "Subtask 2 → X2 (h_s, I)", *_step(2), pick="best:h_s"),
+    ChainStage("subtask3", "Subtask 3 → X3 (fine-tuning)", *_step(3), pick="best:I"),
+)
+# As assets/configs/rtclm_case*.toml (``clm design``): both subtasks over the global bounds (subtask 2
+# holds subtask 1's h6 as a constraint and starts from its pick, seeded into the population).
+RTCLM = (
+    ChainStage("rtclm1", "RTCLM subtask 1 (primary mode, h6)", None, 0.0, stop_below=(0.5,), pick="best:dh6",
+               pop_size=50, n_gen=50),
+    ChainStage("rtclm2", "RTCLM subtask 2 (auxiliary mode, h4)", None, 0.0, stop_below=(0.5, 0.5), pick="best:dh4",
+               pop_size=50, n_gen=50),
+)
+
+
+def chain_for(mechanism: Mechanism) -> tuple[ChainStage, ...]:
+    """The stages offered for a mechanism whose problems are registered (in order)."""
+    chain = RTCLM if mechanism.name.startswith("rtclm") else SIX_BAR
+    known = set(problem_names())
+    return tuple(c for c in chain if c.name in known)
+
+
+def find(chain: tuple[ChainStage, ...], name: str) -> ChainStage:
+    for c in chain:
+        if c.name == name:
+            return c
+    raise ValueError(f"no stage {name!r}; stages: {', '.join(c.name for c in chain)}")
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """What the designer sets for one stage: problem, algorithm, population, generations, seed."""
+
+    problem: str
+    algorithm: str = "nsga2"
+    pop_size: int = 40
+    n_gen: int = 30
+    seed: int = 1
+
+    def __post_init__(self) -> None:
+        if self.algorithm not in ALGORITHMS:
+            raise ValueError(f"unknown algorithm {self.algorithm!r}; known: {', '.join(ALGORITHMS)}")
+        for name, lo, hi in (("pop_size", 2, MAX_POP), ("n_gen", 1, MAX_GEN), ("seed", 0, 2**31 - 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+                what = {"pop_size": "population", "n_gen": "generations", "seed": "seed"}[name]
+                raise ValueError(f"{what} must be a whole number in [{lo}, {hi}], got {v!r}")
+
+    def to_dict(self) -> dict[str, object]:
+        return {"problem": self.problem, "algorithm": self.algorithm, "pop_size": self.pop_size,
+                "n_gen": self.n_gen, "seed": self.seed}
+
+    @staticmethod
+    def from_dict(data: object) -> RunSettings:
+        if not isinstance(data, dict):
+            raise ValueError(f"stage settings must be an object, got {data!r}")
+        unknown = [k for k in data if k not in ("problem", "algorithm", "pop_size", "n_gen", "seed")]
+        if unknown:
+            raise ValueError(f"unknown stage setting {unknown[0]!r}")
+        if not isinstance(data.get("problem"), str):
+            raise ValueError(f"stage settings need a problem name, got {data.get('problem')!r}")
+        d = RunSettings(str(data["problem"]))
+        return RunSettings(str(data["problem"]), data.get("algorithm", d.algorithm), data.get("pop_size", d.pop_size),
+                           data.get("n_gen", d.n_gen), data.get("seed", d.seed))
+
+
+def default_settings(stage: ChainStage) -> RunSettings:
+    return RunSettings(stage.name, pop_size=stage.pop_size, n_gen=stage.n_gen)
+
+
+def build_problem(name: str, target: TargetSpec) -> ProblemSpec:
+    """A registered problem against the studio's target (problems without a ``target`` option get none)."""
+    try:
+        return make_problem(name, target=target.option())
+    except ValueError as exc:
+        if "unknown option 'target'" not in str(exc):
+            raise
+    return make_problem(name)
+
+
+def stage_spec(stage: ChainStage, settings: RunSettings, target: TargetSpec) -> StageSpec:
+    """The ``StageSpec`` a run of ``stage`` uses; ValueError naming the problem if it cannot be built."""
+    problem = build_problem(settings.problem, target)
+    stop = stage.stop_below
+    if stop is not None and len(stop) != problem.n_obj:
+        stop = None  # another problem in this slot: the chain's early-stop rule does not apply
+    pick = stage.pick
+    if pick.startswith("best:") and pick[5:] not in problem.objectives:
+        pick = "knee"
+    algorithm = AlgorithmSpec(settings.algorithm, settings.pop_size)
+    return StageSpec(stage.name, problem, s=stage.s, d=stage.d, algorithm=algorithm, n_gen=settings.n_gen,
+                     seed=settings.seed, stop_below=stop, pick=pick)

@@ -1,0 +1,75 @@
+"""Files the studio hands out: the design (JSON), its trajectories (CSV), the Pareto chart (HTML).
+
+Pure: each function returns bytes (or text). The self-contained scene HTML needs the server's
+scene and lives in ``studio.scene``; the session JSON in ``studio.state``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import re
+
+import numpy as np
+import plotly.graph_objects as go
+
+from core.validate import design_to_dict
+from studio.state import DesignView
+
+CSV_COLUMNS = ("sample", "theta_rad", "t_s", "x_design_mm", "y_design_mm", "x_leg_mm", "y_leg_mm", "stance",
+               "x_target_mm", "y_target_mm", "x_target_leg_mm", "y_target_leg_mm")
+
+
+def slug(text: str) -> str:
+    """A file-name-safe version of a name (``stephenson1/X3`` -> ``stephenson1-X3``)."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-") or "design"
+
+
+def design_json(view: DesignView) -> bytes:
+    """The current design in the design JSON format (``clm simulate --design`` reads it)."""
+    data = design_to_dict(view.design)
+    if view.preset is not None:
+        data["source"] = f"clm-studio, edited from preset {view.preset}" if view.edited else view.preset
+    return (json.dumps(data, indent=2) + "\n").encode()
+
+
+def _cell(v: float) -> str:
+    return "" if not math.isfinite(v) else repr(float(v))
+
+
+def trajectories_csv(view: DesignView) -> bytes:
+    """One row per crank sample: crank angle, time, the tracked point in the design and leg frames,
+    stance (1) or swing (0), and the target in both frames (mm, rad, s; empty cells where the
+    mechanism does not assemble)."""
+    sol = view.solution
+    n = view.n_samples
+    stance = view.stance
+    out = io.StringIO()
+    out.write(",".join(CSV_COLUMNS) + "\n")
+    period = view.target.period
+    for i in range(n):
+        p, q = sol.point[0, i], sol.leg[0, i]
+        s = "" if stance is None else str(int(stance[i]))
+        cells = [str(i), repr(float(sol.theta[i])), repr(i * period / n), _cell(p[0]), _cell(p[1]), _cell(q[0]),
+                 _cell(q[1]), s, _cell(view.target_design[i, 0]), _cell(view.target_design[i, 1]),
+                 _cell(view.target_leg[i, 0]), _cell(view.target_leg[i, 1])]
+        out.write(",".join(cells) + "\n")
+    return out.getvalue().encode()
+
+
+def figure_html(fig: go.Figure, title: str) -> bytes:
+    """A plotly figure as one self-contained HTML page (plotly.js inlined: works offline, no CDN)."""
+    return fig.to_html(include_plotlyjs=True, full_html=True,
+                       config={"displaylogo": False, "showSendToCloud": False},
+                       default_width="100%", default_height="90vh").replace(
+        "<head>", f"<head><title>{title}</title>", 1).encode()
+
+
+def parse_trajectories_csv(data: bytes) -> dict[str, np.ndarray]:
+    """Columns of :func:`trajectories_csv` output as float arrays (NaN for empty cells); for tests and tools."""
+    lines = data.decode().strip().splitlines()
+    head = lines[0].split(",")
+    rows = [[float(c) if c else math.nan for c in line.split(",")] for line in lines[1:]]
+    arr = np.array(rows, dtype=np.float64)
+    return {h: arr[:, k] for k, h in enumerate(head)}

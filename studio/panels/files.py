@@ -1,0 +1,63 @@
+"""Session and export panel: download / load the session, export the design, its trajectories, the Pareto
+chart and the animated scene.
+
+Downloads go to the client that asked (``ClientHandle.send_file_download``). A malformed upload
+gets a red notification naming the problem and changes nothing.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+if TYPE_CHECKING:
+    from studio.app import Studio
+
+
+class FilesPanel:
+    """Buttons for every file the studio reads or writes."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        self.folder = gui.add_folder("Session and export", order=order, expand_by_default=False)
+        with self.folder:
+            self.download = gui.add_button("Download session", icon=viser.Icon.DOWNLOAD,
+                                           hint="the whole session as JSON: design, target, pipeline, branches")
+            self.load = gui.add_upload_button("Load session", icon=viser.Icon.UPLOAD, mime_type="application/json",
+                                              hint="a session JSON saved by the studio (the current one is replaced)")
+            self.design = gui.add_button("Design (JSON)", icon=viser.Icon.FILE_DOWNLOAD,
+                                         hint="the current design; clm simulate --design reads it")
+            self.csv = gui.add_button("Trajectories (CSV)", icon=viser.Icon.FILE_DOWNLOAD,
+                                      hint="design-frame path, bench trajectory, stance, target per crank sample")
+            self.pareto = gui.add_button("Pareto chart (HTML)", icon=viser.Icon.FILE_DOWNLOAD,
+                                         hint="the chart as a self-contained page (PNG: camera icon on the chart)")
+            self.scene = gui.add_button("Animated scene (HTML)", icon=viser.Icon.FILE_DOWNLOAD,
+                                        hint="one crank revolution of the scene, self-contained (works offline)")
+        self.download.on_click(self._send(self.studio.session_file))
+        self.design.on_click(self._send(self.studio.design_file))
+        self.csv.on_click(self._send(self.studio.trajectories_file))
+        self.pareto.on_click(self._send(self.studio.pareto_file))
+        self.scene.on_click(self._send(self.studio.scene_file))
+        self.load.on_upload(self._on_load)
+
+    def _send(self, make: Any) -> Any:
+        def handler(event: viser.GuiEvent[Any]) -> None:
+            client = event.client
+            if client is None:
+                return
+            try:
+                name, content = make()
+            except ValueError as exc:
+                self.studio.notify(client, "Nothing to export", str(exc))
+                return
+            client.send_file_download(name, content, save_immediately=True)
+
+        return handler
+
+    def _on_load(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        f = self.load.value
+        self.studio.load_session_bytes(f.name, f.content, event.client)

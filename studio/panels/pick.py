@@ -1,0 +1,134 @@
+"""Pick panel: choose among the knee shortlist and the whole front of the shown stage; pass it on.
+
+viser sends no plotly click events, so candidates are chosen with a dropdown (knees, best per
+objective, then the front), a slider over the front, or the clickable spheres in the scene.
+Picking animates the candidate at once (it becomes the editor's design) and compares its metrics
+with the design the stage started from. "Use for next stage" commits the pick; the Stages panel
+then shows the next stage's search box.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import viser
+
+from studio.candidates import (
+    Candidate,
+    candidates,
+    compared_metrics,
+    comparison,
+    front_order,
+    objective_text,
+    start_design,
+)
+from studio.panels._inputs import set_value
+from studio.study import StudyView
+from studio.tables import compare_html
+
+if TYPE_CHECKING:
+    from studio.app import Studio
+
+NONE = "(no candidates yet)"
+
+
+class PickPanel:
+    """Candidate dropdown, front slider, "Use for next stage", and the comparison table."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        self._cands: tuple[Candidate, ...] = ()
+        self._front: tuple[int, ...] = ()
+        self._stage: str | None = None
+        self._start_cache: dict[int, dict[str, float]] = {}
+        self._key: object = None
+        self.folder = gui.add_folder("Pick", order=order)
+        with self.folder:
+            self.candidate = gui.add_dropdown("Candidate", (NONE,), disabled=True,
+                                              hint="knee candidates (K1 best), best per objective, then the front")
+            self.slider = gui.add_slider("Front member", 1, 2, 1, 1, disabled=True,
+                                         hint="the front sorted by its first objective")
+            self.use = gui.add_button("Use for next stage", icon=viser.Icon.ARROW_RIGHT, disabled=True,
+                                      hint="pass this candidate on: the next stage searches around it")
+            self.table = gui.add_html("")
+        self.candidate.on_update(self._on_candidate)
+        self.slider.on_update(self._on_slider)
+        self.use.on_click(self._on_use)
+
+    def show(self, sv: StudyView) -> None:
+        r = sv.result(sv.viewing)
+        running = sv.status.running
+        key = (id(r), sv.shown, running, sv.viewing)
+        if key == self._key:
+            return
+        self._key = key
+        self._stage = sv.viewing
+        if r is None or r.pop == 0:
+            self._cands, self._front = (), ()
+            self.candidate.options = (NONE,)
+            self.candidate.disabled = self.slider.disabled = self.use.disabled = True
+            self.table.content = ""
+            return
+        self._cands = candidates(r)
+        self._front = front_order(r)
+        labels = tuple(c.label for c in self._cands) or (NONE,)
+        if tuple(self.candidate.options) != labels:
+            self.candidate.options = labels
+        current = next((c.label for c in self._cands if c.member == sv.shown), None)
+        if current is None and sv.shown is not None:  # a member off the list (e.g. infeasible): add it
+            extra = f"#{sv.shown} · {objective_text(r, sv.shown)}"
+            self.candidate.options = (*labels, extra)
+            current = extra
+        if current is not None:
+            set_value(self.candidate, current)
+        n = len(self._front)
+        self.slider.max = max(n, 2)
+        self.slider.disabled = running or n < 2
+        if sv.shown in self._front:
+            set_value(self.slider, self._front.index(sv.shown) + 1)
+        self.candidate.disabled = running
+        k = sv.names.index(sv.viewing) if sv.viewing in sv.names else -1
+        self.use.disabled = running or sv.shown is None or k < 0 or k + 1 >= len(sv.names)
+        self.table.content = self._table(sv, r)
+
+    def _table(self, sv: StudyView, r: Any) -> str:
+        if sv.shown is None:
+            return ""
+        spec = sv.specs.get(sv.viewing or "")
+        labels = dict(spec.problem.labels) if spec is not None else {}
+        cons = tuple(c.metric for c in spec.problem.constraints) if spec is not None else ()
+        start = self._start_cache.get(id(r))
+        if start is None:
+            start = {}
+            if spec is not None:
+                try:
+                    m = spec.problem.evaluate_metrics(start_design(r))
+                    start = {k: float(np.asarray(v)[0]) for k, v in m.items()}
+                except ValueError:
+                    start = {}
+            self._start_cache = {id(r): start}
+        rows = comparison(r, sv.shown, start, compared_metrics(r, cons), labels)
+        return compare_html(rows, "start", f"#{sv.shown}")
+
+    # Callbacks -------------------------------------------------------------------------------
+
+    def _on_candidate(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None or self._stage is None:
+            return
+        member = next((c.member for c in self._cands if c.label == self.candidate.value), None)
+        if member is not None:
+            self.studio.pick(self._stage, member, event.client)
+
+    def _on_slider(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None or self._stage is None or not self._front:
+            return
+        j = int(round(float(self.slider.value))) - 1
+        if 0 <= j < len(self._front):
+            self.studio.pick(self._stage, self._front[j], event.client)
+
+    def _on_use(self, event: viser.GuiEvent[Any]) -> None:
+        if self._stage is None:
+            return
+        self.studio.use_for_next(self._stage, event.client)

@@ -1,0 +1,208 @@
+"""Stages panel: choose a stage of the chain, its start, problem and algorithm settings; Run, Stop, progress.
+
+The stage list follows the editor's mechanism (``studio.chains``); the problem list is the whole
+problem registry. Only one run at a time: the Run button is disabled while a stage runs, and the
+runner refuses a second start (a double click starts one run). Settings are kept per stage.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+from core.optimize.algorithms import ALGORITHMS
+from core.optimize.problem import problem_names
+from studio.chains import MAX_GEN, MAX_POP, RunSettings, find
+from studio.panels._inputs import ValidatedNumbers, set_value
+from studio.study import StudyView
+from studio.tables import box_html
+
+if TYPE_CHECKING:
+    from studio.app import Studio
+
+FROM_EDITOR = "the design in the editor"
+FROM_PICK = "the previous stage's pick"
+
+
+class StagesPanel:
+    """Stage, start, problem, algorithm, population, generations, seed; Run / Stop; progress and status."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        self._titles: dict[str, str] = {}
+        self.folder = gui.add_folder("Stages", order=order)
+        with self.folder:
+            self.stage = gui.add_dropdown("Stage", ("-",), hint="the stage to run (paper §3.1-3.2, §4.2)")
+            self.start = gui.add_dropdown("Start from", (FROM_EDITOR, FROM_PICK), initial_value=FROM_EDITOR,
+                                          hint="the editor's design starts a new pipeline at this stage; the previous "
+                                               "stage's pick continues the current one")
+            self.problem = gui.add_dropdown("Problem", tuple(problem_names()) or ("-",),
+                                            hint="any registered problem can run in this stage's place")
+            self.algorithm = gui.add_dropdown("Algorithm", tuple(ALGORITHMS), initial_value="nsga2",
+                                              hint=", ".join(f"{k}: {v.title}" for k, v in ALGORITHMS.items()))
+            self.pop_size = gui.add_number("Population", 40, min=2, max=MAX_POP, step=1, hint="members per generation")
+            self.n_gen = gui.add_number("Generations", 30, min=1, max=MAX_GEN, step=1,
+                                        hint="generations (the first evaluates the initial population)")
+            self.seed = gui.add_number("Seed", 1, min=0, max=2**31 - 1, step=1,
+                                       hint="seed of the algorithm and the initial sample")
+            with gui.add_folder("Search box", expand_by_default=False):
+                self.box = gui.add_html("")
+            self.run = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY,
+                                      hint="run the stage; one run at a time")
+            self.stop = gui.add_button("Stop", color="red", icon=viser.Icon.PLAYER_STOP, disabled=True,
+                                       hint="stop after the current generation (the partial result is kept)")
+            self.progress = gui.add_progress_bar(0.0, animated=False)
+            self.status = gui.add_markdown("Idle.")
+        self.stage.on_update(self._on_stage)
+        self.start.on_update(self._on_start)
+        self.problem.on_update(self._on_choice)
+        self.algorithm.on_update(self._on_choice)
+        self._numbers = ValidatedNumbers(studio)
+        for key, number, what in (("pop_size", self.pop_size, "Population"), ("n_gen", self.n_gen, "Generations"),
+                                  ("seed", self.seed, "Seed")):
+            self._numbers.bind(key, number, apply=self._setter(key), current=self._getter(key), what=what)
+        self.run.on_click(self._on_run)
+        self.stop.on_click(self._on_stop)
+
+    # Mirror ----------------------------------------------------------------------------------
+
+    def show(self, sv: StudyView) -> None:
+        self._titles = {c.title: c.name for c in sv.chain}
+        titles = tuple(self._titles) or ("(no stage for this mechanism)",)
+        if tuple(self.stage.options) != titles:
+            self.stage.options = titles
+        current = next((c.title for c in sv.chain if c.name == sv.next_stage), titles[0])
+        set_value(self.stage, current)
+        set_value(self.start, FROM_PICK if sv.from_pick else FROM_EDITOR)
+        s = sv.settings
+        if s is not None:
+            names = tuple(problem_names())
+            if s.problem not in names:
+                names = (*names, s.problem)
+            if tuple(self.problem.options) != names:
+                self.problem.options = names
+            set_value(self.problem, s.problem)
+            set_value(self.algorithm, s.algorithm)
+            set_value(self.pop_size, s.pop_size)
+            set_value(self.n_gen, s.n_gen)
+            set_value(self.seed, s.seed)
+        running = sv.status.running
+        for h in (self.stage, self.start, self.problem, self.algorithm, self.pop_size, self.n_gen, self.seed):
+            h.disabled = running or not sv.chain
+        self.run.disabled = running or not sv.chain
+        self.stop.disabled = not running or sv.status.state == "stopping"
+        set_value(self.progress, float(min(100.0, 100.0 * sv.status.fraction)))
+        self.progress.animated = running
+        self.status.content = self._status(sv)
+        if sv.box is None:
+            self.box.content = f'<div style="font-size:0.8em;padding:0 0.75em">{sv.box_note}</div>'
+        else:
+            mech = self.studio.session.view.design.mechanism
+            units = {p.name: p.unit for p in mech.params}
+            self.box.content = box_html(sv.box, units, f"{sv.next_stage}: {sv.box_note}")
+
+    @staticmethod
+    def _status(sv: StudyView) -> str:
+        st = sv.status
+        if st.state == "running":
+            return f"**Running** {st.stage}: generation {st.generation}/{st.n_gen} ({st.elapsed:.1f} s)"
+        if st.state == "stopping":
+            return f"**Stopping** {st.stage} after generation {st.generation}…"
+        if st.stage is None:
+            return "Idle. Choose a stage and press Run."
+        mark = "" if st.ok else "⚠ "
+        return f"{mark}Last run: {st.stage} {st.message} ({st.elapsed:.1f} s)."
+
+    # Callbacks -------------------------------------------------------------------------------
+
+    def _stage_name(self) -> str | None:
+        return self._titles.get(self.stage.value)
+
+    def _on_stage(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        name = self._stage_name()
+        if name is None:
+            return
+        session = self.studio.session
+        with session.lock:
+            study = session.study
+            study.next_stage = name
+            # Continue the pipeline when it can (the previous stage has a result), else start fresh.
+            study.from_pick = study.next_box(name, session.view.target) is not None
+            study.touch()
+        self.studio.refresh()
+
+    def _on_start(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        session = self.studio.session
+        with session.lock:
+            session.study.from_pick = self.start.value == FROM_PICK
+            session.study.touch()
+        self.studio.refresh()
+
+    def _change(self, **values: object) -> RunSettings:
+        """Change the selected stage's settings; ValueError (nothing changed) if invalid."""
+        name = self._stage_name()
+        if name is None:
+            raise ValueError("no stage selected")
+        session = self.studio.session
+        with session.lock:
+            if session.study.status.running:
+                raise ValueError("a stage is running")
+            stage = find(self.studio.chain(), name)
+            new = replace(session.study.settings_for(stage), **values)  # type: ignore[arg-type]
+            session.study.settings[name] = new
+            session.study.touch()
+            return new
+
+    def _setter(self, key: str) -> Callable[[float], object]:
+        return lambda v: self._change(**{key: _whole(v)})
+
+    def _getter(self, key: str) -> Callable[[], float]:
+        def get() -> float:
+            name = self._stage_name()
+            session = self.studio.session
+            with session.lock:
+                if name is None:
+                    return float(getattr(self.pop_size, "value", 0))
+                return float(getattr(session.study.settings_for(find(self.studio.chain(), name)), key))
+
+        return get
+
+    def _on_choice(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        try:
+            self._change(problem=str(self.problem.value), algorithm=str(self.algorithm.value))
+        except ValueError as exc:
+            self.studio.notify(event.client, "Setting not applied", str(exc))
+        self.studio.refresh()
+
+    def close(self) -> None:
+        self._numbers.cancel_all()
+
+    def _on_run(self, event: viser.GuiEvent[Any]) -> None:
+        try:
+            self.studio.start_run()
+        except ValueError as exc:
+            if "already running" in str(exc):
+                return  # a second click of a double click: the first one started the run
+            if event.client is not None:
+                self.studio.notify(event.client, "Stage not started", str(exc))
+        self.studio.refresh()
+
+    def _on_stop(self, event: viser.GuiEvent[Any]) -> None:
+        self.studio.runner.stop()
+        self.studio.refresh()
+
+
+def _whole(v: object) -> int:
+    if isinstance(v, bool) or not isinstance(v, int | float) or v != int(v):
+        raise ValueError(f"expected a whole number, got {v!r}")
+    return int(v)

@@ -1,0 +1,79 @@
+"""Walking panel: biped module or quadruped, the obstacle's size (a, b) and where it stands, and the
+walking metrics h_m, h_bar, psi2, psi4 (their obstacle is this one)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+from studio.panels._inputs import ValidatedNumbers, set_value
+from studio.scene import walk_text
+from studio.state import DesignView
+
+if TYPE_CHECKING:
+    from studio.app import Studio
+
+ROBOTS = {"biped module (ψ₂)": "biped", "quadruped (ψ₄)": "quadruped"}
+
+
+class WalkingPanel:
+    """Robot dropdown, obstacle a and b, obstacle place slider, and a status line."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        walk = studio.session.view.walk
+        self._numbers = ValidatedNumbers(studio)
+        self.folder = gui.add_folder("Walking and obstacle", order=order, expand_by_default=False)
+        with self.folder:
+            self.robot = gui.add_dropdown("Robot", tuple(ROBOTS), initial_value=self._robot_label(walk.layout),
+                                          hint="legs drawn in the walking view")
+            self.a = gui.add_number("Obstacle a [mm]", float(walk.a), min=0.0, step=1.0, hint="obstacle length")
+            self.b = gui.add_number("Obstacle b [mm]", float(walk.b), min=0.0, step=1.0, hint="obstacle height")
+            self.place = gui.add_slider("Obstacle place [%]", 0.0, 100.0, 1.0, 100.0 * float(walk.place),
+                                        hint="where the obstacle stands within one stride")
+            self.status = gui.add_markdown("")
+        self.robot.on_update(self._on_robot)
+        self.place.on_update(self._on_place)
+        for key, h in (("a", self.a), ("b", self.b)):
+            self._numbers.bind(key, h, apply=self._setter(key), current=self._getter(key), what=f"obstacle {key}")
+        self.show(studio.session.view)
+
+    @staticmethod
+    def _robot_label(layout: str) -> str:
+        return next(k for k, v in ROBOTS.items() if v == layout)
+
+    def _setter(self, key: str) -> Callable[[float], object]:
+        return lambda v: self.studio.session.set_walk(**{key: float(v)})
+
+    def _getter(self, key: str) -> Callable[[], float]:
+        return lambda: float(getattr(self.studio.session.view.walk, key))
+
+    def close(self) -> None:
+        self._numbers.cancel_all()
+
+    def show(self, view: DesignView) -> None:
+        w = view.walk
+        set_value(self.robot, self._robot_label(w.layout))
+        set_value(self.a, float(w.a))
+        set_value(self.b, float(w.b))
+        set_value(self.place, round(100.0 * float(w.place)))
+        if view.walking is None:
+            self.status.content = "No walking trajectory: the bench trajectory is not well defined."
+            return
+        crossed = "**blocked** (a foot path enters it)" if view.walking.hit else "crossed"
+        self.status.content = f"{walk_text(view)}  \nObstacle at this place: {crossed}."
+
+    def _on_robot(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        self.studio.session.set_walk(layout=ROBOTS[str(self.robot.value)])
+        self.studio.refresh()
+
+    def _on_place(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None:
+            return
+        self.studio.session.set_walk(place=min(1.0, max(0.0, float(self.place.value) / 100.0)))
+        self.studio.refresh()

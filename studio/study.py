@@ -1,0 +1,538 @@
+"""The optimization side of a session: the pipeline, its branches, picks, run status, and the runner.
+
+Pure state (no viser). A :class:`Study` holds one ``core.optimize.Pipeline`` (one lineage
+X0 -> X1 -> ...), the branches the designer left behind (each a frozen copy of a whole pipeline
+as JSON), which stage is shown, which member of each stage is shown, and the run settings per
+stage. Every method is called under the owning session's lock.
+
+Rules:
+- Running a stage from the design in the editor starts a new pipeline at that stage.
+- Running a stage from the previous stage's pick, or changing a pick that later stages grew
+  from, first keeps the current pipeline as a branch (results are immutable, so a branch is a
+  copy of the JSON), then re-records: the pipeline itself keeps one lineage.
+- A finished stage's pick is its chain rule (knee, or best h_s / I as the paper prioritises);
+  the designer's pick replaces it.
+
+The :class:`Runner` drives one stage in a worker thread, generation by generation, recording
+the partial result after every generation (so a session saved then loses nothing), and stops
+between generations when its cancel event is set. Only one run at a time: ``start`` checks and
+marks the run under the lock, so a double-clicked Run starts one run.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from core.design import Design
+from core.optimize.box import Box, global_box, search_box
+from core.optimize.pipeline import Pipeline
+from core.optimize.result import StageResult, encode
+from core.optimize.stage import Progress, StageSpec
+from studio.chains import ChainStage, RunSettings, default_settings, stage_spec
+from studio.target import TargetSpec, curve_file
+
+RUN_STATES = ("idle", "running", "stopping")
+
+
+@dataclass(frozen=True)
+class RunStatus:
+    """What the Stages panel shows about the run.
+
+    Attributes:
+        state: ``idle``, ``running`` or ``stopping``.
+        stage: name of the stage running (or last run).
+        generation, n_gen: progress.
+        message: the last run's outcome (``complete``, ``cancelled at generation 3``, an error).
+        ok: False if the last run failed.
+        elapsed: compute time of the run so far (s).
+    """
+
+    state: str = "idle"
+    stage: str | None = None
+    generation: int = 0
+    n_gen: int = 0
+    message: str = ""
+    ok: bool = True
+    elapsed: float = 0.0
+
+    @property
+    def running(self) -> bool:
+        return self.state != "idle"
+
+    @property
+    def fraction(self) -> float:
+        return self.generation / self.n_gen if self.n_gen else 0.0
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A pipeline the designer left (a JSON copy, restorable)."""
+
+    label: str
+    pipeline: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    """A prepared run: the pipeline it records into, the stage index, the pick it starts from, the spec."""
+
+    pipeline: Pipeline
+    index: int
+    pick: int | None
+    spec: StageSpec
+    stage: ChainStage
+
+
+def status_text(r: StageResult) -> str:
+    if r.status == "running":
+        return f"interrupted at generation {r.generation}/{r.n_gen}"
+    if r.status == "cancelled":
+        return f"stopped at generation {r.generation}/{r.n_gen}"
+    if r.status == "stopped":
+        return f"target reached at generation {r.generation}"
+    return r.status
+
+
+@dataclass
+class Study:
+    """Pipeline, branches, picks shown and run settings of one session (guarded by the session's lock).
+
+    Attributes:
+        pipeline: the current lineage, or None before the first run.
+        branches: pipelines left behind, oldest first.
+        viewing: stage name shown in the Pareto and Pick panels.
+        shown: per stage name, the member shown (animated in the editor).
+        next_stage: the stage the Run button launches.
+        from_pick: launch from the previous stage's pick (else from the editor's design).
+        settings: per stage name, the run settings.
+        status: the run status.
+        live: the latest generation of the running stage.
+        version: bumped on every change (the panels redraw when it moves).
+    """
+
+    pipeline: Pipeline | None = None
+    branches: list[Branch] = field(default_factory=list)
+    viewing: str | None = None
+    shown: dict[str, int] = field(default_factory=dict)
+    next_stage: str | None = None
+    from_pick: bool = False
+    settings: dict[str, RunSettings] = field(default_factory=dict)
+    status: RunStatus = field(default_factory=RunStatus)
+    live: Progress | None = None
+    version: int = 0
+
+    def touch(self) -> None:
+        self.version += 1
+
+    # Reading -------------------------------------------------------------------------------
+
+    def stage_names(self) -> tuple[str, ...]:
+        return () if self.pipeline is None else tuple(s.name for s in self.pipeline.stages)
+
+    def index(self, name: str) -> int | None:
+        names = self.stage_names()
+        return names.index(name) if name in names else None
+
+    def result(self, name: str | None) -> StageResult | None:
+        if name is None or self.pipeline is None:
+            return None
+        k = self.index(name)
+        return None if k is None else self.pipeline.results[k]
+
+    def settings_for(self, stage: ChainStage) -> RunSettings:
+        return self.settings.get(stage.name) or default_settings(stage)
+
+    def shown_member(self, name: str | None) -> int | None:
+        """The member shown for a stage: the designer's choice, else its pick, else its automatic one."""
+        r = self.result(name)
+        if r is None or r.pop == 0:
+            return None
+        i = self.shown.get(name or "")
+        if i is not None and 0 <= i < r.pop:
+            return i
+        if r.picked is not None:
+            return r.picked
+        return r.shortlist.first
+
+    def parent_result(self, name: str) -> StageResult | None:
+        k = self.index(name)
+        if k is None or k == 0 or self.pipeline is None:
+            return None
+        return self.pipeline.results[k - 1]
+
+    def next_box(self, name: str, target: TargetSpec) -> Box | None:
+        """The box stage ``name`` would search if launched from the previous stage's pick (None if it cannot)."""
+        k = self.index(name)
+        prev = self.parent_result(name)
+        if k is None or prev is None or prev.pop == 0 or self.pipeline is None:
+            return None
+        i = prev.picked if prev.picked is not None else prev.shortlist.first
+        if i is None:
+            return None
+        return self.pipeline.stages[k].box(prev.pick(i))
+
+    # Changing ------------------------------------------------------------------------------
+
+    def keep_branch(self, why: str) -> None:
+        """Keep a copy of the current pipeline (if it has any result) as a branch."""
+        pipe = self.pipeline
+        if pipe is None or not pipe.lineage:
+            return
+        done = ", ".join(
+            f"{r.name}" + (f" #{r.picked}" if r.picked is not None else "") for r in pipe.lineage
+        )
+        label = f"{len(self.branches) + 1}: {done} ({why}, {time.strftime('%H:%M:%S')})"
+        self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None))))
+
+    def show(self, name: str, member: int) -> StageResult:
+        """Show member ``member`` of stage ``name`` (no commitment; the pipeline is unchanged)."""
+        r = self.result(name)
+        if r is None:
+            raise ValueError(f"stage {name!r} has no result to pick from")
+        if not 0 <= member < r.pop:
+            raise ValueError(f"member {member} out of range (population {r.pop})")
+        self.viewing = name
+        self.shown[name] = int(member)
+        self.touch()
+        return r
+
+    def use_for_next(self, name: str, member: int, chain: tuple[ChainStage, ...]) -> str:
+        """Commit ``member`` as stage ``name``'s pick and make the next stage the one to run.
+
+        If later stages grew from another pick, the pipeline is first kept as a branch.
+
+        Returns:
+            the next stage's name.
+        """
+        if self.status.running:
+            raise ValueError("a stage is running; stop it first")
+        pipe = self.pipeline
+        k = self.index(name)
+        r = self.result(name)
+        if pipe is None or k is None or r is None:
+            raise ValueError(f"stage {name!r} has no result to pass on")
+        if k + 1 >= pipe.n_stages:
+            raise ValueError(f"{name} is the last stage of this chain; there is no next stage")
+        if not 0 <= member < r.pop:
+            raise ValueError(f"member {member} out of range (population {r.pop})")
+        later = any(x is not None for x in pipe.results[k + 1 :])
+        if later and r.picked != member:
+            self.keep_branch(f"before picking #{member} of {name}")
+        pipe.select(k, int(member))
+        self.shown[name] = int(member)
+        nxt = pipe.stages[k + 1].name
+        self.next_stage = nxt
+        self.from_pick = True
+        self.viewing = nxt if self.result(nxt) is not None else name
+        self.touch()
+        return nxt
+
+    def restore_branch(self, j: int) -> None:
+        """Make branch j the current pipeline; the current one is kept as a branch in its place."""
+        if self.status.running:
+            raise ValueError("a stage is running; stop it first")
+        if not 0 <= j < len(self.branches):
+            raise ValueError(f"no branch {j + 1}")
+        chosen = self.branches[j]
+        pipe = Pipeline.from_dict(chosen.pipeline)
+        del self.branches[j]
+        self.keep_branch("left for a branch")
+        self.pipeline = pipe
+        last = pipe.lineage[-1].name if pipe.lineage else None
+        self.viewing = last
+        self.touch()
+
+    def plan(self, stage: ChainStage, settings: RunSettings, editor: Design, target: TargetSpec,
+             from_pick: bool, chain: tuple[ChainStage, ...]) -> RunPlan:
+        """Prepare a run of ``stage`` (ValueError naming the problem if it cannot start).
+
+        From the editor's design: a new pipeline over the chain from ``stage`` on (the old one is
+        kept as a branch). From the previous stage's pick: the current pipeline, stage k re-run
+        from stage k-1's pick (the pipeline is kept as a branch first if stage k already ran).
+        """
+        spec = stage_spec(stage, settings, target)
+        if not from_pick:
+            c = chain.index(stage)
+            specs = [spec] + [stage_spec(s, self.settings_for(s), target) for s in chain[c + 1 :]]
+            return RunPlan(Pipeline(specs, editor), 0, None, spec, stage)
+        pipe = self.pipeline
+        k = self.index(stage.name)
+        if pipe is None or k is None or k == 0:
+            raise ValueError(f"{stage.name} has no previous stage in this pipeline; start it from the editor's design")
+        prev = pipe.results[k - 1]
+        if prev is None or prev.pop == 0:
+            raise ValueError(f"run {pipe.stages[k - 1].name} first (or start {stage.name} from the editor's design)")
+        pick = prev.picked if prev.picked is not None else prev.shortlist.first
+        if pick is None:
+            raise ValueError(f"{prev.name} has no member to start from")
+        return RunPlan(pipe, k, int(pick), spec, stage)
+
+    def begin(self, plan: RunPlan) -> None:
+        """Mark the run started (caller checked nothing runs); switch pipelines or keep a branch as planned."""
+        if plan.pipeline is not self.pipeline:
+            self.keep_branch("before a new start")
+            self.pipeline = plan.pipeline
+        elif plan.pipeline.results[plan.index] is not None:
+            self.keep_branch(f"before re-running {plan.stage.name}")
+        self.viewing = plan.stage.name
+        self.next_stage = plan.stage.name
+        self.shown.pop(plan.stage.name, None)
+        self.live = None
+        self.status = RunStatus("running", plan.stage.name, 0, plan.spec.n_gen, "starting")
+        self.touch()
+
+    # JSON ----------------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "pipeline": None if self.pipeline is None else json.loads(self.pipeline.to_json(indent=None)),
+            "branches": [{"label": b.label, "pipeline": b.pipeline} for b in self.branches],
+            "viewing": self.viewing,
+            "shown": dict(self.shown),
+            "next_stage": self.next_stage,
+            "from_pick": self.from_pick,
+            "settings": {k: v.to_dict() for k, v in self.settings.items()},
+        }
+
+    @staticmethod
+    def from_dict(data: object, target: TargetSpec) -> Study:
+        """A study saved by :meth:`to_dict`; ValueError naming the first problem.
+
+        A stage whose target was an uploaded curve is pointed at the session's curve, written
+        locally (the saved path may come from another machine).
+        """
+        if data is None:
+            return Study()
+        if not isinstance(data, dict):
+            raise ValueError(f"study must be an object, got {type(data).__name__}")
+        pipe = _pipeline_from(data.get("pipeline"), target, "pipeline")
+        branches = []
+        for j, b in enumerate(data.get("branches") or []):
+            if not isinstance(b, dict) or not isinstance(b.get("pipeline"), dict):
+                raise ValueError(f"branch {j + 1} must be an object with a pipeline")
+            _pipeline_from(b["pipeline"], target, f"branch {j + 1}")  # check it loads
+            branches.append(Branch(str(b.get("label", f"branch {j + 1}")), _retarget(b["pipeline"], target)))
+        shown = data.get("shown") or {}
+        if not isinstance(shown, dict) or not all(isinstance(v, int) and not isinstance(v, bool)
+                                                  for v in shown.values()):
+            raise ValueError("study shown must map stage names to member indices")
+        settings_raw = data.get("settings") or {}
+        if not isinstance(settings_raw, dict):
+            raise ValueError("study settings must be an object")
+        settings = {str(k): RunSettings.from_dict(v) for k, v in settings_raw.items()}
+        viewing, nxt = data.get("viewing"), data.get("next_stage")
+        for key, v in (("viewing", viewing), ("next_stage", nxt)):
+            if v is not None and not isinstance(v, str):
+                raise ValueError(f"study {key} must be a stage name, got {v!r}")
+        return Study(pipeline=pipe, branches=branches, viewing=viewing,
+                     shown={str(k): int(v) for k, v in shown.items()}, next_stage=nxt,
+                     from_pick=bool(data.get("from_pick", False)), settings=settings)
+
+
+def _retarget(data: dict[str, Any], target: TargetSpec) -> dict[str, Any]:
+    """Point stage targets naming a curve file like the session's curve at its local copy."""
+    if target.curve is None:
+        return data
+    local = curve_file(target.curve)
+    out = json.loads(json.dumps(data))
+    for s in out.get("stages", []):
+        opts = s.get("problem", {}).get("options", {})
+        t = opts.get("target")
+        if isinstance(t, str) and t.rsplit("/", 1)[-1] == local.name:
+            opts["target"] = str(local)
+    return out
+
+
+def _pipeline_from(data: object, target: TargetSpec, what: str) -> Pipeline | None:
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} must be an object, got {type(data).__name__}")
+    try:
+        return Pipeline.from_dict(_retarget(data, target))
+    except (KeyError, TypeError, IndexError) as exc:
+        raise ValueError(f"{what} is malformed ({type(exc).__name__}: {exc})") from None
+    except ValueError as exc:
+        raise ValueError(f"{what}: {exc}") from None
+
+
+def progress_dict(p: Progress) -> dict[str, Any]:
+    """A Progress as plain data (tests, debugging)."""
+    return encode({"stage": p.stage, "generation": p.generation, "n_gen": p.n_gen, "F": p.F, "cv": p.cv})
+
+
+class Runner:
+    """Runs one stage at a time in a worker thread.
+
+    Args:
+        lock: the session lock guarding ``study``.
+        study: returns the current study (it may be replaced by a session load between runs).
+        on_generation: called in the worker after every generation (already recorded).
+        on_finish: called in the worker when the run ends (recorded, status updated).
+    """
+
+    def __init__(self, lock: threading.RLock, study: Callable[[], Study],
+                 on_generation: Callable[[Progress], None], on_finish: Callable[[], None]) -> None:
+        self._lock = lock
+        self._study = study
+        self._on_generation = on_generation
+        self._on_finish = on_finish
+        self._cancel = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    @property
+    def busy(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def start(self, plan_fn: Callable[[Study], RunPlan]) -> RunPlan:
+        """Plan and start a run under the lock; ValueError if one is running or the plan fails."""
+        with self._lock:
+            study = self._study()
+            if study.status.running or self.busy:
+                raise ValueError("a stage is already running; wait for it or press Stop")
+            plan = plan_fn(study)
+            study.begin(plan)
+            self._cancel = threading.Event()
+            self._thread = threading.Thread(target=self._work, args=(study, plan, self._cancel),
+                                            name=f"clm-studio-{plan.stage.name}", daemon=True)
+            self._thread.start()
+            return plan
+
+    def stop(self) -> bool:
+        """Ask the run to stop after the current generation; False if nothing runs."""
+        with self._lock:
+            study = self._study()
+            if not study.status.running:
+                return False
+            self._cancel.set()
+            study.status = replace(study.status, state="stopping", message="stopping after this generation")
+            study.touch()
+            return True
+
+    def join(self, timeout: float | None = None) -> None:
+        t = self._thread
+        if t is not None:
+            t.join(timeout)
+
+    def _work(self, study: Study, plan: RunPlan, cancel: threading.Event) -> None:
+        pipe, k = plan.pipeline, plan.index
+        message, ok = "", True
+        try:
+            stage = pipe.stage(k, pick=plan.pick, spec=plan.spec)
+            stage.setup()
+            while stage.has_next() and not cancel.is_set():
+                progress = stage.next()
+                result = stage.result()
+                with self._lock:
+                    pipe.record(k, result)
+                    study.live = progress
+                    study.status = replace(study.status, generation=progress.generation, elapsed=progress.elapsed,
+                                           message=f"generation {progress.generation}/{progress.n_gen}")
+                    study.touch()
+                self._on_generation(progress)
+            if cancel.is_set():
+                stage.cancel()
+            result = stage.result()
+            if result.status in ("complete", "stopped") and result.pop > 0:
+                result = result.with_pick(plan.spec.pick)
+            with self._lock:
+                pipe.record(k, result)
+            message = status_text(result)
+        except Exception as exc:  # noqa: BLE001 - a failing problem must not kill the studio
+            ok = False
+            message = f"failed: {exc}"
+            traceback.print_exc()
+        finally:
+            with self._lock:
+                study.live = None
+                study.status = RunStatus("idle", plan.stage.name, study.status.generation, plan.spec.n_gen, message, ok,
+                                         study.status.elapsed)
+                study.touch()
+            self._on_finish()
+
+
+
+@dataclass(frozen=True)
+class StudyView:
+    """An immutable snapshot of the study for the panels (taken under the lock, drawn without it).
+
+    Attributes:
+        key: changes whenever the study changes (identity and version).
+        chain: the stages offered for the editor's mechanism.
+        names: the pipeline's stage names; results: their results (None: not run).
+        specs: the pipeline's stage specs by name (problem labels, constraints).
+        status: the run status.
+        viewing: stage shown in the Pareto and Pick panels; shown: its member shown.
+        next_stage: the stage the Run button launches; from_pick: from the previous pick (else the editor).
+        settings: run settings of ``next_stage``.
+        box: the search box ``next_stage`` would get, or None; box_note: what it is built around.
+        branches: labels of the kept branches.
+    """
+
+    key: tuple[int, int]
+    chain: tuple[ChainStage, ...]
+    names: tuple[str, ...]
+    results: tuple[StageResult | None, ...]
+    specs: dict[str, StageSpec]
+    status: RunStatus
+    viewing: str | None
+    shown: int | None
+    next_stage: str | None
+    from_pick: bool
+    settings: RunSettings | None
+    box: Box | None
+    box_note: str
+    branches: tuple[str, ...]
+
+    def result(self, name: str | None) -> StageResult | None:
+        if name is None or name not in self.names:
+            return None
+        return self.results[self.names.index(name)]
+
+
+def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], target: TargetSpec) -> StudyView:
+    """Snapshot the study (call under the session lock)."""
+    pipe = study.pipeline
+    names = study.stage_names()
+    nxt = study.next_stage if study.next_stage in {c.name for c in chain} else (chain[0].name if chain else None)
+    stage = next((c for c in chain if c.name == nxt), None)
+    box, note = None, ""
+    if stage is not None:
+        if study.from_pick:
+            box = study.next_box(stage.name, target)
+            prev = study.parent_result(stage.name)
+            if box is not None and prev is not None:
+                i = prev.picked if prev.picked is not None else prev.shortlist.first
+                note = f"around {prev.name}'s pick #{i}"
+            else:
+                note = "no previous pick in this pipeline: run the previous stage, or start from the editor's design"
+        else:
+            center = editor.params[0]
+            box = (global_box(editor.mechanism, center) if stage.s is None
+                   else search_box(editor.mechanism, center, stage.s, stage.d))
+            note = "global bounds" if stage.s is None else "around the design in the editor"
+            if stage.s is not None:
+                note += f" (±max({100 * stage.s:g} %, {stage.d:g} mm))"
+    viewing = study.viewing if study.viewing in names else (names[0] if names else None)
+    return StudyView(
+        key=(id(study), study.version),
+        chain=chain,
+        names=names,
+        results=tuple(pipe.results) if pipe is not None else (),
+        specs={s.name: s for s in pipe.stages} if pipe is not None else {},
+        status=study.status,
+        viewing=viewing,
+        shown=study.shown_member(viewing),
+        next_stage=nxt,
+        from_pick=study.from_pick,
+        settings=None if stage is None else study.settings_for(stage),
+        box=box,
+        box_note=note,
+        branches=tuple(b.label for b in study.branches),
+    )

@@ -1,0 +1,86 @@
+"""Small HTML tables for the panels (search box, candidate comparison, lineage). Pure strings.
+
+Every table has a class and ``data-*`` attributes so tests (and the browser tests) can read
+values without parsing layout.
+"""
+
+from __future__ import annotations
+
+import html
+
+import numpy as np
+
+from core.optimize.box import Box
+from studio.candidates import HistoryRow
+
+STYLE = "width:100%;font-size:0.8em;border-collapse:collapse;padding:0 0.75em"
+NUM = "text-align:right;font-variant-numeric:tabular-nums;padding:1px 4px"
+
+
+def _e(s: object) -> str:
+    return html.escape(str(s), quote=True)
+
+
+def box_html(box: Box, units: dict[str, str], title: str = "") -> str:
+    """The search box: per parameter lower, centre (the pick it is built around), upper, and a bar
+    showing the box inside the parameter's global bounds (fixed parameters greyed)."""
+    rows = []
+    for j, name in enumerate(box.names):
+        lo, c, hi = float(box.lower[j]), float(box.center[j]), float(box.upper[j])
+        glo, ghi = float(box.bound_lo[j]), float(box.bound_hi[j])
+        width = ghi - glo if ghi > glo else 1.0
+        left = 100.0 * np.clip((lo - glo) / width, 0.0, 1.0)
+        right = 100.0 * np.clip((hi - glo) / width, 0.0, 1.0)
+        mid = 100.0 * np.clip((c - glo) / width, 0.0, 1.0)
+        fixed = bool(box.fixed[j])
+        colour = "#bbb" if fixed else "#1f77b4"
+        bar = (f'<div style="position:relative;height:8px;background:#eee;min-width:60px">'
+               f'<div style="position:absolute;left:{left:.1f}%;width:{max(right - left, 0.5):.1f}%;height:8px;'
+               f'background:{colour};opacity:0.55"></div>'
+               f'<div style="position:absolute;left:{mid:.1f}%;width:2px;height:8px;background:#d62728"></div></div>')
+        rows.append(
+            f'<tr data-param="{_e(name)}" data-lower="{lo!r}" data-center="{c!r}" data-upper="{hi!r}"'
+            f'{" data-fixed" if fixed else ""}>'
+            f'<td style="padding:1px 6px 1px 0">{_e(name)}'
+            f'<span style="opacity:0.6"> {_e(units.get(name, ""))}</span></td>'
+            f'<td style="{NUM}">{lo:.4g}</td><td style="{NUM};font-weight:600">{c:.4g}</td>'
+            f'<td style="{NUM}">{hi:.4g}</td><td style="width:35%">{bar}</td></tr>'
+        )
+    head = (f'<tr style="opacity:0.7"><th style="text-align:left">param</th><th style="{NUM}">lower</th>'
+            f'<th style="{NUM}">centre</th><th style="{NUM}">upper</th><th>in global bounds</th></tr>')
+    caption = f'<div style="font-size:0.8em;padding:0 0.75em 2px">{_e(title)}</div>' if title else ""
+    return caption + f'<table class="clm-box" style="{STYLE}">{head}{"".join(rows)}</table>'
+
+
+def compare_html(rows: list[tuple[str, str, str]], start: str, candidate: str) -> str:
+    """Metric rows ``(label, start, candidate)`` side by side."""
+    body = "".join(
+        f'<tr data-metric="{_e(label)}"><td style="padding:1px 6px 1px 0">{_e(label)}</td>'
+        f'<td style="{NUM}" data-start="{_e(a)}">{_e(a)}</td>'
+        f'<td style="{NUM};font-weight:600" data-candidate="{_e(b)}">{_e(b)}</td></tr>'
+        for label, a, b in rows
+    )
+    head = (f'<tr style="opacity:0.7"><th style="text-align:left">metric</th><th style="{NUM}">{_e(start)}</th>'
+            f'<th style="{NUM}">{_e(candidate)}</th></tr>')
+    return f'<table class="clm-compare" style="{STYLE}">{head}{body}</table>'
+
+
+def history_html(rows: list[HistoryRow]) -> str:
+    """The lineage X0 -> X1 -> ...: stage, status, generations, feasible, front size, pick and its values."""
+    body = []
+    for r in rows:
+        body.append(
+            f'<tr data-stage="{_e(r.name)}" data-status="{_e(r.status)}" data-pick="{_e(r.pick)}" '
+            f'title="{_e(r.values)}" style="border-top:1px solid #eee">'
+            f'<td style="padding:1px 6px 1px 0">{_e(r.title)}<div style="opacity:0.6">{_e(r.parent)}</div></td>'
+            f'<td>{_e(r.status)}</td><td style="{NUM}">{_e(r.generations)}</td>'
+            f'<td style="{NUM}">{r.feasible if r.generations else ""}</td>'
+            f'<td style="{NUM}">{r.front if r.generations else ""}</td>'
+            f'<td style="{NUM};font-weight:600">{_e(r.pick)}</td></tr>'
+            + (f'<tr><td colspan="6" style="opacity:0.75;padding:0 0 3px 8px">{_e(r.values)}</td></tr>'
+               if r.values else "")
+        )
+    head = (f'<tr style="opacity:0.7"><th style="text-align:left">stage</th><th style="text-align:left">status</th>'
+            f'<th style="{NUM}">gen</th><th style="{NUM}">feas.</th><th style="{NUM}">front</th>'
+            f'<th style="{NUM}">pick</th></tr>')
+    return f'<table class="clm-history" style="{STYLE}">{head}{"".join(body)}</table>'

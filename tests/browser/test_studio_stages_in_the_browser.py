@@ -1,0 +1,285 @@
+"""Stages, the Pareto chart, picks, sessions and exports in a real (headless) browser.
+
+Runs use tiny populations and few generations typed into the Stages panel. viser runs GUI
+callbacks in a thread pool, so a test waits until the server holds a typed setting before it
+clicks Run (as a person would see the field settle before clicking).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from playwright.sync_api import expect
+
+from core.validate import design_from_dict
+from studio.candidates import candidates
+from studio.chains import chain_for, find
+from studio.exports import parse_trajectories_csv
+
+SUBTASK2 = "Subtask 2 → X2 (h_s, I)"
+SUBTASK3 = "Subtask 3 → X3 (fine-tuning)"
+# The tests run subtasks 2 and 3 from the opening X3 design: two objectives (h_s, I), so the
+# chart is 2-D SVG (cheap for software rendering, and its points are countable). The 3-D chart
+# of subtask 1's three objectives is covered by tests/test_studio_pareto_and_picks.py.
+
+
+def wait_for(predicate: Any, what: str, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def choose(page: Any, label: str, option: str) -> None:
+    page.get_by_label(label, exact=True).click()
+    page.get_by_role("option", name=option, exact=True).click()
+
+
+def expand(page: Any, folder: str) -> None:
+    """Open a collapsed GUI folder (clicking its title toggles it)."""
+    title = page.get_by_text(folder, exact=True)
+    title.scroll_into_view_if_needed()
+    title.click()
+
+
+def settle(page: Any, studio: Any, stage: str, pop: int, gens: int) -> None:
+    """Type a population and a number of generations and wait until the server has them.
+
+    First wait until the panel shows the chosen stage's own settings, so the server's mirror of
+    them cannot overwrite what is typed next.
+    """
+    wait_for(lambda: studio.session.study.next_stage == stage, f"{stage} to be chosen")
+    default = studio.session.study.settings_for(find(chain_for(studio.session.view.design.mechanism), stage))
+    expect(page.get_by_label("Population", exact=True)).to_have_value(str(default.pop_size))
+    expect(page.get_by_label("Generations", exact=True)).to_have_value(str(default.n_gen))
+    page.get_by_label("Population", exact=True).fill(str(pop))
+    page.get_by_label("Generations", exact=True).fill(str(gens))
+
+    def ready() -> bool:
+        st = studio.session.study
+        s = st.settings.get(stage)
+        return st.next_stage == stage and s is not None and (s.pop_size, s.n_gen) == (pop, gens)
+
+    wait_for(ready, f"{stage} settings to reach the server")
+
+
+def run_stage(page: Any, studio: Any, title: str, stage: str, pop: int = 8, gens: int = 3,
+              double: bool = False) -> Any:
+    """Choose a stage, type tiny settings, press Run (or double-click it) and wait for the result."""
+    choose(page, "Stage", title)
+    settle(page, studio, stage, pop, gens)
+    run = page.get_by_role("button", name="Run", exact=True)
+    if double:
+        run.dblclick()
+    else:
+        run.click()
+    expect(page.get_by_text(f"Last run: {stage} complete")).to_be_visible(timeout=60_000)
+    return studio.session.study.result(stage)
+
+
+def pareto_plot(page: Any, title: str) -> Any:
+    """The Pareto chart whose title contains ``title`` (``subtask2 · complete``)."""
+    return page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text=title))
+
+
+def pareto_points(page: Any, title: str) -> Any:
+    """The drawn members of a 2-D Pareto chart (3-D charts draw in WebGL)."""
+    return pareto_plot(page, title).locator(".scatterlayer .point")
+
+
+def param_values(page: Any) -> dict[str, str]:
+    return page.evaluate("""() => {
+      const got = {};
+      for (const l of document.querySelectorAll('label[for]')) {
+        const el = document.getElementById(l.htmlFor);
+        if (el && el.tagName === 'INPUT' && l.textContent.endsWith('[mm]')) got[l.textContent] = el.value;
+      }
+      return got;
+    }""")
+
+
+def expect_params(page: Any, design: Any) -> None:
+    """Wait until the page's mm inputs show the design (the inputs round to their 0.01 mm step)."""
+    want = {f"{p.name} [{p.unit}]": float(v) for p, v in zip(design.mechanism.params, design.params[0], strict=True)
+            if p.unit == "mm"}
+
+    def shows() -> bool:
+        got = param_values(page)
+        try:
+            return all(abs(float(got[k]) - v) <= 0.0051 for k, v in want.items())
+        except (KeyError, ValueError):
+            return False
+
+    wait_for(shows, "the page to show the design")
+
+
+def notification(page: Any, title: str, reason: str) -> Any:
+    return page.locator(".mantine-Notification-root").filter(has_text=title).filter(has_text=reason).first
+
+
+def test_a_short_subtask_runs_once_on_a_double_click_and_the_pareto_chart_fills(page: Any, studio: Any,
+                                                                                 blocked: list[str]) -> None:
+    # Subtask 2 (h_s, I) from the editor's X3: a 2-D chart whose points are SVG elements.
+    r = run_stage(page, studio, SUBTASK2, "subtask2", pop=12, gens=3, double=True)
+    assert r.status == "complete" and r.pop == 12 and r.generation == 3
+    assert studio.session.study.branches == []  # a second run would have kept the first as a branch
+    points = pareto_points(page, "subtask2 · complete")
+    expect(points.first).to_be_attached()
+    n_drawn = int(np.isfinite(r.F).all(axis=1).sum())
+    wait_for(lambda: points.count() >= n_drawn, "every member in the chart")
+    plot = pareto_plot(page, "subtask2 · complete")
+    expect(plot.locator(".legendtext", has_text="knee candidates")).to_be_attached()
+    expect(plot.locator(".xtitle")).to_have_text("f4 = h_s (mm)")
+    expect(plot.locator(".ytitle")).to_have_text("f5 = I (mm/s)")
+    # The run's pick (its first knee) is animated in the editor.
+    np.testing.assert_array_equal(studio.session.view.design.params[0], r.X[r.picked])
+    expect_params(page, studio.session.view.design)
+    assert blocked == []
+
+
+def test_controls_are_disabled_while_a_stage_runs_and_stop_keeps_the_partial_result(page: Any, studio: Any) -> None:
+    choose(page, "Stage", SUBTASK2)
+    settle(page, studio, "subtask2", pop=8, gens=5000)
+    page.get_by_role("button", name="Run", exact=True).click()
+    expect(page.get_by_role("button", name="Run", exact=True)).to_be_disabled()
+    expect(page.get_by_label("Population", exact=True)).to_be_disabled()
+    stop = page.get_by_role("button", name="Stop", exact=True)
+    expect(stop).to_be_enabled()
+    stop.click()
+    wait_for(lambda: not studio.runner.busy, "the run to stop")
+    expect(page.get_by_text("Last run: subtask2 stopped at generation")).to_be_visible()
+    r = studio.session.study.result("subtask2")
+    assert r.status == "cancelled" and 0 < r.generation < 5000
+    expect(page.get_by_role("button", name="Run", exact=True)).to_be_enabled()
+
+
+def test_picking_a_candidate_animates_it_and_use_for_next_stage_starts_there(page: Any, studio: Any) -> None:
+    r2 = run_stage(page, studio, SUBTASK2, "subtask2", pop=16, gens=15)
+    canvas = page.locator("canvas").first
+    before = canvas.screenshot()
+    other = next(c for c in candidates(r2) if c.member != r2.picked)
+    choose(page, "Candidate", other.label)
+    wait_for(lambda: np.array_equal(studio.session.view.design.params[0], r2.X[other.member]),
+             "the pick to reach the server")
+    assert studio.session.study.shown_member("subtask2") == other.member
+    expect_params(page, studio.session.view.design)
+    wait_for(lambda: canvas.screenshot() != before, "the scene to show the picked candidate")
+    assert studio.session.study.result("subtask2").picked == r2.picked  # shown, not yet passed on
+
+    page.get_by_role("button", name="Use for next stage", exact=True).click()
+    expect(page.get_by_label("Stage", exact=True)).to_have_value(SUBTASK3)
+    expect(page.get_by_label("Start from", exact=True)).to_have_value("the previous stage's pick")
+    assert studio.session.study.result("subtask2").picked == other.member
+    expand(page, "Search box")
+    centre = page.locator('table.clm-box tr[data-param="r4"]')
+    expect(centre).to_have_attribute("data-center", repr(float(r2.X[other.member][7])))
+
+    settle(page, studio, "subtask3", pop=8, gens=2)
+    page.get_by_role("button", name="Run", exact=True).click()
+    expect(page.get_by_text("Last run: subtask3 complete")).to_be_visible(timeout=60_000)
+    r3 = studio.session.study.result("subtask3")
+    assert r3.parent_pick == other.member
+    assert float(r3.box.center[7]) == float(r2.X[other.member][7])
+    expect(page.locator('table.clm-history tr[data-stage="subtask3"]')).to_have_attribute("data-status", "complete")
+
+
+def test_a_session_downloads_and_loads_back(page: Any, studio: Any, tmp_path: Path) -> None:
+    run_stage(page, studio, SUBTASK2, "subtask2", pop=8, gens=2)
+    saved = studio.session.to_dict()
+    expand(page, "Session and export")
+    with page.expect_download() as dl:
+        page.get_by_role("button", name="Download session", exact=True).click()
+    path = tmp_path / "session.json"
+    dl.value.save_as(path)
+    assert json.loads(path.read_text()) == saved
+    # Change the state, then load the file back.
+    page.get_by_label("r4 [mm]", exact=True).fill("129")
+    wait_for(lambda: studio.session.view.values["r4"] == 129.0, "the edit to reach the server")
+    with studio.session.lock:
+        studio.session.study.keep_branch("test")
+    page.locator('input[type="file"][accept="application/json"]').set_input_files(str(path))
+    wait_for(lambda: studio.session.to_dict() == saved, "the session to load back")
+    expect_params(page, studio.session.view.design)
+    expect(page.locator('table.clm-history tr[data-stage="subtask2"]')).to_have_attribute("data-status", "complete")
+
+
+def test_malformed_uploads_are_refused_naming_the_problem_and_nothing_changes(page: Any, studio: Any,
+                                                                              tmp_path: Path) -> None:
+    run_stage(page, studio, SUBTASK2, "subtask2", pop=8, gens=2)
+    before = studio.session.to_dict()
+    expand(page, "Session and export")
+    bad = tmp_path / "broken.json"
+    broken = json.loads(json.dumps(before))
+    broken["design"]["mechanism"] = "nope"
+    bad.write_text(json.dumps(broken))
+    page.locator('input[type="file"][accept="application/json"]').set_input_files(str(bad))
+    expect(notification(page, "Session not loaded", "broken.json")).to_be_visible()
+    expect(notification(page, "Session not loaded", "'nope'")).to_be_visible()
+    assert studio.session.to_dict() == before
+    expand(page, "Target")
+    curve = tmp_path / "curve.csv"
+    curve.write_text("x,y\n0,0\n1,two\n2,0\n0,1\n")
+    page.locator('input[type="file"][accept=".csv,text/csv"]').set_input_files(str(curve))
+    expect(notification(page, "Target curve not loaded", "'two' is not a number")).to_be_visible()
+    assert studio.session.to_dict() == before
+
+
+def test_a_new_page_gets_the_run_chart_and_pick_and_two_pages_stay_consistent(page: Any, open_page: Any,
+                                                                              studio: Any) -> None:
+    r = run_stage(page, studio, SUBTASK2, "subtask2", pop=16, gens=15)
+    # A new client (a second tab, or a reload) arrives with the whole current state.
+    b = open_page()
+    expect(b.get_by_text("Last run: subtask2 complete")).to_be_visible()
+    expect(pareto_points(b, "subtask2 · complete").first).to_be_attached()
+    expect(b.get_by_label("Candidate", exact=True)).to_have_value(
+        next(c.label for c in candidates(r) if c.member == r.picked))
+    # A pick on one page shows on the other.
+    other = next(c for c in candidates(r) if c.member != r.picked)
+    choose(b, "Candidate", other.label)
+    wait_for(lambda: np.array_equal(studio.session.view.design.params[0], r.X[other.member]),
+             "the pick from the second page")
+    expect(page.get_by_label("Candidate", exact=True)).to_have_value(other.label)
+    expect_params(page, studio.session.view.design)
+    expect_params(b, studio.session.view.design)
+
+
+def test_exports_are_files_a_collaborator_can_open_offline(page: Any, studio: Any, browser: Any, tmp_path: Path,
+                                                           blocked: list[str]) -> None:
+    run_stage(page, studio, SUBTASK2, "subtask2", pop=8, gens=2)
+    expand(page, "Session and export")
+
+    def download(button: str) -> bytes:
+        with page.expect_download() as dl:
+            page.get_by_role("button", name=button, exact=True).click()
+        p = tmp_path / dl.value.suggested_filename
+        dl.value.save_as(p)
+        return p.read_bytes()
+
+    design = design_from_dict(json.loads(download("Design (JSON)")))
+    np.testing.assert_array_equal(design.params, studio.session.view.design.params)
+    cols = parse_trajectories_csv(download("Trajectories (CSV)"))
+    np.testing.assert_array_equal(cols["y_leg_mm"], studio.session.view.solution.leg[0, :, 1])
+    assert b"subtask2" in download("Pareto chart (HTML)")
+    # The chart's camera button saves a PNG, drawn by plotly.js in the browser.
+    camera = pareto_plot(page, "subtask2 · complete").locator('.modebar-btn[data-title^="Download plot as a"]')
+    camera.scroll_into_view_if_needed()
+    with page.expect_download() as dl:
+        camera.click()
+    assert dl.value.suggested_filename == "pareto.png"
+    assert Path(dl.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # The animated scene opens on its own, with every outside request blocked.
+    scene = download("Animated scene (HTML)").decode()
+    ctx = browser.new_context(viewport={"width": 800, "height": 600})
+    try:
+        ctx.route("**/*", lambda r: (blocked.append(r.request.url), r.abort()) if not r.request.url.startswith(
+            ("data:", "blob:", "about:")) else r.continue_())
+        viewer = ctx.new_page()
+        viewer.set_content(scene)
+        viewer.wait_for_selector("canvas", state="visible")
+    finally:
+        ctx.close()
+    assert blocked == []

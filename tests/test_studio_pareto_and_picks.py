@@ -1,0 +1,163 @@
+"""The Pareto chart builder, the candidate lists and the HTML tables, without a server."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from core import decision, presets
+from core.optimize.box import search_box
+from studio.candidates import candidates, front_order, history_rows
+from studio.figures import make_pareto_figure
+from studio.geometry import compose, inset_positions, layout
+from studio.tables import box_html, history_html
+
+X3 = presets.get("stephenson1/X3")
+
+
+def population(n: int = 40, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A 2-objective population: a convex front (f2 = (1 - sqrt(f1))^2), dominated, infeasible and undefined rows."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(0.0, 1.0, n)
+    F = np.stack([u, (1.0 - np.sqrt(u)) ** 2], 1)
+    F[n // 2 :] += rng.uniform(0.05, 0.5, (n - n // 2, 2))  # dominated
+    cv = np.zeros(n)
+    cv[:5] = rng.uniform(0.1, 2.0, 5)  # infeasible
+    F[5] = np.inf  # undefined objectives
+    cv[5] = 3.0
+    return F, cv
+
+
+def traces(fig) -> dict:
+    return {t.name: t for t in fig.data}
+
+
+def test_pareto_chart_tells_feasible_infeasible_front_and_knees_apart_with_unit_labels() -> None:
+    F, cv = population()
+    sl = decision.shortlist(F, cv)
+    fig = make_pareto_figure(F, cv, objectives=("f1", "f2"), labels={"f1": "f1 = MSE (mm)", "f2": "f2 (mm^2)"},
+                             front=sl.front, knees=sl.knees, best=sl.best, shown=sl.knees[0])
+    t = traces(fig)
+    drawable = np.isfinite(F).all(1)
+    infeasible = set(np.flatnonzero(drawable & (cv > 0)))
+    assert set(t["infeasible"].customdata) == infeasible
+    assert set(t["Pareto front"].customdata) == set(sl.front)
+    assert set(t["feasible"].customdata) == set(np.flatnonzero(drawable & (cv <= 0))) - set(sl.front)
+    assert 5 not in {i for tr in fig.data for i in tr.customdata}  # undefined members are not drawn
+    assert list(t["knee candidates"].customdata) == list(sl.knees)
+    assert list(t["knee candidates"].text) == [f"K{j + 1}" for j in range(len(sl.knees))]
+    picked = t["picked"]
+    assert list(picked.customdata) == [sl.knees[0]]
+    assert (picked.x[0], picked.y[0]) == tuple(F[sl.knees[0]])
+    assert fig.layout.xaxis.title.text == "f1 = MSE (mm)" and fig.layout.yaxis.title.text == "f2 (mm^2)"
+    for axis, k in ((fig.layout.xaxis, 0), (fig.layout.yaxis, 1)):
+        feas = F[(cv <= 0) & drawable, k]
+        assert axis.range[0] < feas.min() and axis.range[1] > feas.max()
+
+
+def test_three_objectives_give_a_3d_chart_and_one_objective_plots_against_the_violation() -> None:
+    rng = np.random.default_rng(1)
+    F3 = rng.uniform(size=(12, 3))
+    fig = make_pareto_figure(F3, np.zeros(12), objectives=("a", "b", "c"), labels={"c": "c (mm/s)"},
+                             front=tuple(range(12)))
+    assert {type(t).__name__ for t in fig.data} == {"Scatter3d"}
+    assert fig.layout.scene.zaxis.title.text == "c (mm/s)"
+    F1 = rng.uniform(size=(10, 1))
+    cv = np.where(np.arange(10) < 3, 1.5, 0.0)
+    fig = make_pareto_figure(F1, cv, objectives=("dh6",), labels={"dh6": "|h6 - h6_t| (mm)"}, front=(3,))
+    t = traces(fig)
+    assert list(t["infeasible"].y) == [1.5, 1.5, 1.5]
+    assert fig.layout.yaxis.title.text == "violation (0 = feasible)"
+
+
+def test_the_passed_on_member_is_marked_when_another_is_picked() -> None:
+    F, cv = population()
+    sl = decision.shortlist(F, cv)
+    fig = make_pareto_figure(F, cv, objectives=("f1", "f2"), front=sl.front, shown=sl.front[0], passed=sl.front[1])
+    t = traces(fig)
+    assert list(t["passed on"].customdata) == [sl.front[1]] and list(t["picked"].customdata) == [sl.front[0]]
+
+
+class FakeResult:
+    """What ``candidates`` reads of a StageResult."""
+
+    def __init__(self, F: np.ndarray, cv: np.ndarray) -> None:
+        self.F, self.cv = F, cv
+        self.objectives = tuple(f"f{k + 1}" for k in range(F.shape[1]))
+        self.shortlist = decision.shortlist(F, cv)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(8, 60), st.integers(0, 10_000))
+def test_candidates_list_knees_then_best_then_the_front_once_each(n: int, seed: int) -> None:
+    F, cv = population(n, seed)
+    r = FakeResult(F, cv)
+    cands = candidates(r)  # type: ignore[arg-type]
+    members = [c.member for c in cands]
+    sl = r.shortlist
+    assert len(members) == len(set(members))
+    assert len({c.label for c in cands}) == len(cands)
+    assert members[: len(sl.knees)] == list(sl.knees)
+    assert set(members) == set(sl.knees) | set(sl.best) | set(sl.front)
+    kinds = [c.kind for c in cands]
+    assert kinds == sorted(kinds, key=["knee", "best", "front"].index)
+    order = front_order(r)  # type: ignore[arg-type]
+    assert np.all(np.diff(F[list(order), 0]) >= 0)
+
+
+def test_with_nothing_feasible_the_least_violation_member_is_the_only_candidate() -> None:
+    F = np.array([[1.0, 2.0], [0.5, 0.5], [3.0, 1.0]])
+    cv = np.array([2.0, 0.5, 1.0])
+    cands = candidates(FakeResult(F, cv))  # type: ignore[arg-type]
+    assert [(c.member, c.kind) for c in cands] == [(1, "fallback")]
+
+
+def test_box_table_lists_each_parameter_with_its_bounds_and_centre() -> None:
+    box = search_box(X3.mechanism, X3.values, 0.1, 10.0, fixed=("b",))
+    html = box_html(box, {p.name: p.unit for p in X3.mechanism.params})
+    for j, name in enumerate(box.names):
+        lo, c = float(box.lower[j]), float(box.center[j])
+        assert f'data-param="{name}" data-lower="{lo!r}" data-center="{c!r}"' in html
+    assert html.count("data-fixed") == 1
+
+
+def test_history_rows_cover_every_stage_run_or_not() -> None:
+    rows = history_rows([None, None], {"subtask1": "Subtask 1"}, ["subtask1", "subtask2"], {})
+    assert [(r.title, r.status) for r in rows] == [("Subtask 1", "not run"), ("subtask2", "not run")]
+    html = history_html(rows)
+    assert html.count("<tr data-stage=") == 2
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(50, 500), st.floats(20, 300), st.floats(100, 1500), st.floats(50, 300))
+def test_walking_view_sits_below_and_the_inset_right_of_the_leg_view(dw: float, dh: float, ww: float,
+                                                                      wh: float) -> None:
+    lay = layout(np.array([[0.0, 0.0], [dw, dh]]), np.array([[0.0, 0.0], [300.0, 100.0]]))
+    walk = np.array([-ww, 0.0, 0.0, wh])
+    comp = compose(lay, walk)
+    placed = walk + np.concatenate([comp.walk_offset, comp.walk_offset])
+    assert placed[3] < lay.scene[1]  # below the top views
+    assert comp.inset[0] > lay.leg[2] + lay.leg_offset[0]  # right of the leg view
+    assert np.isclose(comp.inset[2] - comp.inset[0], comp.inset[3] - comp.inset[1])
+    for b in (lay.scene, placed, comp.inset):
+        assert np.all(comp.bounds[:2] <= b[:2] + 1e-9) and np.all(comp.bounds[2:] >= b[2:] - 1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=1, max_size=20))
+def test_inset_positions_stay_in_the_box_and_keep_the_order(points: list[tuple[float, float]]) -> None:
+    v = np.array(points)
+    box = np.array([10.0, 20.0, 110.0, 120.0])
+    p = inset_positions(v, box)
+    assert np.all(p >= box[:2] - 1e-9) and np.all(p <= box[2:] + 1e-9)
+    for k in range(2):
+        order = np.argsort(v[:, k], kind="stable")
+        assert np.all(np.diff(p[order, k]) >= -1e-9)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_inset_positions_park_undefined_rows_in_the_corner(bad: float) -> None:
+    p = inset_positions(np.array([[1.0, 2.0], [bad, 0.0], [3.0, 4.0]]), np.array([0.0, 0.0, 1.0, 1.0]))
+    assert tuple(p[1]) == (0.0, 0.0)

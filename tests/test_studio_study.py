@@ -1,0 +1,355 @@
+"""Studio optimization state without a browser: chains, runs in the worker, picks, branches, session files."""
+
+from __future__ import annotations
+
+import json
+import threading
+
+import numpy as np
+import pytest
+
+from core import presets
+from core.optimize.box import SUBTASK_STEPS, periodic_mask
+from core.optimize.result import StageResult
+from core.targets import parse_target
+from studio.chains import RunSettings, chain_for, find, stage_spec
+from studio.state import Session
+from studio.study import Runner, Study, study_view
+from studio.target import TargetSpec
+
+X3 = presets.get("stephenson1/X3")
+
+
+def assert_same_design(a: np.ndarray, b: np.ndarray) -> None:
+    """Equal parameter vectors, periodic angles (the crank phase g) compared modulo 2 pi."""
+    d = np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)
+    per = periodic_mask(X3.mechanism)
+    d[..., per] = (d[..., per] + np.pi) % (2.0 * np.pi) - np.pi
+    np.testing.assert_allclose(d, 0.0, atol=1e-9)
+
+
+def tiny(study: Study, name: str, pop: int = 8, gens: int = 3, seed: int = 4) -> None:
+    study.settings[name] = RunSettings(name, pop_size=pop, n_gen=gens, seed=seed)
+
+
+def run(session: Session, name: str, from_pick: bool, on_generation=None) -> Runner:
+    """Run one stage to the end through a Runner, as the Stages panel does."""
+    done = threading.Event()
+    runner = Runner(session.lock, lambda: session.study, on_generation or (lambda p: None), done.set)
+    chain = chain_for(session.view.design.mechanism)
+    stage = find(chain, name)
+    settings = session.study.settings_for(stage)
+    view = session.view
+    runner.start(lambda s: s.plan(stage, settings, view.design, view.target, from_pick, chain))
+    assert done.wait(60), "the run did not finish"
+    runner.join(10)
+    return runner
+
+
+@pytest.fixture
+def session() -> Session:
+    s = Session.default()
+    tiny(s.study, "subtask1")
+    tiny(s.study, "subtask2")
+    return s
+
+
+# Chains --------------------------------------------------------------------------------------------
+
+
+def test_six_bar_chain_is_predesign_then_subtasks_with_the_spec_boxes() -> None:
+    chain = chain_for(X3.mechanism)
+    assert [c.name for c in chain] == ["predesign", "subtask1", "subtask2", "subtask3"]
+    assert chain[0].s is None
+    for k in (1, 2, 3):
+        assert (chain[k].s, chain[k].d) == SUBTASK_STEPS[k]
+
+
+def test_rtclm_chain_is_its_two_subtasks() -> None:
+    assert [c.name for c in chain_for(presets.get("rtclm/case1").mechanism)] == ["rtclm1", "rtclm2"]
+
+
+def test_a_stage_spec_searches_the_studio_target_with_the_chosen_settings() -> None:
+    target = TargetSpec(280.0, 90.0, 1.5)
+    stage = find(chain_for(X3.mechanism), "subtask2")
+    spec = stage_spec(stage, RunSettings("subtask2", "nsga3", 12, 5, 9), target)
+    assert (spec.s, spec.d, spec.n_gen, spec.seed) == (0.1, 10.0, 5, 9)
+    assert spec.algorithm.name == "nsga3" and spec.algorithm.pop_size == 12
+    assert spec.pick == "best:h_s"
+    t = parse_target(spec.problem.options["target"])
+    np.testing.assert_allclose(t.sample(360), target.points(360))
+    # Another problem in the slot: the chain's pick rule falls back to the knee if it names a missing objective.
+    other = stage_spec(stage, RunSettings("path_box"), target)
+    assert other.problem.name == "path_box" and other.pick == "knee"
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [("pop_size", 1, "population"), ("n_gen", 0, "generations"),
+                                                          ("seed", -1, "seed"), ("algorithm", "nope", "algorithm")])
+def test_run_settings_refuse_bad_values_naming_them(field: str, value: object, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        RunSettings("subtask1", **{field: value})
+
+
+# Runs ------------------------------------------------------------------------------------------------
+
+
+def test_a_run_records_its_result_with_the_chain_pick_and_reports_every_generation(session: Session) -> None:
+    seen = []
+    run(session, "subtask1", from_pick=False, on_generation=lambda p: seen.append(p.generation))
+    study = session.study
+    r = study.result("subtask1")
+    assert isinstance(r, StageResult) and r.status == "complete" and r.generation == 3 and r.pop == 8
+    assert seen == [1, 2, 3]
+    assert r.picked == r.shortlist.knees[0]
+    assert study.status.state == "idle" and study.status.ok and study.status.message == "complete"
+    # The run started a pipeline at subtask 1 from the editor's design: its box is built around X3.
+    assert_same_design(r.box.center, X3.values)
+    assert study.stage_names() == ("subtask1", "subtask2", "subtask3")
+
+
+def test_only_one_run_at_a_time(session: Session) -> None:
+    gate = threading.Event()
+    runner = Runner(session.lock, lambda: session.study, lambda p: gate.wait(10), lambda: None)
+    chain = chain_for(X3.mechanism)
+    stage = find(chain, "subtask1")
+    settings = session.study.settings_for(stage)
+    view = session.view
+
+    def plan(s: Study):
+        return s.plan(stage, settings, view.design, view.target, False, chain)
+
+    runner.start(plan)
+    with pytest.raises(ValueError, match="already running"):
+        runner.start(plan)
+    gate.set()
+    runner.join(30)
+    assert session.study.branches == []  # one pipeline: a second start would have kept the first as a branch
+
+
+def test_stop_ends_the_run_between_generations_and_keeps_the_partial_result(session: Session) -> None:
+    tiny(session.study, "subtask1", gens=50)
+    holder: dict[str, Runner] = {}
+    gate = threading.Event()
+
+    def on_generation(p) -> None:
+        if p.generation == 2:
+            gate.wait(10)  # the runner is registered by then
+            holder["r"].stop()
+
+    done = threading.Event()
+    runner = Runner(session.lock, lambda: session.study, on_generation, done.set)
+    holder["r"] = runner
+    chain = chain_for(X3.mechanism)
+    stage = find(chain, "subtask1")
+    settings, view = session.study.settings_for(stage), session.view
+    runner.start(lambda s: s.plan(stage, settings, view.design, view.target, False, chain))
+    gate.set()
+    assert done.wait(60)
+    r = session.study.result("subtask1")
+    assert r.status == "cancelled" and r.generation == 2 and r.pop == 8
+    assert "stopped at generation 2/50" in session.study.status.message
+
+
+def test_a_failing_problem_is_reported_and_the_studio_stays_idle(session: Session) -> None:
+    session.load_preset("rtclm/case4")
+    session.study.settings["rtclm1"] = RunSettings("predesign", pop_size=4, n_gen=1)  # no placement for RTCLM
+    run(session, "rtclm1", from_pick=False)
+    st = session.study.status
+    assert st.state == "idle" and not st.ok and "failed" in st.message and "placement" in st.message
+
+
+# Picks, next stage, branches ----------------------------------------------------------------------
+
+
+def test_use_for_next_stage_passes_the_pick_on_and_the_next_box_is_built_around_it(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    study = session.study
+    r1 = study.result("subtask1")
+    member = next(i for i in range(r1.pop) if i != r1.picked)
+    study.show("subtask1", member)
+    assert study.shown_member("subtask1") == member and r1.picked != member  # shown, not yet committed
+    assert study.use_for_next("subtask1", member, chain_for(X3.mechanism)) == "subtask2"
+    assert study.result("subtask1").picked == member and study.from_pick and study.next_stage == "subtask2"
+    box = study.next_box("subtask2", session.view.target)
+    assert_same_design(box.center, r1.X[member])
+    run(session, "subtask2", from_pick=True)
+    r2 = study.result("subtask2")
+    assert r2.parent_pick == member
+    assert_same_design(r2.box.center, box.center)
+    assert study.branches == []
+
+
+def test_changing_a_pick_that_later_stages_grew_from_keeps_a_branch_and_it_can_be_restored(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    study = session.study
+    chain = chain_for(X3.mechanism)
+    first = study.result("subtask1").picked
+    study.use_for_next("subtask1", first, chain)
+    run(session, "subtask2", from_pick=True)
+    old_x2 = study.result("subtask2")
+    other = next(i for i in range(study.result("subtask1").pop) if i != first)
+    study.use_for_next("subtask1", other, chain)
+    assert study.result("subtask2") is None  # the pipeline keeps one lineage
+    assert len(study.branches) == 1
+    study.restore_branch(0)
+    np.testing.assert_array_equal(study.result("subtask2").X, old_x2.X)
+    assert study.result("subtask1").picked == first
+    assert len(study.branches) == 1  # the replaced pipeline became a branch in turn
+
+
+def test_re_running_a_stage_keeps_the_previous_lineage_as_a_branch(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    run(session, "subtask1", from_pick=False)
+    assert len(session.study.branches) == 1
+
+
+def test_the_study_view_shows_the_next_box_around_the_editor_design_when_starting_fresh(session: Session) -> None:
+    with session.lock:
+        session.study.next_stage = "subtask3"
+        sv = study_view(session.study, session.view.design, chain_for(X3.mechanism), session.view.target)
+    assert sv.next_stage == "subtask3" and sv.box is not None
+    h = np.maximum(0.05 * np.abs(X3.values), np.where([p.kind == "angle" for p in X3.mechanism.params],
+                                                       0.05 * np.pi, 5.0))
+    free = ~sv.box.periodic
+    np.testing.assert_allclose(sv.box.upper[free], np.minimum(X3.values + h, X3.mechanism.upper)[free])
+
+
+# Session files ----------------------------------------------------------------------------------------
+
+
+def test_a_session_with_a_pipeline_round_trips_through_json_bit_for_bit(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    study = session.study
+    study.show("subtask1", 1)
+    data = json.loads(json.dumps(session.to_dict()))
+    back = Session.from_dict(data)
+    r, b = study.result("subtask1"), back.study.result("subtask1")
+    np.testing.assert_array_equal(r.X, b.X)
+    np.testing.assert_array_equal(r.F, b.F)
+    assert b.picked == r.picked and back.study.shown_member("subtask1") == 1
+    assert back.study.settings == study.settings and back.study.stage_names() == study.stage_names()
+    assert back.to_dict() == data
+
+
+def test_every_generation_is_saved_and_an_interrupted_run_loads_back_as_such(session: Session) -> None:
+    snapshots: list[dict] = []
+    run(session, "subtask1", from_pick=False, on_generation=lambda p: snapshots.append(session.to_dict()))
+    assert len(snapshots) == 3
+    middle = Session.from_dict(json.loads(json.dumps(snapshots[1])))
+    r = middle.study.result("subtask1")
+    assert r.status == "running" and r.generation == 2 and r.pop == 8
+    view = study_view(middle.study, middle.view.design, chain_for(X3.mechanism), middle.view.target)
+    assert view.result("subtask1") is r
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda d: d["study"].update(pipeline=[]), "pipeline must be an object"),
+    (lambda d: d["study"]["pipeline"].update(format="x"), "not a pipeline"),
+    (lambda d: d["study"]["pipeline"]["results"][0].update(X=[[1.0]]), "pipeline"),
+    (lambda d: d["study"].update(settings={"subtask1": {"problem": "subtask1", "pop_size": 1}}), "population"),
+    (lambda d: d["study"].update(shown={"subtask1": "a"}), "member indices"),
+    (lambda d: d["study"].update(branches=[{"label": "b"}]), "branch 1"),
+    (lambda d: d.update(walk={"layout": "hexapod"}), "walking layout"),
+])
+def test_a_malformed_study_is_refused_naming_the_problem(session: Session, change, message: str) -> None:
+    run(session, "subtask1", from_pick=False)
+    data = json.loads(json.dumps(session.to_dict()))
+    change(data)
+    with pytest.raises(ValueError, match=message):
+        Session.from_dict(data)
+
+
+def test_a_version_1_session_still_loads() -> None:
+    data = Session.default().to_dict()
+    data["version"] = 1
+    for key in ("walk", "study"):
+        del data[key]
+    back = Session.from_dict(data)
+    assert back.study.pipeline is None and back.view.walk.layout == "biped"
+
+
+def test_restore_takes_over_a_loaded_session_but_not_while_a_stage_runs(session: Session) -> None:
+    other = Session.default("stephenson1/X0")
+    session.restore(other)
+    assert session.view.preset == "stephenson1/X0" and session.study is other.study
+    session.study.status = session.study.status.__class__("running", "subtask1")
+    with pytest.raises(ValueError, match="running"):
+        session.restore(Session.default())
+
+
+def test_the_studio_saves_the_session_after_every_generation_and_every_pick(tmp_path, monkeypatch) -> None:
+    import studio.app as app
+
+    path = tmp_path / "session.json"
+    saved: list[dict] = []
+    real = app.save_session
+
+    def spy(session: Session, p) -> None:
+        real(session, p)
+        saved.append(json.loads(p.read_text()))
+
+    monkeypatch.setattr(app, "save_session", spy)
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0, session_path=path)
+    try:
+        tiny(studio.session.study, "subtask2", pop=16, gens=15)
+        with studio.session.lock:
+            studio.session.study.next_stage = "subtask2"
+        saved.clear()
+        assert studio.start_run()
+        studio.runner.join(60)
+        generations = [s["study"]["pipeline"]["results"][0]["generation"] for s in saved
+                       if s["study"]["pipeline"] and s["study"]["pipeline"]["results"][0]]
+        assert set(range(1, 16)) <= set(generations)  # every generation reached the disk
+        r = app.load_session(path).study.result("subtask2")
+        assert r.status == "complete" and r.generation == 15
+        member = next(i for i in range(r.pop) if i != r.picked)
+        saved.clear()
+        studio.pick("subtask2", member, None)
+        assert saved and saved[-1]["study"]["shown"]["subtask2"] == member
+        back = app.load_session(path)
+        assert back.study.shown_member("subtask2") == member
+        np.testing.assert_array_equal(back.view.design.params[0], r.X[member])
+    finally:
+        studio.close()
+
+
+def test_a_second_run_click_within_the_double_click_time_starts_nothing() -> None:
+    import studio.app as app
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        tiny(studio.session.study, "subtask2", pop=8, gens=1)
+        with studio.session.lock:
+            studio.session.study.next_stage = "subtask2"
+        assert studio.start_run()
+        studio.runner.join(30)
+        assert not studio.start_run()  # the run already finished: still the same double click
+        assert studio.session.study.branches == []
+    finally:
+        studio.close()
+
+
+def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
+    import studio.app as app
+    from studio.candidates import candidates
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        tiny(studio.session.study, "subtask2", pop=16, gens=15)
+        with studio.session.lock:
+            studio.session.study.next_stage = "subtask2"
+        studio.start_run()
+        studio.runner.join(60)
+        r = studio.session.study.result("subtask2")
+        shown = {c.member for c in candidates(r) if c.kind in ("knee", "best")}
+        assert set(studio.inset._spheres) == shown  # one clickable sphere per knee / best member
+        member = next(m for m in shown if m != r.picked)
+
+        class Click:
+            client = None
+
+        studio.inset._clicked(member)(Click())  # type: ignore[arg-type]
+        assert studio.session.study.shown_member("subtask2") == member
+        np.testing.assert_array_equal(studio.session.view.design.params[0], r.X[member])
+    finally:
+        studio.close()
