@@ -19,9 +19,10 @@ An operand is a parameter name (``"r1"``), a negated name (``"-r8"``) or a numbe
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -97,6 +98,11 @@ class OutputStage:
 
     def to_dict(self) -> dict[str, float]:
         return {"k": self.k, "ox": self.ox, "oy": self.oy}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> OutputStage:
+        """Inverse of :meth:`to_dict` (numbers, or the strings ``float`` reads, e.g. "Infinity")."""
+        return cls(float(d["k"]), float(d["ox"]), float(d["oy"]))
 
 
 IDENTITY = OutputStage()

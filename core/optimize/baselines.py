@@ -163,7 +163,7 @@ class BaselineResult:
         return cls(
             method=d["method"],
             mechanism=mech,
-            output=OutputStage(decode_float(o["k"]), decode_float(o["ox"]), decode_float(o["oy"])),
+            output=OutputStage.from_dict(o),
             params=decode_array([d["params"][n] for n in mech.param_names]),
             start=decode_array([d["start"][n] for n in mech.param_names]),
             metrics={k: decode_float(v) for k, v in d["metrics"].items()},

@@ -25,7 +25,7 @@ from core.design import Design
 from core.mechanisms import get as get_mechanism
 from core.mechanisms.model import OutputStage
 from core.optimize.box import Box
-from core.optimize.result import PickRule, StageResult, decode_array, decode_float, dumps, versions
+from core.optimize.result import PickRule, StageResult, decode_array, dumps, versions
 from core.optimize.stage import Callback, Progress, Stage, StageSpec
 
 FORMAT = "clm-pipeline"
@@ -205,7 +205,7 @@ class Pipeline:
         mech = get_mechanism(d["mechanism"])
         out = d["output"]
         start = Design(mech, decode_array(d["start_params"], mech.n_params),
-                       OutputStage(decode_float(out["k"]), decode_float(out["ox"]), decode_float(out["oy"])))
+                       OutputStage.from_dict(out))
         specs = list(stages) if stages is not None else [StageSpec.from_dict(s) for s in d["stages"]]
         if len(specs) != len(d["stages"]):
             raise ValueError(f"{len(specs)} stage specs for {len(d['stages'])} saved stages")

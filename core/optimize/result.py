@@ -310,7 +310,7 @@ class StageResult:
             name=d["name"],
             index=int(d["index"]),
             mechanism=mech,
-            output=OutputStage(decode_float(out["k"]), decode_float(out["ox"]), decode_float(out["oy"])),
+            output=OutputStage.from_dict(out),
             objectives=objectives,
             constraints=constraints,
             X=decode_array(d["X"], mech.n_params),
