@@ -26,6 +26,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from _timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -63,16 +64,6 @@ def operands(preset: Preset, pop: int, seed: int = 0) -> np.ndarray:
     m = preset.mechanism
     internal, _ = m.internal(jittered(preset, pop, seed))
     return np.ascontiguousarray(m.compile().operands(internal))
-
-
-def best_of(fn: Callable[[], object], repeats: int) -> float:
-    """Best wall time of repeats calls (s): the least disturbed by other processes."""
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return float(best)
 
 
 def compile_report(ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int) -> str:

@@ -20,11 +20,11 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 
 import numpy as np
+from _timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -43,16 +43,6 @@ def population(pop: int, seed: int = 0) -> Design:
     rng = np.random.default_rng(seed)
     p = base.params * (1.0 + 0.03 * rng.standard_normal((pop, base.params.shape[1])))
     return Design(base.mechanism, p, base.output)
-
-
-def best_of(fn: Callable[[], object], repeats: int) -> float:
-    """Best wall time of repeats calls (s): the least disturbed by other processes."""
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return float(best)
 
 
 def loop_times(designs: list[Design], n: int, backend: str) -> np.ndarray:

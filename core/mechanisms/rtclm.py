@@ -250,6 +250,9 @@ def crank_conditions(params: F64) -> F64:
     return np.stack([c0, np.where(np.isfinite(c1), c1, np.inf)], axis=1)
 
 
+# The foot link is the same in both modes: dyad E-G-F, foot P on F-G.
+_FOOT = (Dyad("G", "E", "F", "r4", "r5", SIDE_G), Attach("P", "F", "G", "a3", "-b3"))
+
 RTCLM_PRIMARY = Mechanism(
     name="rtclm_primary",
     title="RTCLM, primary mode (Watt-I six-bar driven at A)",
@@ -262,8 +265,7 @@ RTCLM_PRIMARY = Mechanism(
         Attach("E", "B", "C", "a1", "-b1"),
         Attach("H", "D", "C", "h_u", "h_v"),
         Attach("F", "D", "C", "f_u", "f_v"),
-        Dyad("G", "E", "F", "r4", "r5", SIDE_G),
-        Attach("P", "F", "G", "a3", "-b3"),
+        *_FOOT,
     ),
     tracked="P",
     derived=DERIVED,
@@ -286,8 +288,7 @@ RTCLM_AUXILIARY = Mechanism(
         Ground("E", "x_e", "y_e"),
         Ground("H", "x_h", "y_h"),
         Crank("F", "H", "r6", 0.0, phase="hf_phase"),
-        Dyad("G", "E", "F", "r4", "r5", SIDE_G),
-        Attach("P", "F", "G", "a3", "-b3"),
+        *_FOOT,
     ),
     tracked="P",
     derived=DERIVED,
