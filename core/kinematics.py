@@ -149,10 +149,12 @@ def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.b
     margin = mmin[:, prep.program.ops[:, 0] == DYAD]
     with np.errstate(invalid="ignore"):
         shortfall = np.where(np.isfinite(margin), np.maximum(0.0, -margin), 0.0).sum(axis=1)
-        violation = shortfall + neg + np.nan_to_num(prep.derive_violation, nan=np.inf)
+        # neg is NaN on rows whose operands prepare() poisoned (a coupling with no solution):
+        # the derive violation measures those.
+        violation = shortfall + np.nan_to_num(neg, nan=0.0) + np.nan_to_num(prep.derive_violation, nan=np.inf)
     # Degenerate geometry (coincident points of an attachment) leaves NaN with no shortfall.
     violation = np.where(broken & (violation == 0.0), 1e-9, violation)
-    violation[prep.bad] = np.inf
+    violation[prep.bad | np.isnan(violation)] = np.inf
     return violation
 
 

@@ -296,3 +296,15 @@ def test_eq29_second_line_agrees_with_the_solvers_crank_margin(name: str) -> Non
     margin = solve(RTCLM_AUXILIARY, x, 8, backend="numpy", joints=False).crank_margin[0]
     eh = float(np.linalg.norm(switching_state(x)["eh"][0]))
     assert (c1 < 0 or _drag_link(eh, *x[0, 3:6])) == (margin > 0)
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_a_row_with_no_coupling_solution_gets_the_derive_violation_not_nan(backend: str) -> None:
+    # This printed row's auxiliary mode has no coupling solution: prepare() poisons its operands,
+    # and the violation must be the derive violation (finite, positive), never NaN.
+    p = PRESETS["rtclm/case1-CMOEMT/auxiliary"]
+    sol = solve(p.mechanism, np.asarray(p.values), 90, output=p.output, backend=backend)
+    internal, derive_viol = p.mechanism.internal(np.atleast_2d(p.values))
+    assert not np.isfinite(p.mechanism.compile().operands(internal)).all()
+    assert not sol.valid.any()
+    assert sol.violation[0] == pytest.approx(float(derive_viol[0])) and 0.0 < sol.violation[0] < np.inf
