@@ -23,6 +23,7 @@ import argparse
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -79,18 +80,22 @@ def compile_report(ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked
     return "first call: " + ", ".join(parts)
 
 
-def kernel_only(ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int) -> Callable[[], object]:
+def kernel_only(
+    ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int, derivatives: bool
+) -> Callable[[], object]:
     """The serial kernel writing into outputs allocated once: compute without allocation and
     first-touch page faults (which cost ~1 us per design at pop 10 000 on this VM)."""
     pop, n_steps = vals.shape[:2]
     n = theta.shape[0]
     none = np.empty((0, 0, 0, 2))
     point = np.empty((pop, n, 2))
-    out: tuple[np.ndarray, ...] = (none, none, point, np.empty((pop, n, 2)), point[:0], point[:0])
+    dpoint = np.empty((pop, n, 2)) if derivatives else point[:0]
+    out: tuple[np.ndarray, ...] = (none, none, point, dpoint, point[:0], point[:0])
     out += (np.empty((pop, n), dtype=bool),) + tuple(np.empty((pop, n_steps)) for _ in range(3)) + (np.empty(pop),)
     prog = solver_numba.prepare(ops, tracked)
     ct, st = solver_numba.angles(theta)
-    program = (prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, False, False, (1.0, 0.0, 0.0))
+    program = (prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, False, False, (1.0, 0.0, 0.0),
+               derivatives)
     return lambda: solver_numba._run_serial(*program, *out)
 
 
@@ -98,23 +103,26 @@ def rates(
     ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int, repeats: int,
     solve_args: tuple[Mechanism, np.ndarray] | None = None,
 ) -> dict[str, float]:
-    """Trajectories per second of each backend and mode on one population."""
+    """Trajectories per second of each backend and mode on one population: keys ``(mode, column)``
+    with mode "paths" (positions only) or "d/dtheta" (with exact derivatives)."""
     pop = vals.shape[0]
-    cases: dict[str, Callable[[], object]] = {
-        "numpy": lambda: reduce_reference(ops, vals, theta, tracked, False),
-        "serial": lambda: solver_numba.run(ops, vals, theta, tracked, False, False),
-        "serial, reused out": kernel_only(ops, vals, theta, tracked),
-        "parallel": lambda: solver_numba.run(ops, vals, theta, tracked, False, True),
-        "serial+joints": lambda: solver_numba.run(ops, vals, theta, tracked, True, False),
-        "parallel+joints": lambda: solver_numba.run(ops, vals, theta, tracked, True, True),
-    }
-    if solve_args is not None:
-        mechanism, params = solve_args
-        cases["solve()"] = lambda: solve(mechanism, params, theta.shape[0], joints=False, backend="numba")
+    cases: dict[tuple[str, str], Callable[[], object]] = {}
+    for mode, d in (("paths", False), ("d/dtheta", True)):
+        cases[mode, "numpy"] = partial(reduce_reference, ops, vals, theta, tracked, False, d)
+        cases[mode, "numba serial"] = partial(solver_numba.run, ops, vals, theta, tracked, False, False, d)
+        cases[mode, "reused out"] = kernel_only(ops, vals, theta, tracked, d)
+        cases[mode, "parallel"] = partial(solver_numba.run, ops, vals, theta, tracked, False, True, d)
+        if d:
+            cases[mode, "serial+joints"] = partial(solver_numba.run, ops, vals, theta, tracked, True, False, d)
+            cases[mode, "parallel+joints"] = partial(solver_numba.run, ops, vals, theta, tracked, True, True, d)
+        if solve_args is not None:
+            mechanism, params = solve_args
+            cases[mode, "solve()"] = partial(solve, mechanism, params, theta.shape[0], joints=False, derivatives=d,
+                                             backend="numba")
     out = {}
-    for label, fn in cases.items():
+    for key, fn in cases.items():
         fn()  # warm-up: caches, first-touch page faults
-        out[label] = pop / best_of(fn, max(1, repeats // 3) if label == "numpy" else repeats)
+        out[key] = pop / best_of(fn, max(1, repeats // 3) if key[1] == "numpy" else repeats)
     return out
 
 
@@ -145,19 +153,20 @@ def main(argv: list[str] | None = None) -> int:
             rows.append((name, pop, rates(prog.ops, vals, theta, prog.tracked, repeats, solve_args)))
 
     print(f"trajectories/s (N = {n}), best of {repeats} (numpy: {max(1, repeats // 3)}); joints=False unless noted")
-    header = ["mechanism", "pop", "numpy", "numba serial", "reused out", "parallel", "serial+joints", "parallel+joints",
-              "solve()"]
-    print(f"{header[0]:<14}{header[1]:>7}" + "".join(f"{h:>16}" for h in header[2:]))
-    for name, pop, by_case in rows:
-        cells = "".join(f"{_rate(r):>16}" for r in by_case.values())
-        print(f"{TITLES[name]:<14}{pop:>7}{cells}")
+    for mode, title in (("paths", "paths only (derivatives=False)"), ("d/dtheta", "paths and exact d/dtheta")):
+        columns = [c for m, c in rows[0][2] if m == mode] if rows else []
+        print(f"-- {title}")
+        print(f"{'mechanism':<14}{'pop':>7}" + "".join(f"{c:>16}" for c in columns))
+        for name, pop, by_case in rows:
+            print(f"{TITLES[name]:<14}{pop:>7}" + "".join(f"{_rate(by_case[mode, c]):>16}" for c in columns))
     for pop, r in ((pop, r) for name, pop, r in rows if name == "stephenson1"):
-        serial, reused, ref = r["serial"], r["serial, reused out"], r["numpy"]
-        print(
-            f"targets, Stephenson-I at pop {pop}: numba serial {_rate(serial)}, reused out {_rate(reused)} "
-            f"({'meets' if min(serial, reused) >= TARGET_NUMBA else 'below'} {_rate(TARGET_NUMBA)}), "
-            f"numpy {_rate(ref)} ({'meets' if ref >= TARGET_NUMPY else 'below'} {_rate(TARGET_NUMPY)})"
-        )
+        for mode in ("paths", "d/dtheta"):
+            serial, reused, ref = r[mode, "numba serial"], r[mode, "reused out"], r[mode, "numpy"]
+            print(
+                f"targets, Stephenson-I {mode} at pop {pop}: numba serial {_rate(serial)}, reused out {_rate(reused)} "
+                f"({'meets' if min(serial, reused) >= TARGET_NUMBA else 'below'} {_rate(TARGET_NUMBA)}), "
+                f"numpy {_rate(ref)} ({'meets' if ref >= TARGET_NUMPY else 'below'} {_rate(TARGET_NUMPY)})"
+            )
     return 0
 
 

@@ -3,7 +3,8 @@
 Samples are uniform in the input crank angle, ``theta_i = 2 pi i / n_samples``; the
 crank's absolute angle is ``phase + theta_i``. With a crank period T, sample i is at time
 ``t_i = i T / n_samples``. Derivatives are exact (differentiated construction steps) and
-taken with respect to theta (mm/rad).
+taken with respect to theta (mm/rad); ``derivatives=False`` skips them (about half the work)
+when only the paths are needed (shape matching, drawing).
 
 Two interpreters of the same compiled program: ``core.solver_numpy`` (reference) and
 ``core.solver_numba`` (fast kernel). ``backend="auto"`` picks numba.
@@ -37,6 +38,7 @@ class Solution:
             d/dtheta (mm/rad); None when solved with ``joints=False``.
         point, dpoint: ``(pop, n_samples, 2)`` tracked point in the design frame and d/dtheta.
         leg, dleg: ``(pop, n_samples, 2)`` tracked point in the leg frame and d/dtheta.
+        (djoints, dpoint and dleg are None when solved with ``derivatives=False``.)
         valid: ``(pop, n_samples)`` True where every joint is placed.
         violation: ``(pop,)`` >= 0; 0 iff the mechanism assembles over every sample, else the
             sum over dyads of the worst assembly shortfall (mm), plus negative lengths and
@@ -53,9 +55,9 @@ class Solution:
     joints: F64 | None
     djoints: F64 | None
     point: F64
-    dpoint: F64
+    dpoint: F64 | None
     leg: F64
-    dleg: F64
+    dleg: F64 | None
     valid: NDArray[np.bool_]
     violation: F64
     dyad_margin: F64
@@ -77,8 +79,8 @@ def sample_angles(n_samples: int) -> F64:
 
 
 def reduce_reference(
-    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool
-) -> tuple[F64 | None, F64 | None, F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
+    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, derivatives: bool = True
+) -> tuple[F64 | None, F64 | None, F64, F64 | None, NDArray[np.bool_], F64, F64, F64, F64]:
     """The numpy reference with the kernel's outputs (see ``core.solver_numba.run``)."""
     pos, dpos, margin, cos_mu, neg = solver_numpy.run(ops, vals, theta)
     with np.errstate(invalid="ignore"):
@@ -87,6 +89,8 @@ def reduce_reference(
         cmax = np.max(np.where(np.isnan(cos_mu), -np.inf, cos_mu), axis=1)
     point, dpoint = pos[:, :, tracked].copy(), dpos[:, :, tracked].copy()
     valid = np.asarray(np.isfinite(pos).all(axis=(-1, -2)), dtype=bool)
+    if not derivatives:
+        return (pos if want_joints else None), None, point, None, valid, mmin, cmin, cmax, neg
     if not want_joints:
         return None, None, point, dpoint, valid, mmin, cmin, cmax, neg
     return pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg
@@ -165,6 +169,7 @@ def solve(
     *,
     output: OutputStage = IDENTITY,
     joints: bool = True,
+    derivatives: bool = True,
     backend: Backend = "auto",
 ) -> Solution:
     """Solve a population of designs over one crank revolution.
@@ -178,6 +183,7 @@ def solve(
         n_samples: samples per revolution.
         output: design frame -> leg frame map of the tracked point.
         joints: also return every joint (memory: pop * n_samples * n_joints * 32 bytes).
+        derivatives: also return d/dtheta (djoints, dpoint, dleg; else None).
         backend: ``numpy`` reference, ``numba`` kernel, or ``auto`` (numba).
     """
     prep = prepare(mechanism, params)
@@ -185,18 +191,19 @@ def solve(
     theta = sample_angles(n_samples)
     if backend == "numpy":
         pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = reduce_reference(
-            prog.ops, vals, theta, prog.tracked, joints
+            prog.ops, vals, theta, prog.tracked, joints, derivatives
         )
-        leg, dleg = output.apply(point), output.apply_derivative(dpoint)
+        leg = output.apply(point)
+        dleg = None if dpoint is None else output.apply_derivative(dpoint)
     else:
         from core import solver_numba
 
         out = solver_numba.solve_all(prog.ops, vals, theta, prog.tracked, joints, vals.shape[0] >= PARALLEL_MIN_POP,
-                                     stage=(output.k, output.ox, output.oy))
+                                     stage=(output.k, output.ox, output.oy), derivatives=derivatives)
         pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = (
             out.pos, out.dpos, out.point, out.dpoint, out.valid, out.mmin, out.cmin, out.cmax, out.neg
         )
-        assert out.leg is not None and out.dleg is not None
+        assert out.leg is not None
         leg, dleg = out.leg, out.dleg
     dyads = np.flatnonzero(prog.ops[:, 0] == DYAD)
     violation = assembly_violation(prep, mmin, neg, np.asarray((~valid).any(axis=1), dtype=np.bool_))

@@ -528,7 +528,7 @@ def _fused_designs(solver_digest: str):  # type: ignore[no-untyped-def]
         kk = stage[0]
         cx, cy = (1.0 - kk) * stage[1], (1.0 - kk) * stage[2]
         for i in range(i0, i1):
-            SK.place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg)
+            SK.place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, True)
             SK.all_finite(x, y, tracked, sinks, acc)
             bad = False
             for k in range(n):

@@ -95,11 +95,17 @@ def _ground(x, y, j, a, u, v, c, s):
 
 
 @njit(**_JIT)
-def _crank(x, y, dx, dy, j, a, u, v, cp, sp, ct, st):
+def _crank(x, y, dx, dy, j, a, u, v, cp, sp, ct, st, deriv):
     """Place X = O + R(phase + theta) (u, v), given cp, sp = cos, sin(phase)."""
     # R(phase + theta) (u, v) = R(theta) R(phase) (u, v): rotate by the phase once per design.
     ru = cp * u - sp * v
     rv = sp * u + cp * v
+    if not deriv:
+        for k in range(x.shape[1]):
+            c, s = ct[k], st[k]
+            x[j, k] = x[a, k] + (c * ru - s * rv)
+            y[j, k] = y[a, k] + (s * ru + c * rv)
+        return
     for k in range(x.shape[1]):
         c, s = ct[k], st[k]
         rx = c * ru - s * rv
@@ -137,13 +143,29 @@ def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
     return d2
 
 
+@njit(**_JIT, inline="always")
+def _dyad_pos_at(x, y, j, a, b, k, sgn, k1, four_l1sq):
+    """Place X at sample k without its derivative (see ``_dyad``); returns |PQ|^2."""
+    p_x, p_y = x[a, k], y[a, k]
+    wx = x[b, k] - p_x
+    wy = y[b, k] - p_y
+    d2 = wx * wx + wy * wy
+    t = k1 + d2
+    sh = sgn * np.sqrt(four_l1sq * d2 - t * t)
+    half_inv_d2 = 0.5 / d2
+    x[j, k] = p_x + (t * wx - sh * wy) * half_inv_d2
+    y[j, k] = p_y + (t * wy + sh * wx) * half_inv_d2
+    return d2
+
+
 @njit(**_JIT)
-def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2):
+def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2, deriv):
     """Place X with |PX| = l1, |QX| = l2; return the cycle's min margin and min, max cos(mu).
 
     With w = Q - P, d2 = |w|^2, t = l1^2 - l2^2 + d2 (= 2 d along) and H = sqrt(4 l1^2 d2 - t^2)
     (= 2 d h): X - P = (t w + side H rot90(w)) / (2 d2), and det[X - P, X - Q] = side H / 2.
-    One sqrt and one divide per sample: q = 1 / (d2 side H) gives both 1 / (2 d2) and 2 / (side H).
+    One sqrt and one divide per sample: q = 1 / (d2 side H) gives both 1 / (2 d2) and 2 / (side H)
+    (without the derivative, 1 / (2 d2) is the divide).
 
     The margin and cos(mu) are monotone in d2, and so is their rounding: their extremes over the
     cycle (ignoring NaN samples) are the reference's per-sample formulas at the smallest and
@@ -162,7 +184,10 @@ def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2):
     if not (np.isfinite(dl) and np.isfinite(sl) and np.isfinite(s12) and np.isfinite(den) and den != 0.0):
         # Odd lengths: the reference's per-sample formulas, literally.
         for k in range(n):
-            d2row[k] = _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq)
+            if deriv:
+                d2row[k] = _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq)
+            else:
+                d2row[k] = _dyad_pos_at(x, y, j, a, b, k, sgn, k1, four_l1sq)
         mmin, cmin, cmax = np.inf, np.inf, -np.inf
         for k in range(n):
             d2 = d2row[k]
@@ -178,10 +203,16 @@ def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2):
         return mmin, cmin, cmax
     lo_bits = _U64_MAX
     hi_gap = _U64_MAX
-    for k in range(n):
-        v = _bits(_dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq))
-        lo_bits = min(lo_bits, v)
-        hi_gap = min(hi_gap, _INF_BITS - v)
+    if deriv:
+        for k in range(n):
+            v = _bits(_dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq))
+            lo_bits = min(lo_bits, v)
+            hi_gap = min(hi_gap, _INF_BITS - v)
+    else:
+        for k in range(n):
+            v = _bits(_dyad_pos_at(x, y, j, a, b, k, sgn, k1, four_l1sq))
+            lo_bits = min(lo_bits, v)
+            hi_gap = min(hi_gap, _INF_BITS - v)
     if lo_bits > _INF_BITS:  # every sample NaN
         return np.inf, np.inf, -np.inf
     lo, hi = _from_bits(lo_bits), _from_bits(_INF_BITS - hi_gap)
@@ -193,13 +224,33 @@ def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2):
 
 
 @njit(**_JIT)
-def _attach(x, y, dx, dy, j, a, b, u, v, known, length):
+def _attach(x, y, dx, dy, j, a, b, u, v, known, length, deriv):
     """Place X = P + u e + v rot90(e), e = (Q - P) / |Q - P|.
 
     known: |Q - P| is a dyad length (P, Q on one dyad link), so use ``length`` instead of
     measuring it: the same value up to rounding, and no sqrt or divide per sample.
     """
-    if known:
+    # Without ``deriv``: the same positions (up to fused multiply-adds) and no derivative rows.
+    if known and not deriv:
+        inv = 1.0 / length
+        uu, vv = u * inv, v * inv
+        for k in range(x.shape[1]):
+            p_x, p_y = x[a, k], y[a, k]
+            wx = x[b, k] - p_x
+            wy = y[b, k] - p_y
+            x[j, k] = p_x + (uu * wx - vv * wy)
+            y[j, k] = p_y + (uu * wy + vv * wx)
+    elif not deriv:
+        for k in range(x.shape[1]):
+            p_x, p_y = x[a, k], y[a, k]
+            wx = x[b, k] - p_x
+            wy = y[b, k] - p_y
+            inv_len = 1.0 / np.sqrt(wx * wx + wy * wy)
+            ex = wx * inv_len
+            ey = wy * inv_len
+            x[j, k] = p_x + u * ex - v * ey
+            y[j, k] = p_y + u * ey + v * ex
+    elif known:
         inv = 1.0 / length
         # P and Q lie on one rigid link: with U, V = (u, v) / |w|, X - P = U w + V rot90(w), and
         # X turns with the link at omega = cross(w, dw) / |w|^2: dX = dP + omega rot90(X - P).
@@ -245,8 +296,9 @@ def scratch(n_steps, n):
 
 
 @njit(**_JIT)
-def place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg):
-    """Solve design i into the scratch rows; its cycle statistics into row i of mmin, cmin, cmax, neg."""
+def place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv):
+    """Solve design i into the scratch rows; its cycle statistics into row i of mmin, cmin, cmax, neg.
+    Without ``deriv`` the derivative rows are left untouched."""
     total_neg = 0.0
     # Steps often share an angle (one crank phase, one frame angle): cache the last cos, sin.
     last, c, s = 0.0, 1.0, 0.0
@@ -262,13 +314,13 @@ def place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, ne
             if kind == GROUND:
                 _ground(x, y, j, a, v0, v1, c, s)
             else:
-                _crank(x, y, dx, dy, j, a, v0, v1, c, s, ct, st)
+                _crank(x, y, dx, dy, j, a, v0, v1, c, s, ct, st, deriv)
         elif kind == DYAD:
             total_neg += _pos_part(-v0) + _pos_part(-v1)
-            mmin[i, j], cmin[i, j], cmax[i, j] = _dyad(x, y, dx, dy, d2row, j, a, b, side, v0, v1)
+            mmin[i, j], cmin[i, j], cmax[i, j] = _dyad(x, y, dx, dy, d2row, j, a, b, side, v0, v1, deriv)
         else:  # ATTACH (run() rejects unknown kinds)
             ls, lc = links[j, 0], links[j, 1]
-            _attach(x, y, dx, dy, j, a, b, v0, v1, ls >= 0, abs(vals[i, ls, lc]) if ls >= 0 else 1.0)
+            _attach(x, y, dx, dy, j, a, b, v0, v1, ls >= 0, abs(vals[i, ls, lc]) if ls >= 0 else 1.0, deriv)
     neg[i] = total_neg
 
 
@@ -288,10 +340,11 @@ def all_finite(x, y, tracked, sinks, acc):
 
 
 @njit(**_JIT)
-def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage,
+def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, deriv,
           pos, dpos, point, dpoint, leg, dleg, valid):
     """Write design i's rows of the outputs from the scratch rows; point, dpoint, leg, dleg are
-    flat ``(pop, 2 n)`` views (interleaved stores by index vectorize, [k, 0] / [k, 1] pairs do not)."""
+    flat ``(pop, 2 n)`` views (interleaved stores by index vectorize, [k, 0] / [k, 1] pairs do not).
+    Without ``deriv`` nothing is written to dpos, dpoint, dleg."""
     n = x.shape[1]
     if sinks.shape[0] == 0:
         for k in range(n):
@@ -303,40 +356,47 @@ def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage,
         valid[i, k] = (px - px) + (py - py) + acc[k] == 0.0
         point[i, 2 * k] = px
         point[i, 2 * k + 1] = py
-        dpoint[i, 2 * k] = dx[tracked, k]
-        dpoint[i, 2 * k + 1] = dy[tracked, k]
+    if deriv:
+        for k in range(n):
+            dpoint[i, 2 * k] = dx[tracked, k]
+            dpoint[i, 2 * k + 1] = dy[tracked, k]
     if want_leg:
-        _emit_leg(i, x, y, dx, dy, tracked, stage, leg, dleg)
+        _emit_leg(i, x, y, dx, dy, tracked, stage, deriv, leg, dleg)
     if want_joints:
         for k in range(n):
             for j in range(x.shape[0]):
                 pos[i, k, j, 0] = x[j, k]
                 pos[i, k, j, 1] = y[j, k]
+    if want_joints and deriv:
+        for k in range(n):
+            for j in range(x.shape[0]):
                 dpos[i, k, j, 0] = dx[j, k]
                 dpos[i, k, j, 1] = dy[j, k]
 
 
 # No "contract": numpy rounds p * k, then adds; a fused multiply-add would round once.
 @njit(cache=True, nogil=True, error_model="numpy")
-def _emit_leg(i, x, y, dx, dy, tracked, stage, leg, dleg):
+def _emit_leg(i, x, y, dx, dy, tracked, stage, deriv, leg, dleg):
     """Design i's rows of leg, dleg: ``OutputStage.apply`` and ``apply_derivative``, operation for operation."""
     kk = stage[0]
     cx, cy = (1.0 - kk) * stage[1], (1.0 - kk) * stage[2]
     for k in range(x.shape[1]):
         leg[i, 2 * k] = x[tracked, k] * kk + cx
         leg[i, 2 * k + 1] = y[tracked, k] * kk + cy
-        dleg[i, 2 * k] = dx[tracked, k] * kk
-        dleg[i, 2 * k + 1] = dy[tracked, k] * kk
+    if deriv:
+        for k in range(x.shape[1]):
+            dleg[i, 2 * k] = dx[tracked, k] * kk
+            dleg[i, 2 * k + 1] = dy[tracked, k] * kk
 
 
 @njit(**_JIT)
-def _designs(i0, i1, ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+def _designs(i0, i1, ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage, deriv,
              pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
     """Solve designs i0 .. i1 - 1 into their rows of the outputs, with one set of scratch rows."""
     x, y, dx, dy, d2row, acc = scratch(ops.shape[0], ct.shape[0])
     for i in range(i0, i1):
-        place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg)
-        _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage,
+        place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv)
+        _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, deriv,
               pos, dpos, point, dpoint, leg, dleg, valid)
 
 
@@ -347,23 +407,23 @@ def _flat(a, n):
 
 
 @njit(**_JIT)
-def _run_serial(ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+def _run_serial(ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage, deriv,
                 pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
     n = ct.shape[0]
-    _designs(0, vals.shape[0], ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+    _designs(0, vals.shape[0], ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage, deriv,
              pos, dpos, _flat(point, n), _flat(dpoint, n), _flat(leg, n), _flat(dleg, n), valid, mmin, cmin, cmax,
              neg)
 
 
 @njit(**_JIT, parallel=True)
-def _run_parallel(ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage,
+def _run_parallel(ops, vals, ct, st, tracked, sinks, links, want_joints, want_leg, stage, deriv,
                   pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
     pop = vals.shape[0]
     n = ct.shape[0]
     point, dpoint, leg, dleg = _flat(point, n), _flat(dpoint, n), _flat(leg, n), _flat(dleg, n)
     for c in prange((pop + _CHUNK - 1) // _CHUNK):
         _designs(c * _CHUNK, min(pop, (c + 1) * _CHUNK), ops, vals, ct, st, tracked, sinks, links, want_joints,
-                 want_leg, stage, pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)
+                 want_leg, stage, deriv, pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)
 
 
 class Program(NamedTuple):
@@ -376,12 +436,13 @@ class Program(NamedTuple):
 
 
 class Outputs(NamedTuple):
-    """Everything ``solve`` gets from the kernel (shapes: see ``run``); leg, dleg None unless asked."""
+    """Everything ``solve`` gets from the kernel (shapes: see ``run``); leg, dleg None unless asked;
+    dpos, dpoint, dleg None without derivatives."""
 
     pos: F64 | None
     dpos: F64 | None
     point: F64
-    dpoint: F64
+    dpoint: F64 | None
     leg: F64 | None
     dleg: F64 | None
     valid: NDArray[np.bool_]
@@ -428,10 +489,11 @@ def angles(theta: F64) -> tuple[F64, F64]:
 
 def solve_all(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool,
-    stage: tuple[float, float, float] | None = None,
+    stage: tuple[float, float, float] | None = None, derivatives: bool = True,
 ) -> Outputs:
     """``run``, plus the tracked point in the leg frame when ``stage = (k, ox, oy)`` is given
-    (``OutputStage.apply`` and ``apply_derivative``, in the same pass)."""
+    (``OutputStage.apply`` and ``apply_derivative``, in the same pass). Without ``derivatives``
+    no derivative is computed (about half the work; the same positions up to rounding)."""
     vals = np.ascontiguousarray(vals, dtype=np.float64)
     theta = np.ascontiguousarray(theta, dtype=np.float64)
     prog = prepare(ops, tracked)
@@ -442,29 +504,34 @@ def solve_all(
     n = theta.shape[0]
     ct, st = angles(theta)
     shape = (pop, n, n_steps, 2) if want_joints else (0, 0, 0, 2)
-    pos, dpos = np.empty(shape), np.empty(shape)
+    pos, dpos = np.empty(shape), np.empty(shape if derivatives else (0, 0, 0, 2))
     want_leg = stage is not None
     # One block for the paths: one large allocation that glibc can reuse from call to call
     # (several 1 MB blocks get trimmed and faulted back in, page by page, every call).
-    block = np.empty((4 if want_leg else 2, pop, n, 2))
-    point, dpoint = block[0], block[1]
-    leg, dleg = (block[2], block[3]) if want_leg else (point[:0], point[:0])
+    n_paths = (2 if want_leg else 1) * (2 if derivatives else 1)
+    block = np.empty((n_paths, pop, n, 2))
+    point = block[0]
+    dpoint = block[1] if derivatives else point[:0]
+    leg = block[n_paths // 2] if want_leg else point[:0]
+    dleg = block[3] if want_leg and derivatives else point[:0]
     valid = np.empty((pop, n), dtype=np.bool_)
     mmin, cmin, cmax = np.empty((pop, n_steps)), np.empty((pop, n_steps)), np.empty((pop, n_steps))
     neg = np.empty(pop)
     k_o = (1.0, 0.0, 0.0) if stage is None else (float(stage[0]), float(stage[1]), float(stage[2]))
     kernel = _run_parallel if parallel else _run_serial
     kernel(prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, bool(want_joints), want_leg, k_o,
-           pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)
+           bool(derivatives), pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)
+    d = bool(derivatives)
     return Outputs(
-        pos if want_joints else None, dpos if want_joints else None, point, dpoint,
-        leg if want_leg else None, dleg if want_leg else None, valid, mmin, cmin, cmax, neg,
+        pos if want_joints else None, dpos if want_joints and d else None, point, dpoint if d else None,
+        leg if want_leg else None, dleg if want_leg and d else None, valid, mmin, cmin, cmax, neg,
     )
 
 
 def run(
-    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool
-) -> tuple[F64 | None, F64 | None, F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
+    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool,
+    derivatives: bool = True,
+) -> tuple[F64 | None, F64 | None, F64, F64 | None, NDArray[np.bool_], F64, F64, F64, F64]:
     """Solve a population; the same outputs as ``core.kinematics.reduce_reference``.
 
     Never raises for non-finite operands: NaN propagates to every point built on it. Raises
@@ -477,10 +544,11 @@ def run(
         tracked: index of the tracked point.
         want_joints: also return every joint (else None for pos and dpos, and no memory for them).
         parallel: run over designs on all threads.
+        derivatives: also compute dpos and dpoint (else None for them; the same positions).
 
     Returns:
         pos, dpos: ``(pop, n_samples, n_steps, 2)`` joint positions (mm) and d/dtheta (mm/rad), or None.
-        point, dpoint: ``(pop, n_samples, 2)`` the tracked point and its d/dtheta.
+        point, dpoint: ``(pop, n_samples, 2)`` the tracked point and its d/dtheta (or None).
         valid: ``(pop, n_samples)`` True where every joint is finite.
         mmin: ``(pop, n_steps)`` min over samples of each dyad's margin ``min(d - |l1-l2|, l1+l2-d)``
             ignoring NaN (mm); +inf for other steps and where no sample has a value.
@@ -488,7 +556,7 @@ def run(
             transmission angle ignoring NaN; +inf / -inf where none.
         neg: ``(pop,)`` total amount by which dyad lengths are negative (mm).
     """
-    o = solve_all(ops, vals, theta, tracked, want_joints, parallel)
+    o = solve_all(ops, vals, theta, tracked, want_joints, parallel, derivatives=derivatives)
     return o.pos, o.dpos, o.point, o.dpoint, o.valid, o.mmin, o.cmin, o.cmax, o.neg
 
 

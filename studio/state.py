@@ -126,6 +126,7 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     sol = solve(design.mechanism, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
     tgt = target.points(n_samples)
     ev = evaluate_solution(sol, target.target(), target.period, walk.obstacle)
+    assert sol.dleg is not None
     walking = build_walk(sol.leg[0], sol.dleg[0], target.period, walk) if ev.feasible[0] else None
     return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev),
                       stance_mask(ev, n_samples), feature_labels(ev), walk, walking)

@@ -79,7 +79,7 @@ def extent(points: np.ndarray) -> dict[str, float | None]:
 
 def solution_dict(design: Design, sol: Solution, preset: str | None) -> dict[str, Any]:
     """Member 0 of a solution as a JSON-ready dict; summary keys first, then the per-sample arrays."""
-    assert sol.joints is not None
+    assert sol.joints is not None and sol.dpoint is not None and sol.dleg is not None
     return {
         "mechanism": design.mechanism.name,
         "preset": preset,
