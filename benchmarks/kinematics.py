@@ -94,7 +94,7 @@ def kernel_only(
     out += (np.empty((pop, n), dtype=bool),) + tuple(np.empty((pop, n_steps)) for _ in range(3)) + (np.empty(pop),)
     prog = solver_numba.prepare(ops, tracked)
     ct, st = solver_numba.angles(theta)
-    program = (prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, False, False, (1.0, 0.0, 0.0),
+    program = (prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, False, False, (1.0, 1.0, 0.0, 0.0),
                derivatives)
     return lambda: solver_numba._run_serial(*program, *out)
 

@@ -210,7 +210,7 @@ def _evaluate_fused(
     out = design.output
     pop = prep.vals.shape[0]
     mmin, neg, broken, index, pts, tans, S = K.run_designs(
-        prep.program.ops, prep.vals, sample_angles(n), prep.program.tracked, (out.k, out.ox, out.oy),
+        prep.program.ops, prep.vals, sample_angles(n), prep.program.tracked, out.kernel_args(),
         _target_samples(tgt, n), float(period), a, b, *_layouts(float(trunk)), pop >= PARALLEL_MIN_POP,
     )
     kin = assembly_violation(prep, mmin, neg, broken)

@@ -199,7 +199,7 @@ def solve(
         from core import solver_numba
 
         out = solver_numba.solve_all(prog.ops, vals, theta, prog.tracked, joints, vals.shape[0] >= PARALLEL_MIN_POP,
-                                     stage=(output.k, output.ox, output.oy), derivatives=derivatives)
+                                     stage=output.kernel_args(), derivatives=derivatives)
         pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = (
             out.pos, out.dpos, out.point, out.dpoint, out.valid, out.mmin, out.cmin, out.cmax, out.neg
         )

@@ -525,8 +525,8 @@ def _fused_designs(solver_digest: str):  # type: ignore[no-untyped-def]
         x, y, dx, dy, d2row, acc = SK.scratch(ops.shape[0], n)
         W = work(n, max(offs2.shape[0], offs4.shape[0]))
         lx, ly, ldx, ldy = W[10], W[11], W[12], W[13]
-        kk = stage[0]
-        cx, cy = (1.0 - kk) * stage[1], (1.0 - kk) * stage[2]
+        kx, ky = stage[0], stage[1]
+        cx, cy = (1.0 - kx) * stage[2], (1.0 - ky) * stage[3]
         for i in range(i0, i1):
             SK.place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, True)
             SK.all_finite(x, y, tracked, sinks, acc)
@@ -536,10 +536,10 @@ def _fused_designs(solver_digest: str):  # type: ignore[no-untyped-def]
             broken[i] = bad
             # OutputStage.apply / apply_derivative, operation for operation (no fused multiply-add).
             for k in range(n):
-                lx[k] = x[tracked, k] * kk + cx
-                ly[k] = y[tracked, k] * kk + cy
-                ldx[k] = dx[tracked, k] * kk
-                ldy[k] = dy[tracked, k] * kk
+                lx[k] = x[tracked, k] * kx + cx
+                ly[k] = y[tracked, k] * ky + cy
+                ldx[k] = dx[tracked, k] * kx
+                ldy[k] = dy[tracked, k] * ky
             qx, qy = x[tracked], y[tracked]
             if not _finite(lx, ly, ldx, ldy, qx, qy):
                 _invalid(i, index, pts, tans, S)
@@ -583,7 +583,7 @@ _fused_serial, _fused_parallel = _fused_runs(_SOLVER_DIGEST)
 
 
 def run_designs(
-    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, stage: tuple[float, float, float],
+    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, stage: tuple[float, float, float, float],
     target: F64, period: float, a: float, b: float, offs2: F64, ph2: F64, offs4: F64, ph4: F64, parallel: bool,
 ) -> tuple[F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
     """Solve every design (``core.solver_numba``) and analyse its path in the same pass.
@@ -613,7 +613,7 @@ def run_designs(
     S = np.empty((pop, N_SCALARS))
     kernel = _fused_parallel if parallel else _fused_serial
     kernel(prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links,
-           (float(stage[0]), float(stage[1]), float(stage[2])), np.ascontiguousarray(target, dtype=np.float64),
+           tuple(float(v) for v in stage), np.ascontiguousarray(target, dtype=np.float64),
            float(period), float(a), float(b), offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken,
            index, pts, tans, S)
     return mmin, neg, broken, index, pts, tans, S

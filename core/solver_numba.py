@@ -377,16 +377,17 @@ def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, de
 # No "contract": numpy rounds p * k, then adds; a fused multiply-add would round once.
 @njit(cache=True, nogil=True, error_model="numpy")
 def _emit_leg(i, x, y, dx, dy, tracked, stage, deriv, leg, dleg):
-    """Design i's rows of leg, dleg: ``OutputStage.apply`` and ``apply_derivative``, operation for operation."""
-    kk = stage[0]
-    cx, cy = (1.0 - kk) * stage[1], (1.0 - kk) * stage[2]
+    """Design i's rows of leg, dleg: ``OutputStage.apply`` and ``apply_derivative``, operation for operation
+    (stage = ``OutputStage.kernel_args()``)."""
+    kx, ky = stage[0], stage[1]
+    cx, cy = (1.0 - kx) * stage[2], (1.0 - ky) * stage[3]
     for k in range(x.shape[1]):
-        leg[i, 2 * k] = x[tracked, k] * kk + cx
-        leg[i, 2 * k + 1] = y[tracked, k] * kk + cy
+        leg[i, 2 * k] = x[tracked, k] * kx + cx
+        leg[i, 2 * k + 1] = y[tracked, k] * ky + cy
     if deriv:
         for k in range(x.shape[1]):
-            dleg[i, 2 * k] = dx[tracked, k] * kk
-            dleg[i, 2 * k + 1] = dy[tracked, k] * kk
+            dleg[i, 2 * k] = dx[tracked, k] * kx
+            dleg[i, 2 * k + 1] = dy[tracked, k] * ky
 
 
 @njit(**_JIT)
@@ -489,9 +490,10 @@ def angles(theta: F64) -> tuple[F64, F64]:
 
 def solve_all(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool,
-    stage: tuple[float, float, float] | None = None, derivatives: bool = True,
+    stage: tuple[float, float, float, float] | None = None, derivatives: bool = True,
 ) -> Outputs:
-    """``run``, plus the tracked point in the leg frame when ``stage = (k, ox, oy)`` is given
+    """``run``, plus the tracked point in the leg frame when ``stage = (kx, ky, ox, oy)``
+    (``OutputStage.kernel_args()``) is given
     (``OutputStage.apply`` and ``apply_derivative``, in the same pass). Without ``derivatives``
     no derivative is computed (about half the work; the same positions up to rounding)."""
     vals = np.ascontiguousarray(vals, dtype=np.float64)
@@ -517,7 +519,9 @@ def solve_all(
     valid = np.empty((pop, n), dtype=np.bool_)
     mmin, cmin, cmax = np.empty((pop, n_steps)), np.empty((pop, n_steps)), np.empty((pop, n_steps))
     neg = np.empty(pop)
-    k_o = (1.0, 0.0, 0.0) if stage is None else (float(stage[0]), float(stage[1]), float(stage[2]))
+    k_o = (1.0, 1.0, 0.0, 0.0) if stage is None else tuple(float(v) for v in stage)
+    if len(k_o) != 4:
+        raise ValueError(f"stage is (kx, ky, ox, oy), got {stage}")
     kernel = _run_parallel if parallel else _run_serial
     kernel(prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links, bool(want_joints), want_leg, k_o,
            bool(derivatives), pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg)

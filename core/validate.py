@@ -32,7 +32,7 @@ F64 = NDArray[np.float64]
 
 DESIGN_KEYS = ("mechanism", "params", "output")
 INFO_KEYS = ("name", "title", "source", "units")
-OUTPUT_KEYS = ("k", "ox", "oy")
+OUTPUT_KEYS = ("k", "ox", "oy", "mirror")
 
 
 def _number(label: str, unit: str, value: object) -> float:
@@ -117,19 +117,25 @@ def check_output(output: OutputStage) -> OutputStage:
             raise ValueError(f"output {key} ({unit}) must be finite, got {getattr(output, key)}")
     if output.k == 0.0:
         raise ValueError("output k (ratio) must be non-zero")
+    if not isinstance(output.mirror, bool | np.bool_):
+        raise ValueError(f"output mirror must be true or false, got {output.mirror!r}")
     return output
 
 
 def output_from(data: object) -> OutputStage:
-    """An output stage from ``{"k": .., "ox": .., "oy": ..}`` (missing keys take identity's values)."""
+    """An output stage from ``{"k": .., "ox": .., "oy": .., "mirror": ..}`` (missing keys take
+    identity's values; mirror is a boolean)."""
     if not isinstance(data, Mapping):
-        raise ValueError(f"output must be an object {{k, ox, oy}}, got {data!r}")
+        raise ValueError(f"output must be an object {{k, ox, oy, mirror}}, got {data!r}")
     unknown = [k for k in data if k not in OUTPUT_KEYS]
     if unknown:
-        raise ValueError(f"unknown output key {unknown[0]!r}; expected k, ox, oy")
+        raise ValueError(f"unknown output key {unknown[0]!r}; expected k, ox, oy, mirror")
     units = {"k": "ratio", "ox": "mm", "oy": "mm"}
-    vals = {k: _number(f"output {k}", units[k], data[k]) for k in OUTPUT_KEYS if k in data}
-    return check_output(OutputStage(**vals))
+    vals = {k: _number(f"output {k}", units[k], data[k]) for k in ("k", "ox", "oy") if k in data}
+    mirror = data.get("mirror", False)
+    if not isinstance(mirror, bool):
+        raise ValueError(f"output mirror must be true or false, got {mirror!r}")
+    return check_output(OutputStage(**vals, mirror=mirror))
 
 
 def check_design(design: Design) -> Design:

@@ -221,6 +221,8 @@ ERRORS: list[tuple[str, list[str], object | None, str]] = [
     ("wrong unit", FILE, {"mechanism": S1, "params": GOOD, "units": {"r1": "cm"}}, "r1 is given in 'cm'"),
     ("zero ratio", FILE, {"mechanism": S1, "params": GOOD, "output": {"k": 0}}, "output k (ratio) must be non-zero"),
     ("unknown output key", FILE, {"mechanism": S1, "params": GOOD, "output": {"kk": 1}}, "unknown output key 'kk'"),
+    ("mirror not a bool", FILE, {"mechanism": S1, "params": GOOD, "output": {"mirror": "yes"}},
+     "output mirror must be true or false, got 'yes'"),
     ("missing file", ["simulate", "--design", "no/such/file.json"], None, "not found"),
     ("no source", ["simulate"], None, "one of the arguments --preset --design is required"),
     ("bad samples", ["simulate", "--preset", "stephenson1/X3", "--samples", "0"], None, "--samples must be between"),

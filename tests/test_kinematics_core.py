@@ -186,3 +186,24 @@ def test_bodies_of_stephenson1_are_the_six_links():
 def test_wrong_parameter_count_is_a_clear_error():
     with pytest.raises(ValueError, match="16 parameters"):
         solve(STEPHENSON1, X3[:5], 10)
+
+
+def test_a_mirrored_output_stage_reflects_x_about_o_then_scales():
+    stage = OutputStage(k=-0.5, ox=150.0, oy=20.0, mirror=True)
+    p = np.array([[[10.0, 30.0], [200.0, -40.0]]])
+    # O + k M (P - O) with M = diag(-1, 1)
+    want = np.stack([150.0 - 0.5 * -(p[..., 0] - 150.0), 20.0 - 0.5 * (p[..., 1] - 20.0)], -1)
+    np.testing.assert_allclose(stage.apply(p), want, atol=1e-12)
+    np.testing.assert_allclose(stage.apply_derivative(p), p * np.array([0.5, -0.5]), atol=1e-12)
+    assert OutputStage.from_dict(stage.to_dict()) == stage
+    assert OutputStage.from_dict({"k": -0.5, "ox": 150.0, "oy": 20.0}).mirror is False  # older files
+    assert "mirror" not in OutputStage(k=-1.0).to_dict()
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_both_backends_map_the_leg_frame_through_a_mirror(backend):
+    stage = OutputStage(k=-1.0, ox=150.0, oy=0.0, mirror=True)
+    sol = solve(STEPHENSON1, X3, 90, output=stage, backend=backend)
+    np.testing.assert_allclose(sol.leg, stage.apply(sol.point), atol=1e-12)
+    np.testing.assert_allclose(sol.dleg, stage.apply_derivative(sol.dpoint), atol=1e-12)
+    np.testing.assert_allclose(sol.leg[..., 0], sol.point[..., 0], atol=1e-12)  # k = -1 and mirror: x kept

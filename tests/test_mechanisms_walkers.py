@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -213,3 +214,34 @@ def test_klann_reproduces_the_published_joint_positions() -> None:
     for name, (px, py) in _KLANN_JOINTS.items():
         ref = _KLANN_SCALE * np.array([ax - px, py - ay])
         np.testing.assert_allclose(joint(sol, KLANN, name)[0, 0], ref, atol=1e-9, err_msg=name)
+
+
+def signed_area(path: np.ndarray) -> float:
+    """Shoelace area of a closed ``(n, 2)`` path: > 0 when it goes round counter-clockwise."""
+    x, y = path[:, 0], path[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "fourbar/chebyshev", "stephenson1/X3", "stephenson3/paper"])
+def test_walker_leg_frames_go_round_counter_clockwise(name: str) -> None:
+    # The spec's leg-frame convention (stance moving +x): Klann and Chebyshev need their mirrored output stage.
+    from core.presets import PRESETS as ALL
+
+    p = ALL[name]
+    sol = solve(p.mechanism, np.array([p.values]), 360, output=p.output, joints=False)
+    assert sol.feasible[0]
+    assert signed_area(sol.leg[0]) > 0.0
+    # A mirror flips the sense of traversal (k = -1 is a half turn and keeps it): the design frames of
+    # Klann and Chebyshev go round clockwise.
+    assert (signed_area(sol.point[0]) < 0.0) == p.output.mirror
+
+
+def test_chebyshev_leg_meets_the_eq30_order_once_mirrored() -> None:
+    from core.evaluate import CONSTRAINT_NAMES, evaluate
+    from core.presets import PRESETS as ALL
+
+    p = ALL["fourbar/chebyshev"]
+    mirrored = evaluate(p.design(), 360)
+    plain = evaluate(replace(p.design(), output=replace(p.output, mirror=False)), 360)
+    order = CONSTRAINT_NAMES.index("order")
+    assert mirrored.constraints[0, order] <= 0.0 < plain.constraints[0, order]

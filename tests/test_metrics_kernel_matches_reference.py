@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -60,3 +60,12 @@ def test_kernel_matches_reference_on_a_perturbed_population(parallel: bool, monk
     fast = evaluate(d, 360, backend="numba")
     assert 50 < ref.feasible.sum() < 300  # both assembled and unassemblable members
     assert_same(ref, fast)
+
+
+def test_fused_kernel_applies_a_mirrored_output_stage_like_the_reference() -> None:
+    base = get("klann").design()
+    assert base.output.mirror
+    rng = np.random.default_rng(5)
+    p = base.params * (1 + 0.02 * rng.standard_normal((40, base.params.shape[1])))
+    d = Design(base.mechanism, p, replace(base.output, k=-0.8, ox=12.0, oy=-7.0))
+    assert_same(evaluate(d, 180, backend="numpy"), evaluate(d, 180, backend="numba"))

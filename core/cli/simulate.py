@@ -13,6 +13,7 @@ from core import presets
 from core.cli import CLIError, dumps
 from core.design import Design
 from core.kinematics import Solution
+from core.mechanisms.model import IDENTITY
 from core.validate import check_design, design_from_dict
 
 # Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
@@ -124,7 +125,8 @@ def why_not(sol: Solution) -> list[str]:
 def summary(design: Design, sol: Solution, label: str) -> str:
     m = design.mechanism
     o = design.output
-    out = "identity output" if (o.k, o.ox, o.oy) == (1.0, 0.0, 0.0) else f"output k={o.k:g} about ({o.ox:g}, {o.oy:g})"
+    out = ("identity output" if o == IDENTITY else
+           f"output k={o.k:g}{', mirrored' if o.mirror else ''} about ({o.ox:g}, {o.oy:g})")
     lines = [f"{label}: {m.title} ({m.name}, {m.n_params} parameters), {out}"]
     n = sol.theta.shape[0]
     if sol.feasible[0]:

@@ -20,9 +20,12 @@ _WATT1_PAPER = (6.10, 2.46, 64.59, 148.82, 90.88, 177.77, 180.98, 191.94, 214.01
 # Chebyshev's lambda (Hoekens) proportions crank : coupler : rocker : ground = 1 : 2.5 : 2.5 : 2, the foot on
 # the coupler's extension at 5 crank lengths from the crank pin; crank 60 mm. The linkage hangs below its
 # crank axle (b = pi); like the paper's legs, a pantograph k = -1 about the axle turns the path over so the
-# straight stretch (nearest the pivots) becomes the stance at the bottom of the leg frame.
+# straight stretch (nearest the pivots) becomes the stance at the bottom of the leg frame. Its foot goes round
+# clockwise, so the leg frame is also mirrored (stance moving +x, the spec's convention).
 _CHEBYSHEV = (np.pi, 0.0, 0.0, 0.0, 60.0, 150.0, 150.0, 120.0, 300.0, 0.0)
-_AXLE_PANTOGRAPH = OutputStage(k=-1.0, ox=0.0, oy=0.0)
+_AXLE_PANTOGRAPH = OutputStage(k=-1.0, ox=0.0, oy=0.0, mirror=True)
+# Klann's foot also goes round clockwise: its leg frame is the mirror image about the crank axle.
+_AXLE_MIRROR = OutputStage(mirror=True)
 
 # Jansen's "holy numbers" a..m (strandbeest.com), crank axle at the origin.
 _JANSEN = (0.0, 0.0, 0.0, 38.0, 41.5, 39.3, 40.1, 55.8, 39.4, 36.7, 65.7, 49.0, 50.0, 61.9, 7.8, 15.0)
@@ -67,7 +70,7 @@ PRESETS: dict[str, Preset] = {
     ),
     "jansen": Preset("jansen", JANSEN, _JANSEN, source="Theo Jansen's holy numbers (strandbeest.com)"),
     "klann": Preset(
-        "klann", KLANN, _klann_values(),
-        source="Klann mechanical spider joint coordinates (mekanizmalar.com), x3 mm, mirrored",
+        "klann", KLANN, _klann_values(), _AXLE_MIRROR,
+        source="Klann mechanical spider joint coordinates (mekanizmalar.com), x3 mm, mirrored; leg frame mirrored",
     ),
 }

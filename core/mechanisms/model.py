@@ -78,31 +78,50 @@ Step = Ground | Crank | Dyad | Attach
 class OutputStage:
     """Maps the tracked point from the design frame to the leg frame (spec §2).
 
-    ``P_leg = O + k (P - O)``: identity for k = 1, a pantograph of signed ratio k about O
-    otherwise (the paper's Stephenson presets use k = -1 about (150, 0)).
+    ``P_leg = O + k M (P - O)``: identity for k = 1, a pantograph of signed ratio k about O
+    otherwise (the paper's Stephenson presets use k = -1 about (150, 0)). M is the identity, or
+    with ``mirror`` the reflection x -> -x: a leg whose foot goes round clockwise under our
+    counter-clockwise crank (Klann, Chebyshev) walks toward -x; mirrored, its leg frame is
+    the spec's (stance moving +x), as if the robot were seen from its other side.
     """
 
     k: float = 1.0
     ox: float = 0.0
     oy: float = 0.0
+    mirror: bool = False
+
+    @property
+    def ratios(self) -> tuple[float, float]:
+        """``(kx, ky)``: the per-axis factors of the map (kx = -k when mirrored)."""
+        return (-self.k if self.mirror else self.k), self.k
+
+    def kernel_args(self) -> tuple[float, float, float, float]:
+        """``(kx, ky, ox, oy)`` as the numba kernels take the stage."""
+        kx, ky = self.ratios
+        return float(kx), float(ky), float(self.ox), float(self.oy)
 
     def apply(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
         """Points ``(*, 2)`` in the design frame -> leg frame."""
         # One output array, no temporaries: the optimizer maps (pop, n, 2) batches every generation.
-        out = np.multiply(p, self.k)
-        out += (1.0 - self.k) * np.array([self.ox, self.oy])
+        kx, ky = self.ratios
+        out = np.multiply(p, np.array([kx, ky]))
+        out += np.array([(1.0 - kx) * self.ox, (1.0 - ky) * self.oy])
         return out
 
     def apply_derivative(self, dp: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.multiply(dp, self.k)
+        return np.multiply(dp, np.array(self.ratios))
 
-    def to_dict(self) -> dict[str, float]:
-        return {"k": self.k, "ox": self.ox, "oy": self.oy}
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {"k": self.k, "ox": self.ox, "oy": self.oy}
+        if self.mirror:
+            d["mirror"] = True
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> OutputStage:
-        """Inverse of :meth:`to_dict` (numbers, or the strings ``float`` reads, e.g. "Infinity")."""
-        return cls(float(d["k"]), float(d["ox"]), float(d["oy"]))
+        """Inverse of :meth:`to_dict` (numbers, or the strings ``float`` reads, e.g. "Infinity");
+        ``mirror`` is optional (false)."""
+        return cls(float(d["k"]), float(d["ox"]), float(d["oy"]), bool(d.get("mirror", False)))
 
 
 IDENTITY = OutputStage()
