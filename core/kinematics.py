@@ -12,6 +12,7 @@ Two interpreters of the same compiled program: ``core.solver_numpy`` (reference)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
@@ -98,24 +99,44 @@ def reduce_reference(
 
 def _crank_margin(ops: NDArray[np.int64], vals: F64) -> F64:
     """Exact full-rotation margin of every dyad joining a crank point to a ground point."""
-    pop = vals.shape[0]
-    ground = np.full((pop, len(ops), 2), np.nan)
-    out = np.full(pop, np.inf)
-    for j, (kind, a, b, _) in enumerate(ops):
-        u, v, ang = vals[:, j, 0], vals[:, j, 1], vals[:, j, 2]
-        if kind == GROUND:
-            off = np.stack([np.cos(ang) * u - np.sin(ang) * v, np.sin(ang) * u + np.cos(ang) * v], -1)
-            ground[:, j] = off + (ground[:, a] if a >= 0 else 0.0)
-        elif kind == DYAD:
-            for c, g in ((a, b), (b, a)):
-                if ops[c, 0] == CRANK and ops[g, 0] == GROUND:
-                    pivot = ops[c, 1]
-                    rho = np.hypot(vals[:, c, 0], vals[:, c, 1])
-                    dist = np.linalg.norm(ground[:, g] - ground[:, pivot], axis=-1)
-                    l1, l2 = vals[:, j, 0], vals[:, j, 1]
-                    m = np.minimum(l1 + l2 - (dist + rho), np.abs(dist - rho) - np.abs(l1 - l2))
-                    out = np.minimum(out, m)
+    out = np.full(vals.shape[0], np.inf)
+    ground: dict[int, tuple[F64, F64]] = {}
+
+    def place(g: int) -> tuple[F64, F64]:
+        """Ground point g, ``(pop,)`` x and y (its anchors first)."""
+        if g not in ground:
+            u, v, ang = vals[:, g, 0], vals[:, g, 1], vals[:, g, 2]
+            c, s = np.cos(ang), np.sin(ang)
+            x, y = c * u - s * v, s * u + c * v
+            a = int(ops[g, 1])
+            if a >= 0:
+                ax, ay = place(a)
+                x, y = x + ax, y + ay
+            ground[g] = (x, y)
+        return ground[g]
+
+    for j, c, g in _crank_dyads(ops.tobytes(), ops.shape[0]):
+        (gx, gy), (px, py) = place(g), place(int(ops[c, 1]))
+        rho = np.hypot(vals[:, c, 0], vals[:, c, 1])
+        dist = np.hypot(gx - px, gy - py)
+        l1, l2 = vals[:, j, 0], vals[:, j, 1]
+        np.minimum(out, np.minimum(l1 + l2 - (dist + rho), np.abs(dist - rho) - np.abs(l1 - l2)), out=out)
     return out
+
+
+@functools.cache
+def _crank_dyads(ops_bytes: bytes, n_steps: int) -> tuple[tuple[int, int, int], ...]:
+    """``(dyad, crank point, ground point)`` for every dyad joining a crank point (pivoting on a
+    ground point) to a ground point: the loops whose full rotation ``_crank_margin`` measures."""
+    ops = np.frombuffer(ops_bytes, dtype=np.int64).reshape(n_steps, 4)
+    out = []
+    for j, (kind, a, b, _) in enumerate(ops):
+        if kind != DYAD:
+            continue
+        for c, g in ((a, b), (b, a)):
+            if ops[c, 0] == CRANK and ops[g, 0] == GROUND and ops[ops[c, 1], 0] == GROUND:
+                out.append((j, int(c), int(g)))
+    return tuple(out)
 
 
 class Prepared(NamedTuple):
