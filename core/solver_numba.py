@@ -117,14 +117,20 @@ def _crank(x, y, dx, dy, j, a, u, v, cp, sp, ct, st, deriv):
 
 
 @njit(**_JIT, inline="always")
-def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
-    """Place X at sample k (see ``_dyad``); returns |PQ|^2."""
+def _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq):
+    """At sample k: P, w = Q - P, d2 = |w|^2, t and side H (see ``_dyad``)."""
     p_x, p_y = x[a, k], y[a, k]
     wx = x[b, k] - p_x
     wy = y[b, k] - p_y
     d2 = wx * wx + wy * wy
     t = k1 + d2
-    sh = sgn * np.sqrt(four_l1sq * d2 - t * t)
+    return p_x, p_y, wx, wy, d2, t, sgn * np.sqrt(four_l1sq * d2 - t * t)
+
+
+@njit(**_JIT, inline="always")
+def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
+    """Place X at sample k (see ``_dyad``); returns |PQ|^2."""
+    p_x, p_y, wx, wy, d2, t, sh = _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq)
     # At an exact fold (H = 0) X is still placed; only its derivative is infinite.
     shs = sh if sh != 0.0 else 1.0
     q = 1.0 / (d2 * shs)
@@ -146,12 +152,7 @@ def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
 @njit(**_JIT, inline="always")
 def _dyad_pos_at(x, y, j, a, b, k, sgn, k1, four_l1sq):
     """Place X at sample k without its derivative (see ``_dyad``); returns |PQ|^2."""
-    p_x, p_y = x[a, k], y[a, k]
-    wx = x[b, k] - p_x
-    wy = y[b, k] - p_y
-    d2 = wx * wx + wy * wy
-    t = k1 + d2
-    sh = sgn * np.sqrt(four_l1sq * d2 - t * t)
+    p_x, p_y, wx, wy, d2, t, sh = _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq)
     half_inv_d2 = 0.5 / d2
     x[j, k] = p_x + (t * wx - sh * wy) * half_inv_d2
     y[j, k] = p_y + (t * wy + sh * wx) * half_inv_d2
