@@ -6,7 +6,7 @@
 Prints trajectories (designs x one crank revolution of N samples) per second for the four-bar,
 Stephenson-I and Jansen mechanisms, each population a preset jittered by 3 % (seeded). A
 mechanism not yet in the registry is skipped with a note. Times are the best of k repeats after
-a warm-up call, through ``solver_numba.run`` and ``kinematics.reduce_reference`` (the same
+a warm-up call, through ``solver_numba.run`` and ``solver_numpy.reduce`` (the same
 outputs, allocation included: fresh output arrays every call, as a caller gets them; at pop
 10 000 that is 115 MB of new pages per call, whose first-touch faults cost ~1-3 us per design on
 this VM). "reused out": the serial kernel alone, writing into outputs allocated once (the
@@ -33,8 +33,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from core import solver_numba  # noqa: E402
-from core.kinematics import reduce_reference, sample_angles, solve  # noqa: E402
+from core import solver_numba, solver_numpy  # noqa: E402
+from core.kinematics import sample_angles, solve  # noqa: E402
 from core.mechanisms import MECHANISMS  # noqa: E402
 from core.mechanisms.model import Mechanism  # noqa: E402
 from core.presets import PRESETS, Preset  # noqa: E402
@@ -108,7 +108,7 @@ def rates(
     pop = vals.shape[0]
     cases: dict[tuple[str, str], Callable[[], object]] = {}
     for mode, d in (("paths", False), ("d/dtheta", True)):
-        cases[mode, "numpy"] = partial(reduce_reference, ops, vals, theta, tracked, False, d)
+        cases[mode, "numpy"] = partial(solver_numpy.reduce, ops, vals, theta, tracked, False, d)
         cases[mode, "numba serial"] = partial(solver_numba.run, ops, vals, theta, tracked, False, False, d)
         cases[mode, "reused out"] = kernel_only(ops, vals, theta, tracked, d)
         cases[mode, "parallel"] = partial(solver_numba.run, ops, vals, theta, tracked, False, True, d)

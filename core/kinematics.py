@@ -79,24 +79,6 @@ def sample_angles(n_samples: int) -> F64:
     return 2.0 * np.pi * np.arange(n_samples) / n_samples
 
 
-def reduce_reference(
-    ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, derivatives: bool = True
-) -> tuple[F64 | None, F64 | None, F64, F64 | None, NDArray[np.bool_], F64, F64, F64, F64]:
-    """The numpy reference with the kernel's outputs (see ``core.solver_numba.run``)."""
-    pos, dpos, margin, cos_mu, neg = solver_numpy.run(ops, vals, theta)
-    with np.errstate(invalid="ignore"):
-        mmin = np.min(np.where(np.isnan(margin), np.inf, margin), axis=1)
-        cmin = np.min(np.where(np.isnan(cos_mu), np.inf, cos_mu), axis=1)
-        cmax = np.max(np.where(np.isnan(cos_mu), -np.inf, cos_mu), axis=1)
-    point, dpoint = pos[:, :, tracked].copy(), dpos[:, :, tracked].copy()
-    valid = np.asarray(np.isfinite(pos).all(axis=(-1, -2)), dtype=bool)
-    if not derivatives:
-        return (pos if want_joints else None), None, point, None, valid, mmin, cmin, cmax, neg
-    if not want_joints:
-        return None, None, point, dpoint, valid, mmin, cmin, cmax, neg
-    return pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg
-
-
 def _crank_margin(ops: NDArray[np.int64], vals: F64) -> F64:
     """Exact full-rotation margin of every dyad joining a crank point to a ground point."""
     out = np.full(vals.shape[0], np.inf)
@@ -211,7 +193,7 @@ def solve(
     prog, vals = prep.program, prep.vals
     theta = sample_angles(n_samples)
     if backend == "numpy":
-        pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = reduce_reference(
+        pos, dpos, point, dpoint, valid, mmin, cmin, cmax, neg = solver_numpy.reduce(
             prog.ops, vals, theta, prog.tracked, joints, derivatives
         )
         leg = output.apply(point)

@@ -537,7 +537,7 @@ def run(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool,
     derivatives: bool = True,
 ) -> tuple[F64 | None, F64 | None, F64, F64 | None, NDArray[np.bool_], F64, F64, F64, F64]:
-    """Solve a population; the same outputs as ``core.kinematics.reduce_reference``.
+    """Solve a population; the same outputs as ``core.solver_numpy.reduce``.
 
     Never raises for non-finite operands: NaN propagates to every point built on it. Raises
     ValueError only for a malformed program (a step using a later or missing point).
