@@ -3,13 +3,15 @@
     python benchmarks/pipeline.py                 # 5 seeds of assets/configs/stephenson1_cycloid.toml + RTCLM case 1
     python benchmarks/pipeline.py --seeds 1,2,3 --rtclm-case 3
     python benchmarks/pipeline.py --quick         # tiny populations and generations (CI, a few seconds)
+    python benchmarks/pipeline.py --no-rtclm      # the Stephenson-I design only
 
-Prints per stage the wall time and the pick's MSE, S, I, h_s (h6, h4 for the RTCLM), then per seed
-the total and whether the final pick beats the paper's X3 on MSE, S and I at once (X3 re-evaluated
-by our code). Targets (issue 4, this 2-core machine): X0 -> X3 <= 30 s, one RTCLM case <= 60 s, and
-a final pick that beats X3 for the median of 5 seeds. The paper (MATLAB, one core): X0 2.18 min,
-X1 0.93, X2 1.08, X3 3.50; RTCLM 13-38 min per case. Not a test: wall-clock numbers depend on the
-machine and its load.
+Prints per stage the wall time and the pick's MSE, S, I, h_s (h6, h4 for the RTCLM), for a
+multi-start block every chain's time and pick at the block's last stage (``*`` marks the winner,
+whose stages are the rows above it), then per seed the total and whether the final pick beats
+the paper's X3 on MSE, S and I at once (X3 re-evaluated by our code). Targets (issue 4, this
+2-core machine): X0 -> X3 <= 30 s, one RTCLM case <= 60 s, and a final pick that beats X3 for the
+median of 5 seeds. The paper (MATLAB, one core): X0 2.18 min, X1 0.93, X2 1.08, X3 3.50; RTCLM
+13-38 min per case. Not a test: wall-clock numbers depend on the machine and its load.
 """
 
 from __future__ import annotations
@@ -65,8 +67,17 @@ def stephenson(config: DesignConfig, seeds: list[int]) -> list[dict[str, float]]
         for r in run.results:
             i = r.picked
             m = {k: float(r.metrics[k][i]) if i is not None else float("nan") for k in ("mse", "S", "I", "h_s")}
-            print(f"{seed:>4} {r.name:<10} {r.timings['total']:8.2f} {PAPER_TIMES.get(r.name, float('nan')):9.1f} "
+            paper = f"{PAPER_TIMES[r.name]:9.1f}" if r.name in PAPER_TIMES else f"{'':>9}"
+            print(f"{seed:>4} {r.name:<10} {r.timings['total']:8.2f} {paper} "
                   f"{fmt(m['mse'])} {fmt(m['S'])} {fmt(m['I'])} {fmt(m['h_s'])}")
+            for block in run.multistart:
+                if block.stages[-1] != r.name:
+                    continue
+                for c in block.chains:
+                    x = c.last
+                    label = f"{'*' if c.index == block.chosen else ' '}chain {c.index}"
+                    print(f"{'':>4} {label:<10} {c.time:8.2f} {'':>9} "
+                          + " ".join(fmt(float(x.get(k, float("nan")))) for k in ("mse", "S", "I", "h_s")))
         fin = run.final()
         assert fin is not None
         r, i = fin
@@ -103,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="tiny populations and generations, one seed (CI)")
     ap.add_argument("--seeds", default="1,2,3,4,5", help="comma-separated seeds (default 1,2,3,4,5)")
     ap.add_argument("--rtclm-case", type=int, default=1, choices=range(1, 6), help="RTCLM case (default 1)")
-    ap.add_argument("--skip-rtclm", action="store_true")
+    ap.add_argument("--skip-rtclm", "--no-rtclm", dest="skip_rtclm", action="store_true",
+                    help="run the Stephenson-I design only")
     args = ap.parse_args(argv)
     seeds = [int(s) for s in args.seeds.split(",")]
     s1 = load_config(CONFIGS / "stephenson1_cycloid.toml")

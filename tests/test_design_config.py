@@ -72,7 +72,41 @@ BAD = [
     ("stages.0.box", "local", "stages[0].box: 'local' is not"),
     ("stages.0.box", {"s": 0.1}, "stages[0].box: a box table needs both"),
     ("stages.0.box", {"s": -0.1, "d": 5.0}, "stages[0].box.s: must be > 0"),
-    ("stages.0.pick", "best:mse", "stages[0].pick: 'best:mse': no objective 'mse'"),
+    ("stages.0.pick", "best:speed", "stages[0].pick: 'best:speed': problem 'predesign' reports no metric 'speed'"),
+    ("stages.0.pick_where", {"I_max": "low"}, "stages[0].pick_where.I_max: expected a number"),
+    ("stages.0.pick_where", {"I": 1.0}, "stages[0].pick_where.I: a limit is '<metric>_max' or '<metric>_min'"),
+    ("stages.0.pick_where", {"dh6_max": 1.0}, "stages[0].pick_where.dh6_max: 'dh6_max': problem 'predesign' "
+     "reports no metric 'dh6'"),
+    ("stages.0.pick_where", 1.0, "stages[0].pick_where: expected a table"),
+    ("stages.0.starts", 3, "stages[0].starts: expected a table"),
+    ("stages.0.starts", {"until": "subtask1", "select": "best:S"}, "stages[0].starts.n: missing"),
+    ("stages.0.starts", {"n": 0, "select": "best:S"}, "stages[0].starts.n: must be >= 1"),
+    ("stages.0.starts", {"n": True, "select": "best:S"}, "stages[0].starts.n: expected an integer"),
+    ("stages.0.starts", {"n": 2, "select": "best:S", "seeds": 3}, "stages[0].starts.seeds: unknown key"),
+    ("stages.0.starts", {"n": 2}, "stages[0].starts.select: missing"),
+    ("stages.0.starts", {"n": 2, "select": "knee"}, "stages[0].starts.select: 'knee': use 'best:<metric>'"),
+    ("stages.1.starts", {"n": 2, "until": "predesign", "select": "best:S"},
+     "stages[1].starts.until: 'predesign' is not this stage or a later one"),
+    ("stages.0.starts", {"n": 2, "until": "subtask2", "select": "best:fd"},
+     "stages[0].starts.select: 'best:fd': problem 'subtask2' reports no metric 'fd'"),
+    ("stages.0.starts", {"n": 2, "until": "subtask1", "select": "best:S", "where": {"I_top": 1.0}},
+     "stages[0].starts.where.I_top: a limit is"),
+    ("stages.0.starts", {"n": 2, "until": "subtask1", "select": "best:S", "where": {"I_max": [1.0]}},
+     "stages[0].starts.where.I_max: expected a number"),
+    ("stages.0.starts", {"n": 2, "until": "subtask2", "select": "best:S", "screen": {"after": "subtask2", "keep": 1,
+                                                                                    "by": "best:f1"}},
+     "stages[0].starts.screen.after: 'subtask2' is not a stage of the block before its last one"),
+    ("stages.0.starts", {"n": 2, "until": "subtask2", "select": "best:S", "screen": {"after": "subtask1", "keep": 3,
+                                                                                    "by": "best:f1"}},
+     "stages[0].starts.screen.keep: keeps 3 of only 2 chains"),
+    ("stages.0.starts", {"n": 2, "until": "subtask2", "select": "best:S", "screen": {"after": "subtask1", "keep": 1,
+                                                                                    "by": "best:h_s2"}},
+     "stages[0].starts.screen.by: 'best:h_s2': problem 'subtask1' reports no metric 'h_s2'"),
+    ("stages.0.starts", {"n": 2, "until": "subtask2", "select": "best:S", "screen": {"after": "subtask1", "keep": 1}},
+     "stages[0].starts.screen.by: missing"),
+    ("stages.0.starts", {"n": 2, "until": "subtask2", "select": "best:S", "screen": {"after": "subtask1", "keep": 1,
+                                                                                    "by": "best:f1", "top": 1}},
+     "stages[0].starts.screen.top: unknown key"),
     ("stages.0.pick", "random", "stages[0].pick: unknown pick rule"),
     ("stages.0.stop_below", [1.0], "stages[0].stop_below: expected 2 numbers"),
     ("stages.0.fixed", ["x_z"], "stages[0].fixed[0]: stephenson1 has no parameter 'x_z'"),
@@ -102,6 +136,26 @@ def test_a_valid_config_keeps_relative_limits_for_run_time() -> None:
     assert (c.stages[0].s, c.stages[1].s, c.stages[1].d) == (None, 0.2, 20.0)
     assert c.start.output.k == -1.0  # the paper's pantograph by default for shape targets
     np.testing.assert_allclose(c.start.params[0], 0.5 * (c.mechanism.lower + c.mechanism.upper))
+
+
+def test_overlapping_multi_start_blocks_are_refused() -> None:
+    d = with_("stages.0.starts", {"n": 2, "until": "subtask1", "select": "best:S"})
+    d["stages"][1]["starts"] = {"n": 2, "select": "best:S"}
+    with pytest.raises(ValueError, match=r"^stages\[1\]\.starts: stage 'subtask1' is already inside"):
+        parse_config(d)
+
+
+def test_picks_and_starts_take_any_reported_metric() -> None:
+    d = with_("stages.0.starts", {"n": 3, "until": "subtask2", "select": "best:S", "where": {"I_max": 1.0}})
+    d["stages"][1]["pick"] = "best:h_s"
+    d["stages"][1]["pick_where"] = {"f1_max": 4.0, "S_min": 0.5}
+    c = parse_config(d)
+    st = c.stages[0].starts
+    assert st is not None and (st.n, st.until, st.select) == (3, "subtask2", "best:S")
+    assert [(w.metric, w.upper) for w in st.where] == [("I", 1.0)]
+    assert c.stages[1].pick == "best:h_s"
+    assert [(w.metric, w.upper, w.lower) for w in c.stages[1].pick_where] == [("f1", 4.0, None), ("S", None, 0.5)]
+    assert c.stages[1].starts is None and c.stages[2].pick_where == ()
 
 
 def test_bounds_narrow_the_mechanism() -> None:

@@ -55,7 +55,7 @@ def dp_error(design: Design, target: str = DEFAULT_TARGET, n_points: int = 36, n
     if n_points < 1 or n_samples % n_points:
         raise ValueError(f"n_points ({n_points}) must divide n_samples ({n_samples})")
     tgt = load_target(target).sample(n_points)
-    sol = design.solve(n_samples, joints=False, backend=backend)
+    sol = design.solve(n_samples, joints=False, derivatives=False, backend=backend)
     pts = sol.point[:, :: n_samples // n_points]
     d2 = ((pts - tgt[None]) ** 2).sum(-1).mean(1)
     viol = np.where(np.isfinite(sol.violation), sol.violation, ASSEMBLY_TIER)

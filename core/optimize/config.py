@@ -13,17 +13,20 @@ The format is documented in docs/optimization.md; examples are in assets/configs
     [rtclm]    h6 = 50.0, h4 = 220.0
     [bounds]   r1 = [30.0, 200.0]      # narrower global bounds
     [algorithm] name = "nsga2", pop_size = 200, options = {...}
-    [[stages]] name, problem, box, n_gen, pick, stop_below, fixed, seed_start, options, algorithm
+    [[stages]] name, problem, box, n_gen, pick, pick_where, starts, stop_below, fixed, seed_start, options,
+               algorithm
     [baseline] n_points, pop_size, n_gen, maxiter
 
 Every error is a ``ValueError`` whose message starts with the offending key
 (``stages[2].options.f1_max: ...``).
 
 Running (:func:`run_design`): stages run in order; between stages the automatic pick applies
-the stage's rule (``knee``, ``knee:k``, ``best:<objective>`` or an index) to the members
-that also satisfy the next stage's absolute constraints (so the next stage starts feasible
-when it can) and, for a stage that stopped early, its ``stop_below`` thresholds; relative
-limits (``"start+0.5"``) are resolved against each stage's start.
+the stage's rule (``knee``, ``knee:k``, ``best:<metric>`` or an index) to the members that
+meet its ``pick_where`` limits and also satisfy the next stage's absolute constraints (so the
+next stage starts feasible when it can) and, for a stage that stopped early, its
+``stop_below`` thresholds; relative limits (``"start+0.5"``) are resolved against each
+stage's start. A stage with a ``starts`` table runs, with the stages up to ``starts.until``,
+as several chains with other seeds, and the best chain goes on (``core.optimize.multistart``).
 """
 
 from __future__ import annotations
@@ -50,9 +53,10 @@ from core.optimize import problem as problem_registry
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, validate
 from core.optimize.baselines import DP_METHODS, BaselineResult, BaselineSettings, run_baseline
 from core.optimize.box import SUBTASK_STEPS
+from core.optimize.multistart import SEED_STRIDE, Chain, MultiStart, Screen, Starts, rank_chains, select_chain
 from core.optimize.pipeline import Pipeline
-from core.optimize.problem import ProblemSpec, make_problem
-from core.optimize.result import PickRule, StageResult
+from core.optimize.problem import Constraint, ProblemSpec, make_problem
+from core.optimize.result import PickRule, StageResult, best_metric
 from core.optimize.stage import Progress, StageSpec
 from core.optimize.subtasks import LIMIT_METRICS, parse_relative, resolve_limits
 
@@ -65,7 +69,10 @@ PAPER_OUTPUT = presets.PAPER_PANTOGRAPH
 
 _TOP = {"name", "method", "mechanism", "preset", "output", "seed", "n_samples", "backend", "target", "rtclm",
         "bounds", "algorithm", "stages", "baseline"}
-_STAGE = {"name", "problem", "box", "n_gen", "pick", "stop_below", "fixed", "seed_start", "options", "algorithm"}
+_STAGE = {"name", "problem", "box", "n_gen", "pick", "pick_where", "starts", "stop_below", "fixed", "seed_start",
+          "options", "algorithm"}
+_STARTS = {"n", "until", "select", "where", "screen"}
+_SCREEN = {"after", "keep", "by"}
 _TARGET = {"curve", "L", "H", "T"}
 _RTCLM = {"h6", "h4"}
 _ALGO = {"name", "pop_size", "options"}
@@ -91,6 +98,12 @@ class StageConfig:
     stop_below: tuple[float, ...] | None = None
     fixed: tuple[str, ...] = ()
     seed_start: bool = True
+    pick_where: tuple[Constraint, ...] = ()
+    starts: Starts | None = None
+
+    def problem_spec(self) -> ProblemSpec:
+        """The stage's problem with relative limits replaced by non-binding placeholders."""
+        return make_problem(self.problem, **placeholder(self.options))
 
     def spec(self, seed: int, options: Mapping[str, Any] | None = None) -> StageSpec:
         """The :class:`StageSpec` with resolved options (default: ``options`` as given, which must be numbers)."""
@@ -324,7 +337,7 @@ def _box(v: Any, key: str) -> tuple[float | None, float]:
     return _num(t["s"], f"{key}.s", 0.0, open_lo=True), _num(t["d"], f"{key}.d", 0.0, open_lo=True)
 
 
-def _pick(v: Any, key: str, objectives: tuple[str, ...]) -> PickRule:
+def _pick(v: Any, key: str, spec: ProblemSpec) -> PickRule:
     if isinstance(v, int) and not isinstance(v, bool):
         return _int(v, key, 0)
     rule = _str(v, key)
@@ -333,10 +346,31 @@ def _pick(v: Any, key: str, objectives: tuple[str, ...]) -> PickRule:
     if rule.startswith("knee:") and rule[5:].isdigit():
         return rule
     if rule.startswith("best:"):
-        if rule[5:] not in objectives:
-            raise _fail(key, f"{rule!r}: no objective {rule[5:]!r}; objectives: {', '.join(objectives)}")
+        _metric(rule[5:], key, spec, rule)
         return rule
-    raise _fail(key, f"unknown pick rule {rule!r}; use 'knee', 'knee:k', 'best:<objective>' or a member index")
+    raise _fail(key, f"unknown pick rule {rule!r}; use 'knee', 'knee:k', 'best:<metric>' or a member index")
+
+
+def _metric(name: str, key: str, spec: ProblemSpec, what: str) -> str:
+    if name not in spec.metric_names:
+        raise _fail(key, f"{what!r}: problem {spec.name!r} reports no metric {name!r}; known: "
+                    f"{', '.join(spec.metric_names)}")
+    return name
+
+
+def _where(v: Any, key: str, spec: ProblemSpec) -> tuple[Constraint, ...]:
+    """``{I_max = 1.0, S_min = 0.5}`` -> limits on the problem's metrics."""
+    if not isinstance(v, dict):
+        raise _fail(key, f"expected a table of limits like {{I_max = 1.0}}, got {_kind(v)}")
+    out = []
+    for k, x in v.items():
+        where = f"{key}.{k}"
+        if not (isinstance(k, str) and len(k) > 4 and k[-4:] in ("_max", "_min")):
+            raise _fail(where, "a limit is '<metric>_max' or '<metric>_min'")
+        name = _metric(k[:-4], where, spec, k)
+        bound = _num(x, where)
+        out.append(Constraint(name, upper=bound) if k.endswith("_max") else Constraint(name, lower=bound))
+    return tuple(out)
 
 
 def _options(problem: str, given: Any, shared: dict[str, Any], key: str) -> dict[str, Any]:
@@ -395,7 +429,8 @@ def _stage(i: int, t: Any, shared: dict[str, Any], algorithm: AlgorithmSpec, mec
         raise _fail(f"{key}.options", str(e)) from None
     s, d = _box(t.get("box", "global"), f"{key}.box")
     n_gen = _int(t.get("n_gen", 100), f"{key}.n_gen", 1)
-    pick = _pick(t.get("pick", "knee"), f"{key}.pick", spec.objectives)
+    pick = _pick(t.get("pick", "knee"), f"{key}.pick", spec)
+    pick_where = _where(t["pick_where"], f"{key}.pick_where", spec) if "pick_where" in t else ()
     stop = None
     if "stop_below" in t:
         v = t["stop_below"]
@@ -421,7 +456,61 @@ def _stage(i: int, t: Any, shared: dict[str, Any], algorithm: AlgorithmSpec, mec
         except ValueError as e:
             raise _fail(f"{key}.problem", f"{prob} places designs analytically, but {e}") from None
     return StageConfig(name, prob, s, d, n_gen, pick, alg, options, stop, fixed,
-                       _bool(t.get("seed_start", True), f"{key}.seed_start"))
+                       _bool(t.get("seed_start", True), f"{key}.seed_start"), pick_where)
+
+
+def _starts(stages: list[StageConfig], raw: list[Any]) -> list[StageConfig]:
+    """Stages with their ``starts`` tables parsed (they name later stages, so this runs last)."""
+    names = [s.name for s in stages]
+    out = list(stages)
+    taken = -1  # last stage of the previous block: blocks may not overlap
+    for i, t in enumerate(raw):
+        if "starts" not in t:
+            continue
+        key = f"stages[{i}].starts"
+        v = _keys(t["starts"], key, _STARTS)
+        if i <= taken:
+            raise _fail(key, f"stage {names[i]!r} is already inside the multi-start block of an earlier stage")
+        if "n" not in v:
+            raise _fail(f"{key}.n", "missing; the number of chains")
+        n = _int(v["n"], f"{key}.n", 1)
+        until = _str(v.get("until", names[i]), f"{key}.until")
+        if until not in names[i:]:
+            raise _fail(f"{key}.until", f"{until!r} is not this stage or a later one; "
+                        f"stages from here: {', '.join(names[i:])}")
+        last = names.index(until, i)
+        spec = stages[last].problem_spec()
+        if "select" not in v:
+            raise _fail(f"{key}.select", "missing; e.g. select = \"best:S\" (a metric of the last stage's pick)")
+        select = _str(v["select"], f"{key}.select")
+        if not select.startswith("best:"):
+            raise _fail(f"{key}.select", f"{select!r}: use 'best:<metric>'")
+        _metric(select[5:], f"{key}.select", spec, select)
+        where = _where(v["where"], f"{key}.where", spec) if "where" in v else ()
+        screen = _screen(v["screen"], f"{key}.screen", stages, i, last, n) if "screen" in v else None
+        out[i] = replace(stages[i], starts=Starts(n, until, select, where, screen))
+        taken = last
+    return out
+
+
+def _screen(v: Any, key: str, stages: list[StageConfig], first: int, last: int, n: int) -> Screen:
+    t = _keys(v, key, _SCREEN)
+    for k in ("after", "keep", "by"):
+        if k not in t:
+            raise _fail(f"{key}.{k}", "missing; a screen needs after, keep and by")
+    names = [s.name for s in stages]
+    after = _str(t["after"], f"{key}.after")
+    if after not in names[first:last]:
+        raise _fail(f"{key}.after", f"{after!r} is not a stage of the block before its last one; "
+                    f"choose from {', '.join(names[first:last]) or '(none: the block has one stage)'}")
+    keep = _int(t["keep"], f"{key}.keep", 1)
+    if keep > n:
+        raise _fail(f"{key}.keep", f"keeps {keep} of only {n} chains")
+    by = _str(t["by"], f"{key}.by")
+    if not by.startswith("best:"):
+        raise _fail(f"{key}.by", f"{by!r}: use 'best:<metric>'")
+    _metric(by[5:], f"{key}.by", stages[names.index(after, first)].problem_spec(), by)
+    return Screen(after, keep, by)
 
 
 def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | None = None) -> DesignConfig:
@@ -469,6 +558,7 @@ def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | No
         for i, t in enumerate(raw):
             stages.append(_stage(i, t, shared, algorithm, mech, names))
             names.add(stages[-1].name)
+        stages = _starts(stages, raw)
     elif "stages" in data:
         raise _fail("stages", f"not used by method = {method!r}")
     baseline = BaselineSettings(target=shared.get("target", "cycloid"), n_samples=n_samples, backend=backend)
@@ -497,6 +587,8 @@ class DesignRun:
         baseline: the DP baseline result, else None.
         status: ``complete`` or ``cancelled``.
         wall_time: seconds from start to end (setup and between-stage work included).
+        multistart: the record of each multi-start block (every chain's picks; the pipeline
+            holds the winning chain's results).
     """
 
     config: DesignConfig
@@ -504,6 +596,12 @@ class DesignRun:
     baseline: BaselineResult | None = None
     status: str = "complete"
     wall_time: float = 0.0
+    multistart: tuple[MultiStart, ...] = ()
+
+    @property
+    def compute_time(self) -> float:
+        """Compute time of every stage run (s): the lineage's and the losing chains'."""
+        return float(sum(r.timings["total"] for r in self.results) + sum(m.time for m in self.multistart))
 
     @property
     def results(self) -> list[StageResult]:
@@ -523,7 +621,7 @@ class DesignRun:
             b = self.baseline
             return [{"label": f"{c.name}: {b.to_dict()['title']}", "method": b.method, "time": b.time,
                      "status": b.status, **b.metrics}]
-        total = float(sum(r.timings["total"] for r in self.results))
+        total = self.compute_time
         out: list[dict[str, Any]] = []
         if c.method == "single_level" and self.results:
             r = self.results[-1]
@@ -553,6 +651,7 @@ class DesignRun:
             "rows": self.rows(),
             "pipeline": None if self.pipeline is None else self.pipeline.to_dict(),
             "baseline": None if self.baseline is None else self.baseline.to_dict(),
+            "multistart": [m.to_dict() for m in self.multistart],
         }
 
 
@@ -621,26 +720,154 @@ def next_feasible(result: StageResult, nxt: ProblemSpec | None) -> NDArray[np.bo
     return ok
 
 
-def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None = None) -> int:
+def where_mask(result: StageResult, where: tuple[Constraint, ...]) -> NDArray[np.bool_]:
+    """``(pop,)`` members whose metrics meet every limit (a NaN metric never does)."""
+    ok = np.ones(result.pop, dtype=bool)
+    for c in where:
+        with np.errstate(invalid="ignore"):
+            ok &= np.nan_to_num(c.value(result.metrics[c.metric]), nan=np.inf) <= 0.0
+    return ok
+
+
+def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None = None,
+           where: tuple[Constraint, ...] = ()) -> int:
     """A pick rule applied to the members in ``mask`` (all when None or when no member is in it).
 
-    With no feasible member at all, the least-violation member among those that assemble
-    (``violation == 0``: their metrics are defined, so the next stage can start from them).
+    ``where`` (a stage's ``pick_where``) narrows the candidates first: the rule applies to the
+    feasible members that meet it and are in ``mask``, else to those that meet it, else it is
+    ignored. With no feasible member at all, the least-violation member among those that
+    assemble (``violation == 0``: their metrics are defined, so the next stage can start from them).
     """
     if not isinstance(rule, (int, np.integer)) and not result.feasible.any() and "violation" in result.metrics:
         built = np.flatnonzero(result.metrics["violation"] == 0.0)
         if built.size:
             return int(built[np.argmin(result.cv[built])])
+    if where and not isinstance(rule, (int, np.integer)):
+        meets = where_mask(result, where) & result.feasible
+        if meets.any():
+            both = meets if mask is None else meets & mask
+            mask = both if both.any() else meets
     if isinstance(rule, (int, np.integer)) or mask is None or not mask.any() or mask.all():
         return result.choose(rule)
     idx = np.flatnonzero(mask)
     F, cv = result.F[idx], result.cv[idx]
     if isinstance(rule, str) and rule.startswith("best:"):
-        j = decision.best_per_objective(F, cv)[result.objectives.index(rule[5:])]
-        return int(idx[j])
+        name = rule[5:]
+        if name in result.objectives:
+            j = decision.best_per_objective(F, cv)[result.objectives.index(name)]
+            return int(idx[j])
+        best = best_metric(result.metrics[name], mask & result.feasible) if name in result.metrics else None
+        return best if best is not None else result.choose(rule)
     sl = decision.shortlist(F, cv)
     k = int(rule.split(":", 1)[1]) if isinstance(rule, str) and ":" in rule else 0
     return int(idx[sl.knees[min(k, len(sl.knees) - 1)]]) if sl.knees else result.choose(rule)
+
+
+def _run_stage(config: DesignConfig, pipe: Pipeline, k: int, pick: int | None, seed: int,
+               callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> StageResult:
+    """Run stage k of ``pipe`` from member ``pick`` of stage k-1 with its automatic pick; record and return it.
+
+    A cancelled stage is recorded without a pick.
+    """
+    stage_cfg = config.stages[k]
+    start, _ = pipe.parent(k, pick)
+    spec = resolved_spec(stage_cfg, start, seed)
+    res = pipe.stage(k, pick, spec=spec, callback=callback).run(cancel=cancel)
+    if res.status not in ("complete", "stopped"):
+        pipe.record(k, res)
+        return res
+    nxt = None
+    if k + 1 < len(config.stages):
+        # The next stage's absolute thresholds steer the pick (relative ones hold for every candidate).
+        s = config.stages[k + 1]
+        nxt = make_problem(s.problem, **placeholder(s.options, absolute=True))
+    mask = next_feasible(res, nxt)
+    if res.status == "stopped" and spec.stop_below is not None:
+        # The stage stopped because members met its thresholds: pick among those.
+        met = res.feasible & (res.F <= np.asarray(spec.stop_below)).all(axis=1)
+        mask = mask & met if (mask & met).any() else met
+    res = res.with_pick(choose(res, stage_cfg.pick, mask, stage_cfg.pick_where))
+    pipe.record(k, res)
+    return res
+
+
+class _Chain:
+    """A chain of a multi-start block being run: its own pipeline and what it picked so far."""
+
+    def __init__(self, config: DesignConfig, pipe: Pipeline, first: int, last: int, j: int) -> None:
+        self.config, self.j = config, j
+        self.pipe = Pipeline(pipe.stages, pipe.start, pipe.results[:first])  # shares the stages before the block
+        self.seeds = tuple(config.seed + k + SEED_STRIDE * j for k in range(first, last + 1))
+        self.first, self.last = first, last
+        self.picks: list[int | None] = []
+        self.metrics: list[dict[str, float]] = []
+        self.params: list[dict[str, float]] = []
+        self.time = 0.0
+        self.status = "running"
+        self.feasible = False
+
+    def run(self, upto: int, pick: int | None, callback: Callable[[Progress], None] | None,
+            cancel: threading.Event | None) -> bool:
+        """Run the chain's next stages up to stage ``upto``; False if one was cancelled."""
+        if self.picks:
+            pick = self.picks[-1]
+        for k in range(self.first + len(self.picks), upto + 1):
+            res = _run_stage(self.config, self.pipe, k, pick, self.seeds[k - self.first], callback, cancel)
+            self.time += float(res.timings["total"])
+            pick = res.picked
+            self.picks.append(pick)
+            if pick is None:
+                self.metrics.append({})
+                self.params.append({})
+                self.status = "cancelled"
+                return False
+            self.metrics.append({n: float(v[pick]) for n, v in res.metrics.items()})
+            self.params.append(res.named(pick))
+            self.feasible = bool(res.feasible[pick])
+        if upto == self.last:
+            self.status = "complete"
+        return True
+
+    def record(self) -> Chain:
+        # A chain still running when the run stopped counts as cancelled.
+        status = "cancelled" if self.status == "running" else self.status
+        return Chain(self.j, self.seeds, status, tuple(self.picks), tuple(self.metrics), tuple(self.params),
+                     self.feasible and status == "complete", self.time)
+
+
+def _run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None, starts: Starts,
+               callback: Callable[[Progress], None] | None,
+               cancel: threading.Event | None) -> tuple[MultiStart, Pipeline, bool]:
+    """A multi-start block from stage ``first``: its record, the pipeline to go on with, and
+    whether it completed (else that pipeline is the cancelled chain's)."""
+    names = [s.name for s in config.stages]
+    last = names.index(starts.until, first)
+    upto = last if starts.screen is None else names.index(starts.screen.after, first)
+    chains = [_Chain(config, pipe, first, last, j) for j in range(starts.n)]
+
+    def stop(c: _Chain) -> tuple[MultiStart, Pipeline, bool]:
+        # The chains that ran so far (the cancelled one last among them); their state as it is.
+        records = tuple(x.record() for x in chains if x.picks)
+        return MultiStart(starts, tuple(names[first : last + 1]), first, last, records, c.j), c.pipe, False
+
+    for c in chains:
+        if not c.run(upto, pick, callback, cancel):
+            return stop(c)
+    going = chains
+    if starts.screen is not None:
+        order = rank_chains([c.metrics[-1] for c in chains], [c.feasible for c in chains], starts.screen.by)
+        kept = set(order[: starts.screen.keep])
+        going = [c for c in chains if c.j in kept]
+        for c in chains:
+            if c.j not in kept:
+                c.status = "dropped"
+        for c in going:
+            if not c.run(last, None, callback, cancel):
+                return stop(c)
+    won = going[select_chain([c.metrics[-1] for c in going], [c.feasible for c in going], starts.select,
+                             starts.where)]
+    record = MultiStart(starts, tuple(names[first : last + 1]), first, last, tuple(c.record() for c in chains), won.j)
+    return record, won.pipe, True
 
 
 def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None = None,
@@ -658,26 +885,24 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
                          callback, cancel)
         return DesignRun(config, baseline=b, status=b.status, wall_time=time.perf_counter() - t0)
     placeholders = [s.spec(config.seed + k, placeholder(s.options)) for k, s in enumerate(config.stages)]
-    # The next stage's absolute thresholds steer each pick (relative ones hold for every candidate).
-    filters = [make_problem(s.problem, **placeholder(s.options, absolute=True)) for s in config.stages]
     pipe = Pipeline(placeholders, config.start)
-    status = "complete"
+    blocks: list[MultiStart] = []
     pick: int | None = None
-    for k, stage_cfg in enumerate(config.stages):
-        start, _ = pipe.parent(k, pick)
-        spec = resolved_spec(stage_cfg, start, config.seed + k)
-        stage = pipe.stage(k, pick, spec=spec, callback=callback)
-        res = stage.run(cancel=cancel)
-        if res.status not in ("complete", "stopped"):
-            pipe.record(k, res)
-            status = "cancelled"
-            break
-        nxt = filters[k + 1] if k + 1 < len(config.stages) else None
-        mask = next_feasible(res, nxt)
-        if res.status == "stopped" and spec.stop_below is not None:
-            # The stage stopped because members met its thresholds: pick among those.
-            met = res.feasible & (res.F <= np.asarray(spec.stop_below)).all(axis=1)
-            mask = mask & met if (mask & met).any() else met
-        pick = choose(res, stage_cfg.pick, mask)
-        pipe.record(k, res.with_pick(pick))
-    return DesignRun(config, pipeline=pipe, status=status, wall_time=time.perf_counter() - t0)
+    k = 0
+    while k < len(config.stages):
+        starts = config.stages[k].starts
+        if starts is None:
+            res = _run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
+            if res.picked is None:
+                return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
+                                 multistart=tuple(blocks))
+            pick, k = res.picked, k + 1
+            continue
+        block, pipe, done = _run_block(config, pipe, k, pick, starts, callback, cancel)
+        blocks.append(block)
+        if not done:
+            return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
+                             multistart=tuple(blocks))
+        pick, k = block.chains[block.chosen].picks[-1], block.last + 1
+    return DesignRun(config, pipeline=pipe, status="complete", wall_time=time.perf_counter() - t0,
+                     multistart=tuple(blocks))

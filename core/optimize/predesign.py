@@ -162,7 +162,7 @@ def place(design: Design, target: str = DEFAULT_TARGET, n_samples: int = 360, ba
     """
     plan = placement(design.mechanism)
     tgt = load_target(target).sample(n_samples)
-    sol = design.solve(n_samples, joints=False, backend=backend)
+    sol = design.solve(n_samples, joints=False, derivatives=False, backend=backend)
     point = np.where(sol.violation[:, None, None] == 0.0, sol.point, np.nan)
     sim = fourier.similarity_transform(point, tgt)
     if fit == "hold":
@@ -227,7 +227,7 @@ def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backen
 
     def evaluate(design: Design) -> Metrics:
         out = shape_metrics(design, target, n_samples, backend)  # type: ignore[arg-type]
-        sol = design.solve(n_samples, joints=False, backend=backend)
+        sol = design.solve(n_samples, joints=False, derivatives=False, backend=backend)
         point = np.where(sol.violation[:, None, None] == 0.0, sol.point, np.nan)
         d = fourier.descriptors(point, n_harmonics, N_RESAMPLE)
         out["fd"] = quantize(fourier.descriptor_distance(d, d_target, n_grid=N_GRID))

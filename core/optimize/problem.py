@@ -114,6 +114,11 @@ class ProblemSpec:
     def constraint_names(self) -> tuple[str, ...]:
         return tuple(c.name for c in self.constraints)
 
+    @property
+    def metric_names(self) -> tuple[str, ...]:
+        """Metrics known without evaluating: objectives, constrained metrics, then labelled ones."""
+        return tuple(dict.fromkeys((*self.objectives, *(c.metric for c in self.constraints), *self.labels)))
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "name": self.name,

@@ -204,11 +204,12 @@ class StageResult:
 
         Rules: an int (that member); ``"knee"`` (first knee candidate) or ``"knee:k"`` (k-th,
         0-based, clamped to the last); ``"best:<objective>"`` (best feasible member of that
-        objective). With no feasible member every rule but an int gives the least-violation
-        fallback.
+        objective, ties by the other objectives); ``"best:<metric>"`` for any other reported
+        metric (smallest value among the feasible members with a finite one, ties by index).
+        With no feasible member every rule but an int gives the least-violation fallback.
 
         Raises:
-            ValueError: empty population, unknown rule or objective, index out of range.
+            ValueError: empty population, unknown rule or metric, index out of range.
         """
         if self.pop == 0:
             raise ValueError(f"stage {self.name!r} has no population to pick from")
@@ -224,11 +225,17 @@ class StageResult:
             if sl.knees:
                 return sl.knees[min(max(k, 0), len(sl.knees) - 1)]
         elif rule.startswith("best:"):
-            obj = rule.split(":", 1)[1]
-            if obj not in self.objectives:
-                raise ValueError(f"pick rule {rule!r}: no objective {obj!r}; objectives: {', '.join(self.objectives)}")
-            if sl.best:
-                return sl.best[self.objectives.index(obj)]
+            name = rule.split(":", 1)[1]
+            if name in self.objectives:
+                if sl.best:
+                    return sl.best[self.objectives.index(name)]
+            elif name in self.metrics:
+                i = best_metric(self.metrics[name], self.feasible)
+                if i is not None:
+                    return i
+            else:
+                raise ValueError(f"pick rule {rule!r}: no objective or metric {name!r}; objectives: "
+                                 f"{', '.join(self.objectives)}; metrics: {', '.join(self.metrics)}")
         else:
             raise ValueError(f"unknown pick rule {rule!r}; use an index, 'knee', 'knee:k' or 'best:<objective>'")
         if sl.fallback is None:
@@ -345,6 +352,17 @@ class StageResult:
     @classmethod
     def from_json(cls, text: str) -> StageResult:
         return cls.from_dict(json.loads(text))
+
+
+def best_metric(values: F64, mask: NDArray[np.bool_]) -> int | None:
+    """Index of the smallest finite value among ``mask`` (ties: lowest index); None if there is none.
+
+    Args:
+        values: ``(pop,)`` one metric.
+        mask: ``(pop,)`` candidate members.
+    """
+    ok = np.flatnonzero(mask & np.isfinite(values))
+    return int(ok[np.argmin(values[ok])]) if ok.size else None
 
 
 def _decode_floats(obj: Any) -> Any:

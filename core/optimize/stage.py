@@ -28,6 +28,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -147,6 +148,9 @@ class Progress:
         feasible: ``(pop,)``; front: indices of the feasible non-dominated members.
         shortlist: knee candidates of the current population.
         objectives: objective names (F's columns).
+
+    ``front`` and ``shortlist`` are computed on first use (a headless run never needs them, and
+    for a population of 200 they cost about as much as a tenth of a generation).
     """
 
     stage: str
@@ -160,13 +164,19 @@ class Progress:
     G: F64
     cv: F64
     feasible: NDArray[np.bool_]
-    front: NDArray[np.intp]
-    shortlist: decision.Shortlist
     objectives: tuple[str, ...]
 
     @property
     def fraction(self) -> float:
         return self.generation / self.n_gen
+
+    @cached_property
+    def shortlist(self) -> decision.Shortlist:
+        return decision.shortlist(self.F, self.cv)
+
+    @cached_property
+    def front(self) -> NDArray[np.intp]:
+        return np.asarray(self.shortlist.front, dtype=np.intp)
 
 
 Callback = Callable[[Progress], None]
@@ -251,13 +261,11 @@ class Stage:
             self.status = "stopped"
         elif not self.algorithm.has_next():
             self.status = "complete"
-        sl = decision.shortlist(F, cv)
         self.times.append(time.perf_counter() - t)
         progress = Progress(
             stage=self.spec.name, index=self.index, generation=self.generation, n_gen=self.spec.n_gen,
             elapsed=self.elapsed, n_evals=int(self.algorithm.evaluator.n_eval), X=X, F=F, G=G, cv=cv,
-            feasible=decision.usable(F, cv), front=np.asarray(sl.front, dtype=np.intp), shortlist=sl,
-            objectives=self.spec.problem.objectives,
+            feasible=decision.usable(F, cv), objectives=self.spec.problem.objectives,
         )
         if self.callback is not None:
             self.callback(progress)

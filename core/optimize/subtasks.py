@@ -64,7 +64,10 @@ LABELS: dict[str, str] = {
     "theta1": "theta1 (rad)",
     "theta2": "theta2 (rad)",
     "order": "Eq. 30 order (rad)",
+    "theta1_margin": "15 deg - theta1 (rad)",
+    "theta2_margin": "15 deg - theta2 (rad)",
     "violation": "violation",
+    "violation_mm": "assembly shortfall (mm)",
 }
 
 
