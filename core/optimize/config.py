@@ -268,11 +268,14 @@ def _output(data: dict[str, Any], preset: Design | None, mech: Mechanism) -> Out
             return preset.output
         # The paper's leg inverts its design-frame path by a pantograph (spec §2); RTCLM needs none.
         return IDENTITY if mech.derive is not None else PAPER_OUTPUT
-    o = _keys(data["output"], "output", {"k", "ox", "oy"})
+    o = _keys(data["output"], "output", {"k", "ox", "oy", "mirror"})
     k = _num(o.get("k", 1.0), "output.k")
     if k == 0.0:
         raise _fail("output.k", "must be non-zero")
-    return OutputStage(k, _num(o.get("ox", 0.0), "output.ox"), _num(o.get("oy", 0.0), "output.oy"))
+    mirror = o.get("mirror", False)
+    if not isinstance(mirror, bool):
+        raise _fail("output.mirror", f"must be true or false, got {mirror!r}")
+    return OutputStage(k, _num(o.get("ox", 0.0), "output.ox"), _num(o.get("oy", 0.0), "output.oy"), mirror)
 
 
 def _target(data: dict[str, Any], base: Path) -> str:

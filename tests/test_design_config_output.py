@@ -1,0 +1,27 @@
+"""A design configuration's output stage: the mirror flag is read and checked like every other key."""
+
+from __future__ import annotations
+
+import pytest
+
+from core.optimize.config import parse_config
+
+
+def with_(output: dict) -> dict:  # type: ignore[type-arg]
+    """A small valid configuration with the given output table."""
+    return {
+        "mechanism": "stephenson1",
+        "output": output,
+        "stages": [{"name": "predesign", "box": "global", "n_gen": 2, "pick": "best:f1"}],
+    }
+
+
+def test_output_mirror_is_read() -> None:
+    c = parse_config(with_({"k": -1.0, "ox": 0.0, "oy": 0.0, "mirror": True}))
+    assert c.start.output.mirror and c.start.output.k == -1.0
+    assert not parse_config(with_({"k": -1.0})).start.output.mirror
+
+
+def test_output_mirror_must_be_a_boolean() -> None:
+    with pytest.raises(ValueError, match="output.mirror: must be true or false, got 'yes'"):
+        parse_config(with_({"k": 1.0, "mirror": "yes"}))
