@@ -6,6 +6,7 @@
 - ``stage``: one stage, stepped generation by generation or run headless.
 - ``result``: a stage's result, its pick and lossless JSON.
 - ``pipeline``: stages chained by picks.
+- ``multistart``: a block of stages rerun as several chains with other seeds; the best chain goes on.
 - ``examples``: small test problems.
 Knee points live in ``core.decision``.
 """
