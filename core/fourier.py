@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -34,30 +35,36 @@ def resample_arclength(curve: F64, n: int = DEFAULT_RESAMPLE) -> F64:
     Returns:
         ``(pop, n, 2)``; NaN rows where a curve has a NaN or zero length.
     """
-    c = _batch(curve)
-    pop, m = c.shape[:2]
-    ext = np.concatenate([c, c[:, :1]], 1)
-    seg = np.linalg.norm(np.diff(ext, axis=1), axis=-1)
-    s = np.concatenate([np.zeros((pop, 1)), np.cumsum(seg, 1)], 1)  # (pop, m+1)
-    total = s[:, -1]
-    ok = np.isfinite(total) & (total > 0.0)
-    s = np.where(ok[:, None], s, np.arange(m + 1)[None, :])
-    total = s[:, -1]
-    u = np.arange(n)[None, :] * (total[:, None] / n)
-    # One searchsorted for the whole batch: offset each row past the previous one.
-    off = (np.arange(pop) * (total.max() + 1.0))[:, None]
-    j = np.searchsorted((s + off).ravel(), (u + off).ravel(), side="right").reshape(pop, n) - 1
-    j = j - np.arange(pop)[:, None] * (m + 1)
-    j = np.clip(j, 0, m - 1)
-    s0 = np.take_along_axis(s, j, 1)
-    s1 = np.take_along_axis(s, j + 1, 1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.where(s1 > s0, (u - s0) / (s1 - s0), 0.0)[..., None]
-    p0 = np.take_along_axis(ext, j[..., None], 1)
-    p1 = np.take_along_axis(ext, (j + 1)[..., None], 1)
-    out = p0 + w * (p1 - p0)
-    out[~ok] = np.nan
+    c = np.ascontiguousarray(_batch(curve))
+    out = np.empty((c.shape[0], n, 2))
+    _resample(c, out)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _resample(c: F64, out: F64) -> None:  # pragma: no cover - compiled
+    # One walk along each polyline: output point j sits at arc length j L / n.
+    pop, m, n = c.shape[0], c.shape[1], out.shape[1]
+    seg = np.empty(m)
+    for p in range(pop):
+        total = 0.0
+        for i in range(m):
+            k = i + 1 if i + 1 < m else 0
+            seg[i] = np.hypot(c[p, k, 0] - c[p, i, 0], c[p, k, 1] - c[p, i, 1])
+            total += seg[i]
+        if not (np.isfinite(total) and total > 0.0):
+            out[p] = np.nan
+            continue
+        i, s0 = 0, 0.0  # segment i runs from arc length s0 to s0 + seg[i]
+        for j in range(n):
+            u = j * (total / n)
+            while i < m - 1 and s0 + seg[i] <= u:
+                s0 += seg[i]
+                i += 1
+            k = i + 1 if i + 1 < m else 0
+            w = (u - s0) / seg[i] if seg[i] > 0.0 else 0.0
+            out[p, j, 0] = c[p, i, 0] + w * (c[p, k, 0] - c[p, i, 0])
+            out[p, j, 1] = c[p, i, 1] + w * (c[p, k, 1] - c[p, i, 1])
 
 
 def harmonic_numbers(n_harmonics: int = DEFAULT_HARMONICS) -> NDArray[np.int64]:
@@ -175,40 +182,56 @@ def similarity_transform(source: F64, target: F64) -> Similarity:
 
     Args:
         source: ``(pop, n, 2)`` or ``(n, 2)`` curves (mm), sampled like the target.
-        target: ``(n, 2)`` or ``(pop, n, 2)`` (mm).
+        target: ``(n, 2)`` or ``(pop, n, 2)`` (mm); one target is transformed once for all.
 
     Returns:
-        Similarity; NaN entries (shift 0) where a source has a NaN sample.
+        Similarity; NaN entries (shift 0) where a source or its target has a NaN sample.
     """
     s, q = _batch(source), _batch(target)
-    s, q = np.broadcast_arrays(s, q)
+    if q.shape[0] != 1 and s.shape[0] == 1:
+        s = np.broadcast_to(s, q.shape)
     n = s.shape[1]
-    zs = s[..., 0] + 1j * s[..., 1]
-    zq = q[..., 0] + 1j * q[..., 1]
+    zs, zq = _complex(s), _complex(q)
     ms, mq = zs.mean(1), zq.mean(1)
     cs, cq = zs - ms[:, None], zq - mq[:, None]
-    ok = np.isfinite(cs).all(1) & np.isfinite(cq).all(1)
-    cs = np.where(ok[:, None], cs, 0.0)
-    cq = np.where(ok[:, None], cq, 0.0)
+    ok = np.isfinite(ms) & np.isfinite(mq)
+    cs[~np.isfinite(ms)] = 0.0
+    cq[~np.isfinite(mq)] = 0.0
     # corr[m] = sum_j conj(s~_j) q~_(j+m); shift k pairs q~_i with s~_(i+k), i.e. m = -k.
     corr = np.fft.ifft(np.conj(np.fft.fft(cs, axis=1)) * np.fft.fft(cq, axis=1), axis=1)
-    m = np.argmax(np.abs(corr), 1)
+    m = np.argmax(corr.real**2 + corr.imag**2, 1)
     k = (-m) % n
     cross = corr[np.arange(len(m)), m]
-    energy = (np.abs(cs) ** 2).sum(1)
+    energy = np.einsum("ij,ij->i", cs.real, cs.real) + np.einsum("ij,ij->i", cs.imag, cs.imag)
     with np.errstate(invalid="ignore", divide="ignore"):
         c = cross / energy
     t = mq - c * ms
-    res = cq - c[:, None] * np.take_along_axis(cs, (np.arange(n)[None, :] + k[:, None]) % n, 1)
-    rms = np.sqrt((np.abs(res) ** 2).mean(1))
-    nan = ~ok
+    rms = np.empty(len(c))
+    _rms(cs, cq, c, k, rms)
     scale, rot = np.abs(c), np.angle(c)
-    for arr in (scale, rot, rms):
-        arr[nan] = np.nan
     trans = np.stack([t.real, t.imag], -1)
-    trans[nan] = np.nan
+    for arr in (scale, rot, rms, trans):
+        arr[~ok] = np.nan
     k = np.where(ok, k, 0)
     return Similarity(scale=scale, rotation=rot, translation=trans, shift=k, phase=2.0 * np.pi * k / n, rms=rms)
+
+
+def _complex(c: F64) -> C128:
+    z = np.empty(c.shape[:-1], np.complex128)
+    z.real, z.imag = c[..., 0], c[..., 1]
+    return z
+
+
+@numba.njit(cache=True, nogil=True)
+def _rms(cs: C128, cq: C128, c: C128, k: NDArray[np.int64], out: F64) -> None:  # pragma: no cover - compiled
+    # RMS of q~_i - c s~_(i+k), summed directly (the closed form |q~|^2 - |cross|^2 / |s~|^2 cancels).
+    n, nq = cs.shape[1], cq.shape[0]
+    for p in range(cs.shape[0]):
+        acc = 0.0
+        for i in range(n):
+            r = cq[p if nq > 1 else 0, i] - c[p] * cs[p, (i + k[p]) % n]
+            acc += r.real * r.real + r.imag * r.imag
+        out[p] = np.sqrt(acc / n)
 
 
 def apply_similarity(sim: Similarity, curve: F64) -> F64:

@@ -135,3 +135,36 @@ def test_similarity_transform_batch_equals_loop_and_places_the_target() -> None:
     rms = np.sqrt((np.linalg.norm(moved - target, axis=1) ** 2).mean())
     assert rms == pytest.approx(batch.rms[4], rel=1e-9)
     assert rms <= np.sqrt((np.linalg.norm(sol.point[0] - target, axis=1) ** 2).mean())
+
+
+def reference_resample(c: np.ndarray, n: int) -> np.ndarray:
+    """Arc-length resampling of one closed polyline by np.interp (the plain formula)."""
+    ext = np.vstack([c, c[:1]])
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ext, axis=0), axis=1))])
+    u = np.arange(n) * s[-1] / n
+    return np.stack([np.interp(u, s, ext[:, 0]), np.interp(u, s, ext[:, 1])], -1)
+
+
+def test_resampling_matches_interpolation_and_marks_bad_rows_nan() -> None:
+    rng = np.random.default_rng(7)
+    good = np.stack([blob(90, i) + rng.normal(0, 0.5, (90, 2)) for i in range(5)])
+    good[2, 10:13] = good[2, 10]  # repeated points: zero-length segments
+    bad = np.stack([good[0], good[0]])
+    bad[0, 40, 1] = np.nan
+    bad[1] = 3.0  # zero total length
+    out = resample_arclength(np.concatenate([good, bad]), 128)
+    for i in range(5):
+        np.testing.assert_allclose(out[i], reference_resample(good[i], 128), atol=1e-9)
+    assert np.isnan(out[5:]).all()
+
+
+def test_similarity_of_a_nan_source_or_target_is_nan() -> None:
+    c = blob(60)
+    src = np.stack([c, c])
+    src[1, 5, 0] = np.nan
+    sim = similarity_transform(src, transform(c, 2.0, 0.3, (5.0, 1.0)))
+    assert sim.scale[0] == pytest.approx(2.0) and sim.rms[0] < 1e-9
+    assert np.isnan([sim.scale[1], sim.rotation[1], sim.rms[1], *sim.translation[1]]).all() and sim.shift[1] == 0
+    tgt = transform(c, 2.0, 0.3, (5.0, 1.0))
+    tgt[3, 1] = np.nan
+    assert np.isnan(similarity_transform(c, tgt).scale).all()

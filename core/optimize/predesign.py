@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -200,20 +201,37 @@ def fit_extent(sim: fourier.Similarity, point: F64, target: F64) -> fourier.Simi
         target: ``(n, 2)`` target samples (mm).
     """
     # Extent and centroid do not depend on the cyclic shift: transform the samples as they are.
-    z = point[..., 0] + 1j * point[..., 1]
-    shift = sim.translation[:, 0] + 1j * sim.translation[:, 1]
-    w = (sim.scale * np.exp(1j * sim.rotation))[:, None] * z + shift[:, None]
-    x, y = w.real, w.imag
+    a, b = sim.scale * np.cos(sim.rotation), sim.scale * np.sin(sim.rotation)
+    ext = np.empty((len(a), 5))
+    _extent(np.ascontiguousarray(point), a, b, sim.translation[:, 0].copy(), sim.translation[:, 1].copy(), ext)
+    xmin, xmax, ymin, cx, cy = ext.T
     width0, ymin0 = float(np.ptp(target[:, 0])), float(target[:, 1].min())
     with np.errstate(invalid="ignore", divide="ignore"):
-        k = width0 / (x.max(1) - x.min(1))
-    cx, cy = x.mean(1), y.mean(1)
+        k = width0 / (xmax - xmin)
     # Scaled about the centroid: q' = c + k (q - c); then y shifted so min y' = ymin0.
-    dy = ymin0 - (cy + k * (y.min(1) - cy))
+    dy = ymin0 - (cy + k * (ymin - cy))
     tx = cx * (1.0 - k) + k * sim.translation[:, 0]
     ty = cy * (1.0 - k) + k * sim.translation[:, 1] + dy
     return fourier.Similarity(scale=sim.scale * k, rotation=sim.rotation, translation=np.stack([tx, ty], -1),
                               shift=sim.shift, phase=sim.phase, rms=sim.rms)
+
+
+@numba.njit(cache=True, nogil=True)
+def _extent(point: F64, a: F64, b: F64, tx: F64, ty: F64, out: F64) -> None:  # pragma: no cover - compiled
+    # Per path after q = (a + ib) p + t: x min, x max, y min, centroid x, centroid y (NaN stays NaN).
+    n = point.shape[1]
+    for i in range(point.shape[0]):
+        xmin, xmax, ymin, sx, sy = np.inf, -np.inf, np.inf, 0.0, 0.0
+        for j in range(n):
+            px, py = point[i, j, 0], point[i, j, 1]
+            x = a[i] * px - b[i] * py + tx[i]
+            y = b[i] * px + a[i] * py + ty[i]
+            xmin, xmax, ymin = min(xmin, x), max(xmax, x), min(ymin, y)
+            sx += x
+            sy += y
+        if not (np.isfinite(sx) and np.isfinite(sy)):
+            xmin = xmax = ymin = np.nan
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = xmin, xmax, ymin, sx / n, sy / n
 
 
 def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
