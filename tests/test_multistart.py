@@ -139,7 +139,7 @@ def test_cancelling_inside_a_chain_stops_the_run_with_a_partial_record() -> None
         seen.append(p.stage)
 
     seen: list[str] = []
-    out = run_design(parse_config(CONFIG), callback=cb, cancel=cancel)
+    out = run_design(parse_config({**CONFIG, "workers": 1}), callback=cb, cancel=cancel)
     assert out.status == "cancelled"
     (block,) = out.multistart
     assert [c.status for c in block.chains] == ["complete", "cancelled"]

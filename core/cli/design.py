@@ -23,6 +23,7 @@ import numpy as np
 
 from core.cli import CLIError
 from core.optimize.config import DesignRun, load_config, run_design
+from core.optimize.multistart import MultiStart, where_name
 from core.optimize.result import StageResult, dumps
 from core.optimize.stage import Progress
 
@@ -39,6 +40,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("config", type=Path, help="configuration file (TOML)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory (created if missing)")
     p.add_argument("--seed", type=int, default=None, metavar="N", help="override the configuration's seed")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="processes for a multi-start block's chains (default: the configuration's 'workers', "
+                   "else every core); the results do not depend on it")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
 
@@ -49,7 +53,8 @@ class ProgressBar:
     def __init__(self, stream: TextIO, n_stages: int) -> None:
         self.stream, self.n_stages = stream, n_stages
         self.tty = bool(getattr(stream, "isatty", lambda: False)())
-        self.last: tuple[int, int] = (-1, -1)
+        self.line: tuple[int, int | None, float] | None = None  # (stage, chain, fraction) drawn last
+        self.deciles: dict[tuple[int, int | None], int] = {}
 
     def __call__(self, p: Progress) -> None:
         frac = min(1.0, p.fraction)
@@ -60,22 +65,25 @@ class ProgressBar:
             best = "  best " + " ".join(f"{o}={v:.4g}" for o, v in zip(p.objectives, vals, strict=True))
         else:
             best = f"  no feasible member (least violation {np.min(p.cv):.3g})" if p.cv.size else ""
-        line = (f"[{p.index + 1}/{self.n_stages} {p.stage}] {'#' * done}{'.' * (BAR - done)} "
+        chain = "" if p.chain is None else f" chain {p.chain}"
+        line = (f"[{p.index + 1}/{self.n_stages} {p.stage}{chain}] {'#' * done}{'.' * (BAR - done)} "
                 f"gen {p.generation}/{p.n_gen}  {p.elapsed:.1f} s{best}")
+        key = (p.index, p.chain)
         if self.tty:
-            if self.last[0] not in (-1, p.index):
-                self.stream.write("\n")  # keep the finished stage's last line
-            self.last = (p.index, 0)
+            # Chains in worker processes interleave on one line; a finished stage keeps its line.
+            if self.line is not None and self.line[:2] != key and self.line[2] >= 1.0:
+                self.stream.write("\n")
+            self.line = (p.index, p.chain, frac)
             self.stream.write("\r\033[K" + line)
         else:
             decile = int(10 * frac)
-            if (p.index, decile) != self.last:
-                self.last = (p.index, decile)
+            if self.deciles.get(key) != decile:
+                self.deciles[key] = decile
                 self.stream.write(line + "\n")
         self.stream.flush()
 
     def close(self) -> None:
-        if self.tty and self.last[0] != -1:
+        if self.tty and self.line is not None:
             self.stream.write("\n")
             self.stream.flush()
 
@@ -147,7 +155,9 @@ def table(header: list[str], rows: list[list[Any]]) -> str:
 def summary(run_: DesignRun) -> str:
     """The end-of-run table: one line per stage (or the baseline) with its pick's metrics."""
     c = run_.config
-    lines = [f"{c.name}: {c.method}, {c.mechanism.name}, seed {c.seed}, {run_.status}, wall {run_.wall_time:.1f} s"]
+    workers = f", {run_.workers} worker processes" if run_.multistart else ""
+    lines = [f"{c.name}: {c.method}, {c.mechanism.name}, seed {c.seed}, {run_.status}, wall {run_.wall_time:.1f} s"
+             + workers]
     if run_.baseline is not None:
         b = run_.baseline
         m = b.metrics
@@ -163,7 +173,22 @@ def summary(run_: DesignRun) -> str:
         rows.append([r.name, r.status, r.generation, float(r.timings["total"]), r.n_evals,
                      f"{int(r.feasible.sum())}/{r.pop}", len(r.front), "-" if i is None else i, *vals])
     lines.append(table(header, rows))
+    for block in run_.multistart:
+        lines.append(chains_table(block, show))
     return "\n".join(lines)
+
+
+def chains_table(block: MultiStart, show: list[str]) -> str:
+    """One line per chain of a multi-start block: its status, time and pick at the block's last stage."""
+    names = block.stages
+    head = (f"multi-start {names[0]}..{names[-1]}: {len(block.chains)} chains, select {block.starts.select}"
+            + "".join(f", {where_name(c)} {c.upper if c.upper is not None else c.lower:g}" for c in block.starts.where))
+    rows = []
+    for c in block.chains:
+        m = c.last
+        rows.append([("* " if c.index == block.chosen else "  ") + str(c.index), c.status, c.time,
+                     "yes" if c.feasible else "no", *[float(m.get(k, float("nan"))) for k in show]])
+    return head + "\n" + table(["chain", "status", "time (s)", "feasible", *show], rows)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -172,6 +197,10 @@ def run(args: argparse.Namespace) -> int:
         if args.seed < 0:
             raise CLIError(f"--seed must be >= 0, got {args.seed}")
         config = replace(config, seed=args.seed)
+    if args.workers is not None:
+        if args.workers < 1:
+            raise CLIError(f"--workers must be >= 1, got {args.workers}")
+        config = replace(config, workers=args.workers)
     if args.out.exists() and not args.out.is_dir():
         raise CLIError(f"--out {str(args.out)!r} exists and is not a directory")
     n = max(1, len(config.stages))

@@ -59,6 +59,8 @@ from core.optimize.problem import Constraint, ProblemSpec, make_problem
 from core.optimize.result import PickRule, StageResult, best_metric
 from core.optimize.stage import Progress, StageSpec
 from core.optimize.subtasks import LIMIT_METRICS, parse_relative, resolve_limits
+from core.optimize.workers import resolve as resolve_workers
+from core.optimize.workers import run as run_jobs
 
 F64 = NDArray[np.float64]
 
@@ -68,7 +70,7 @@ SHAPE_PROBLEMS = ("predesign", "subtask1", "subtask2", "subtask3", "single_level
 PAPER_OUTPUT = presets.PAPER_PANTOGRAPH
 
 _TOP = {"name", "method", "mechanism", "preset", "output", "seed", "n_samples", "backend", "target", "rtclm",
-        "bounds", "algorithm", "stages", "baseline"}
+        "bounds", "algorithm", "stages", "baseline", "workers"}
 _STAGE = {"name", "problem", "box", "n_gen", "pick", "pick_where", "starts", "stop_below", "fixed", "seed_start",
           "options", "algorithm"}
 _STARTS = {"n", "until", "select", "where", "screen"}
@@ -127,6 +129,8 @@ class DesignConfig:
         baseline: DP baseline settings (DP methods).
         source: the parsed TOML as a dict (recorded in results).
         path: the configuration file, if read from one.
+        workers: processes a multi-start block's chains run in (0: every available core). The
+            results do not depend on it: every chain's stages are seeded.
     """
 
     name: str
@@ -138,6 +142,7 @@ class DesignConfig:
     baseline: BaselineSettings = field(default_factory=BaselineSettings)
     source: Mapping[str, Any] = field(default_factory=dict)
     path: str | None = None
+    workers: int = 0
 
 
 # ---------------------------------------------------------------------------------------
@@ -540,6 +545,7 @@ def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | No
     if n_samples % 2:
         raise _fail("n_samples", f"must be even (t + T/2 must fall on a sample), got {n_samples}")
     backend = _str(data.get("backend", "auto"), "backend", BACKENDS)
+    workers = _workers(data.get("workers", "auto"), "workers")
     shared: dict[str, Any] = {"n_samples": n_samples, "backend": backend}
     if "target" in data or mech.derive is None:
         shared["target"] = _target(data, Path(base))
@@ -573,7 +579,16 @@ def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | No
         baseline = replace(baseline, **ints)
         if n_samples % baseline.n_points:
             raise _fail("baseline.n_points", f"must divide n_samples ({n_samples}), got {baseline.n_points}")
-    return DesignConfig(name, method, mech, start, seed, tuple(stages), baseline, dict(data), path)
+    return DesignConfig(name, method, mech, start, seed, tuple(stages), baseline, dict(data), path, workers)
+
+
+def _workers(v: Any, key: str) -> int:
+    """``"auto"`` (0: every available core) or a count >= 1."""
+    if v == "auto":
+        return 0
+    if isinstance(v, str):
+        raise _fail(key, f"must be 'auto' or an integer >= 1, got {v!r}")
+    return _int(v, key, 1)
 
 
 # ---------------------------------------------------------------------------------------
@@ -592,6 +607,7 @@ class DesignRun:
         wall_time: seconds from start to end (setup and between-stage work included).
         multistart: the record of each multi-start block (every chain's picks; the pipeline
             holds the winning chain's results).
+        workers: processes the chains ran in (1 without a multi-start block).
     """
 
     config: DesignConfig
@@ -600,6 +616,7 @@ class DesignRun:
     status: str = "complete"
     wall_time: float = 0.0
     multistart: tuple[MultiStart, ...] = ()
+    workers: int = 1
 
     @property
     def compute_time(self) -> float:
@@ -655,6 +672,7 @@ class DesignRun:
             "pipeline": None if self.pipeline is None else self.pipeline.to_dict(),
             "baseline": None if self.baseline is None else self.baseline.to_dict(),
             "multistart": [m.to_dict() for m in self.multistart],
+            "workers": self.workers,
         }
 
 
@@ -814,8 +832,9 @@ class _Chain:
         """Run the chain's next stages up to stage ``upto``; False if one was cancelled."""
         if self.picks:
             pick = self.picks[-1]
+        tagged = None if callback is None else _tag(callback, self.j)
         for k in range(self.first + len(self.picks), upto + 1):
-            res = _run_stage(self.config, self.pipe, k, pick, self.seeds[k - self.first], callback, cancel)
+            res = _run_stage(self.config, self.pipe, k, pick, self.seeds[k - self.first], tagged, cancel)
             self.time += float(res.timings["total"])
             pick = res.picked
             self.picks.append(pick)
@@ -831,6 +850,10 @@ class _Chain:
             self.status = "complete"
         return True
 
+    def reached(self, upto: int) -> bool:
+        """Whether the chain has a pick at stage ``upto``."""
+        return len(self.picks) == upto - self.first + 1 and self.picks[-1] is not None
+
     def record(self) -> Chain:
         # A chain still running when the run stopped counts as cancelled.
         status = "cancelled" if self.status == "running" else self.status
@@ -838,24 +861,50 @@ class _Chain:
                      self.feasible and status == "complete", self.time)
 
 
+def _tag(callback: Callable[[Progress], None], j: int) -> Callable[[Progress], None]:
+    return lambda p: callback(replace(p, chain=j))
+
+
+def _chain_job(job: tuple[_Chain, int, int | None], callback: Callable[[Progress], None] | None,
+               cancel: Any) -> _Chain:
+    """Run one chain up to a stage (in a worker process, or here); the chain as it then is."""
+    chain, upto, pick = job
+    if cancel is None or not cancel.is_set():  # a chain not started before the cancel stays unrecorded
+        chain.run(upto, pick, callback, cancel)
+    return chain
+
+
+def _run_chains(chains: list[_Chain], upto: int, pick: int | None, workers: int,
+                callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> list[_Chain]:
+    return run_jobs(_chain_job, [(c, upto, pick) for c in chains], workers, callback, cancel)
+
+
 def _run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None, starts: Starts,
                callback: Callable[[Progress], None] | None,
                cancel: threading.Event | None) -> tuple[MultiStart, Pipeline, bool]:
     """A multi-start block from stage ``first``: its record, the pipeline to go on with, and
-    whether it completed (else that pipeline is the cancelled chain's)."""
+    whether it completed (else that pipeline is the first cancelled chain's).
+
+    The chains run in ``config.workers`` processes. After a cancel, the record holds the chains
+    that had started (the cancelled ones with their partial picks).
+    """
     names = [s.name for s in config.stages]
     last = names.index(starts.until, first)
     upto = last if starts.screen is None else names.index(starts.screen.after, first)
     chains = [_Chain(config, pipe, first, last, j) for j in range(starts.n)]
 
-    def stop(c: _Chain) -> tuple[MultiStart, Pipeline, bool]:
-        # The chains that ran so far (the cancelled one last among them); their state as it is.
+    def stopped(run: list[_Chain], k: int) -> tuple[MultiStart, Pipeline, bool] | None:
+        # Unless every chain of this round reached stage k: the first cancelled one is chosen.
+        short = sorted((c.status != "cancelled", c.j) for c in run if not c.reached(k))
+        if not short:
+            return None
+        c = next(x for x in run if x.j == short[0][1])
         records = tuple(x.record() for x in chains if x.picks)
         return MultiStart(starts, tuple(names[first : last + 1]), first, last, records, c.j), c.pipe, False
 
-    for c in chains:
-        if not c.run(upto, pick, callback, cancel):
-            return stop(c)
+    chains = _run_chains(chains, upto, pick, config.workers, callback, cancel)
+    if (out := stopped(chains, upto)) is not None:
+        return out
     going = chains
     if starts.screen is not None:
         order = rank_chains([c.metrics[-1] for c in chains], [c.feasible for c in chains], starts.screen.by)
@@ -864,9 +913,10 @@ def _run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | Non
         for c in chains:
             if c.j not in kept:
                 c.status = "dropped"
-        for c in going:
-            if not c.run(last, None, callback, cancel):
-                return stop(c)
+        going = _run_chains(going, last, None, config.workers, callback, cancel)
+        chains = [next((g for g in going if g.j == c.j), c) for c in chains]
+        if (out := stopped(going, last)) is not None:
+            return out
     won = going[select_chain([c.metrics[-1] for c in going], [c.feasible for c in going], starts.select,
                              starts.where)]
     record = MultiStart(starts, tuple(names[first : last + 1]), first, last, tuple(c.record() for c in chains), won.j)
@@ -890,6 +940,7 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
     placeholders = [s.spec(config.seed + k, placeholder(s.options)) for k, s in enumerate(config.stages)]
     pipe = Pipeline(placeholders, config.start)
     blocks: list[MultiStart] = []
+    used = max([resolve_workers(config.workers, s.starts.n) for s in config.stages if s.starts] or [1])
     pick: int | None = None
     k = 0
     while k < len(config.stages):
@@ -898,14 +949,14 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
             res = _run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
             if res.picked is None:
                 return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
-                                 multistart=tuple(blocks))
+                                 multistart=tuple(blocks), workers=used)
             pick, k = res.picked, k + 1
             continue
         block, pipe, done = _run_block(config, pipe, k, pick, starts, callback, cancel)
         blocks.append(block)
         if not done:
             return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
-                             multistart=tuple(blocks))
+                             multistart=tuple(blocks), workers=used)
         pick, k = block.chains[block.chosen].picks[-1], block.last + 1
     return DesignRun(config, pipeline=pipe, status="complete", wall_time=time.perf_counter() - t0,
-                     multistart=tuple(blocks))
+                     multistart=tuple(blocks), workers=used)

@@ -106,6 +106,15 @@ class ProblemSpec:
         if not self.constraints:
             raise ValueError(f"problem {self.name!r} has no constraints; use at least the assembly constraint")
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Sent to worker processes by name and options: the registry rebuilds it there, so only
+        # a spec that make_problem built (it records every option) can go.
+        _load_providers()
+        factory = _FACTORIES.get(self.name)
+        if factory is None or set(self.options) != set(inspect.signature(factory).parameters):
+            raise TypeError(f"problem {self.name!r} was not built by make_problem; it cannot be pickled")
+        return (make_problem_from, (self.name, dict(self.options)))
+
     @property
     def n_obj(self) -> int:
         return len(self.objectives)
@@ -239,6 +248,11 @@ def _load_providers() -> None:
 def problem_names() -> tuple[str, ...]:
     _load_providers()
     return tuple(sorted(_FACTORIES))
+
+
+def make_problem_from(name: str, options: Mapping[str, Any]) -> ProblemSpec:
+    """``make_problem(name, **options)`` (positional, for unpickling)."""
+    return make_problem(name, **options)
 
 
 def make_problem(name: str, **options: Any) -> ProblemSpec:

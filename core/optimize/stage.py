@@ -148,6 +148,8 @@ class Progress:
         feasible: ``(pop,)``; front: indices of the feasible non-dominated members.
         shortlist: knee candidates of the current population.
         objectives: objective names (F's columns).
+        chain: the multi-start chain this generation belongs to (None outside a multi-start
+            block); chains may run at once in worker processes, so their progress interleaves.
 
     ``front`` and ``shortlist`` are computed on first use (a headless run never needs them, and
     for a population of 200 they cost about as much as a tenth of a generation).
@@ -165,6 +167,7 @@ class Progress:
     cv: F64
     feasible: NDArray[np.bool_]
     objectives: tuple[str, ...]
+    chain: int | None = None
 
     @property
     def fraction(self) -> float:

@@ -1,0 +1,125 @@
+"""Run independent jobs in worker processes, forwarding their progress and honouring a cancel event.
+
+Multi-start chains are independent once their seeds are fixed, so they can run on every core at
+once: the results are the same for any number of workers. A job is ``fn(job, callback, cancel)``;
+in a worker, ``callback`` puts its argument on a queue that the calling process drains into the
+caller's callback, and ``cancel`` is a process-shared event set when the caller's event is.
+
+Workers are forked on Linux (the parent's compiled numba kernels come along; nothing to reload)
+and spawned elsewhere. They ignore SIGINT: Ctrl-C reaches the caller, which sets the shared
+event, so every job stops between generations and returns its partial state.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import queue
+import signal
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from typing import Any, Protocol
+
+
+class Flag(Protocol):
+    def is_set(self) -> bool: ...
+
+
+Job = Callable[[Any, Callable[[Any], None] | None, Flag | None], Any]
+
+_QUEUE: Any = None
+_STOP: Any = None
+
+
+def available() -> int:
+    """Cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def resolve(workers: int | None, n_jobs: int) -> int:
+    """Worker processes for ``n_jobs`` jobs: ``workers`` (None or 0: every available core), at most one per job."""
+    w = available() if not workers else int(workers)
+    return max(1, min(w, n_jobs))
+
+
+def _init(q: Any, stop: Any) -> None:
+    global _QUEUE, _STOP
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _QUEUE, _STOP = q, stop
+
+
+def _call(fn: Job, i: int, job: Any, report: bool) -> Any:
+    def forward(item: Any) -> None:
+        _QUEUE.put((i, item))
+
+    try:
+        return fn(job, forward if report else None, _STOP)
+    finally:
+        _QUEUE.put((i, _DONE))
+
+
+class _Done:
+    """End-of-job marker: the job's progress items all came before it (one queue per producer is ordered)."""
+
+    def __reduce__(self) -> str:
+        return "_DONE"
+
+
+_DONE = _Done()
+
+
+def run(fn: Job, jobs: Sequence[Any], workers: int | None = None, callback: Callable[[Any], None] | None = None,
+        cancel: threading.Event | None = None) -> list[Any]:
+    """``[fn(job, callback, cancel) for job in jobs]``, in up to ``workers`` processes.
+
+    Args:
+        fn: a module-level function (workers import it by name).
+        jobs: picklable arguments.
+        workers: processes (None or 0: every available core); 1 runs the jobs here, in order,
+            skipping none (a job sees ``cancel`` itself).
+        callback: gets every item a job reports, in the calling thread (items of one job in order).
+        cancel: once set, the workers' shared event is set too.
+
+    Returns:
+        The jobs' return values, in job order.
+
+    Raises:
+        The first exception a job raised (the others are told to stop).
+    """
+    n = resolve(workers, len(jobs))
+    if n == 1:
+        return [fn(job, callback, cancel) for job in jobs]
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    q, stop = ctx.Queue(), ctx.Event()
+    pool = ProcessPoolExecutor(n, mp_context=ctx, initializer=_init, initargs=(q, stop))
+    try:
+        futures = [pool.submit(_call, fn, i, job, callback is not None) for i, job in enumerate(jobs)]
+        done = 0
+        while done < len(jobs):
+            if cancel is not None and cancel.is_set():
+                stop.set()
+            _raise_failed(futures, stop)
+            try:
+                i, item = q.get(timeout=0.05)
+            except queue.Empty:
+                continue
+            if isinstance(item, _Done):
+                done += 1
+            elif callback is not None:
+                callback(item)
+        return [f.result() for f in futures]
+    finally:
+        stop.set()
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _raise_failed(futures: Sequence[Future[Any]], stop: Any) -> None:
+    # Fail at once: the other jobs are told to stop (and a worker that died never sends its end marker).
+    for f in futures:
+        if f.done() and f.exception() is not None:
+            stop.set()
+            raise f.exception()  # type: ignore[misc]
