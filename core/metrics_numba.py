@@ -465,6 +465,16 @@ def _finite(px, py, dpx, dpy, qx, qy):
 
 
 @njit(**_JIT)
+def _analyse(p, px, py, dpx, dpy, qx, qy, target, period, a, b, offs2, ph2, offs4, ph4, W, index, pts, tans, S):
+    """Row p from its leg path, d/dtheta and design-frame path: NaN unless every sample is finite."""
+    if not _finite(px, py, dpx, dpy, qx, qy):
+        _invalid(p, index, pts, tans, S)
+        return
+    S[p, VALID] = 1.0
+    _one(px, py, dpx, dpy, qx, qy, target, period, a, b, offs2, ph2, offs4, ph4, W, index[p], pts[p], tans[p], S[p])
+
+
+@njit(**_JIT)
 def _rows(p0, p1, leg, dleg, point, target, period, a, b, offs2, ph2, offs4, ph4, index, pts, tans, S):
     """Designs p0 .. p1 - 1 of given paths (rows copied to scratch, x and y apart)."""
     n = leg.shape[1]
@@ -478,12 +488,7 @@ def _rows(p0, p1, leg, dleg, point, target, period, a, b, offs2, ph2, offs4, ph4
             dpy[i] = dleg[p, i, 1]
             qx[i] = point[p, i, 0]
             qy[i] = point[p, i, 1]
-        if not _finite(px, py, dpx, dpy, qx, qy):
-            _invalid(p, index, pts, tans, S)
-            continue
-        S[p, VALID] = 1.0
-        _one(px, py, dpx, dpy, qx, qy, target, period, a, b, offs2, ph2, offs4, ph4, W,
-             index[p], pts[p], tans[p], S[p])
+        _analyse(p, px, py, dpx, dpy, qx, qy, target, period, a, b, offs2, ph2, offs4, ph4, W, index, pts, tans, S)
 
 
 @njit(**_JIT, parallel=True)
@@ -540,13 +545,8 @@ def _fused_designs(solver_digest: str):  # type: ignore[no-untyped-def]
                 ly[k] = y[tracked, k] * ky + cy
                 ldx[k] = dx[tracked, k] * kx
                 ldy[k] = dy[tracked, k] * ky
-            qx, qy = x[tracked], y[tracked]
-            if not _finite(lx, ly, ldx, ldy, qx, qy):
-                _invalid(i, index, pts, tans, S)
-                continue
-            S[i, VALID] = 1.0
-            _one(lx, ly, ldx, ldy, qx, qy, target, period, a, b, offs2, ph2, offs4, ph4, W,
-                 index[i], pts[i], tans[i], S[i])
+            _analyse(i, lx, ly, ldx, ldy, x[tracked], y[tracked], target, period, a, b, offs2, ph2, offs4, ph4, W,
+                     index, pts, tans, S)
 
     return designs
 
