@@ -193,3 +193,15 @@ def test_a_problem_repair_replaces_members_before_evaluation(algorithm: str) -> 
     np.testing.assert_allclose(res.X[:, j3], tie(res.X[:, j2]), rtol=1e-12)
     F, _ = base.columns(base.evaluate_metrics(Design(X0.mechanism, res.X)))
     np.testing.assert_array_equal(F, res.F)  # objectives belong to the repaired designs
+
+
+def test_bulk_constraint_violation_is_pymoos_own() -> None:
+    """The problem hands pymoo every member's CV at once; it equals what pymoo computes per member."""
+    from pymoo.core.individual import calc_cv
+
+    stage = Stage(spec("subtask2", n_gen=3), X0)
+    stage.run()
+    pop = stage.algorithm.pop  # type: ignore[union-attr]
+    for ind in pop:
+        assert "CV" in ind.evaluated and ind.CV.shape == (1,)
+        assert ind.CV[0] == calc_cv(G=ind.G, config=ind.config)
