@@ -203,5 +203,5 @@ def test_bulk_constraint_violation_is_pymoos_own() -> None:
     stage.run()
     pop = stage.algorithm.pop  # type: ignore[union-attr]
     for ind in pop:
-        assert "CV" in ind.evaluated and ind.CV.shape == (1,)
+        assert "_CV" in ind.evaluated and ind.CV.shape == (1,)
         assert ind.CV[0] == calc_cv(G=ind.G, config=ind.config)

@@ -192,9 +192,10 @@ class DesignProblem(Problem):
     def _evaluate(self, X: F64, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
         F, G = self.spec.columns(self.metrics(self.box.decode(X)))
         out["F"], out["G"] = F, G
-        # pymoo's constraint violation (its default: the sum of positive G), for the whole population at
-        # once; otherwise every Individual computes it in Python on first use.
-        out["CV"] = np.maximum(0.0, G).sum(axis=1)[:, None]
+        # pymoo's constraint violation (its default: the sum of positive G) for the whole population at
+        # once; otherwise every Individual computes it in Python on first use. Set as "_CV", the slot
+        # behind pymoo's CV property: setting "CV" makes Individual.set evaluate the property first.
+        out["_CV"] = np.maximum(0.0, G).sum(axis=1)[:, None]
 
 
 class BoxRepair(Repair):
