@@ -37,12 +37,15 @@ from pymoo.core.algorithm import Algorithm
 
 from core import decision
 from core.design import Design
+from core.optimize import fastpop
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm, validate
 from core.optimize.box import Box, global_box, search_box
 from core.optimize.problem import BoxRepair, DesignProblem, ProblemSpec, make_problem
 from core.optimize.result import PickRule, StageResult, versions
 
 F64 = NDArray[np.float64]
+
+fastpop.install()  # pymoo's per-member attribute loops, same values (see core.optimize.fastpop)
 
 
 @dataclass(frozen=True)
