@@ -86,11 +86,11 @@ def install() -> bool:
     probe = Individual()
     if not all(s in probe.__dict__ for s in (*SLOTS.values(), "_CV")) or not isinstance(probe.config, dict):
         return False
-    Population.get = get  # type: ignore[method-assign]
-    Population.set = set  # type: ignore[method-assign]
+    Population.get = get
+    Population.set = set
     return True
 
 
 def uninstall() -> None:
-    Population.get = original_get  # type: ignore[method-assign]
-    Population.set = original_set  # type: ignore[method-assign]
+    Population.get = original_get
+    Population.set = original_set
