@@ -100,3 +100,21 @@ def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], caps
 def test_compare_refuses_a_directory_without_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["compare", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("clm: error: ")
+
+
+def test_design_lists_every_chain_and_tags_their_progress(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    starts = 'pick = "best:f1"\nstarts = {n = 3, until = "subtask1", select = "best:f1"}'
+    (tmp_path / "m.toml").write_text(TINY.replace('pick = "best:f1"', starts, 1))
+    assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "o"), "--workers", "2"]) == 0
+    cap = capsys.readouterr()
+    lines = cap.out.splitlines()
+    assert "2 worker processes" in lines[0]
+    i = next(k for k, line in enumerate(lines) if line.startswith("multi-start subtask1..subtask1: 3 chains"))
+    assert lines[i + 1].split()[:4] == ["chain", "status", "time", "(s)"]
+    rows = lines[i + 2 : i + 5]
+    data = json.loads((tmp_path / "o" / "result.json").read_text())
+    chosen = data["multistart"][0]["chosen"]
+    assert [r.split()[0] for r in rows].count("*") == 1
+    assert rows[chosen].startswith("* ") and data["workers"] == 2
+    assert all(f"chain {j}]" in cap.err for j in range(3))
+    assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "p"), "--workers", "0"]) == 2
