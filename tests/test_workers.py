@@ -120,3 +120,18 @@ def test_cancelling_while_chains_run_in_workers_leaves_a_loadable_partial_result
 def test_invalid_workers_name_the_key(value: Any) -> None:
     with pytest.raises(ValueError, match="workers"):
         parse_config({**CONFIG, "workers": value})
+
+
+def test_workers_are_spawned_once_numbas_thread_pool_runs() -> None:
+    from numba.np.ufunc import parallel
+
+    was = parallel._is_initialized
+    try:
+        parallel._is_initialized = False
+        assert workers.start_method() == "fork"
+        parallel._is_initialized = True
+        assert workers.start_method() == "spawn"
+        # spawned workers import the job's module afresh and still return the same results
+        assert workers.run(square, [3, 4], workers=2) == [9, 16]
+    finally:
+        parallel._is_initialized = was

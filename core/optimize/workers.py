@@ -6,8 +6,9 @@ in a worker, ``callback`` puts its argument on a queue that the calling process 
 caller's callback, and ``cancel`` is a process-shared event set when the caller's event is.
 
 Workers are forked on Linux (the parent's compiled numba kernels come along; nothing to reload)
-and spawned elsewhere. They ignore SIGINT: Ctrl-C reaches the caller, which sets the shared
-event, so every job stops between generations and returns its partial state.
+and spawned elsewhere or once numba's thread pool runs in this process. They ignore SIGINT:
+Ctrl-C reaches the caller, which sets the shared event, so every job stops between generations
+and returns its partial state.
 """
 
 from __future__ import annotations
@@ -44,6 +45,16 @@ def resolve(workers: int | None, n_jobs: int) -> int:
     """Worker processes for ``n_jobs`` jobs: ``workers`` (None or 0: every available core), at most one per job."""
     w = available() if not workers else int(workers)
     return max(1, min(w, n_jobs))
+
+
+def start_method() -> str:
+    """``fork`` where the platform has it, unless numba's thread pool already runs here (its threads
+    do not survive a fork): then ``spawn``, which starts workers afresh (slower, always safe)."""
+    from numba.np.ufunc import parallel
+
+    if "fork" in mp.get_all_start_methods() and not getattr(parallel, "_is_initialized", False):
+        return "fork"
+    return "spawn"
 
 
 def _init(q: Any, stop: Any) -> None:
@@ -93,7 +104,7 @@ def run(fn: Job, jobs: Sequence[Any], workers: int | None = None, callback: Call
     n = resolve(workers, len(jobs))
     if n == 1:
         return [fn(job, callback, cancel) for job in jobs]
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    ctx = mp.get_context(start_method())
     q, stop = ctx.Queue(), ctx.Event()
     pool = ProcessPoolExecutor(n, mp_context=ctx, initializer=_init, initargs=(q, stop))
     try:
