@@ -6,20 +6,27 @@
 Prints trajectories (designs x one crank revolution of N samples) per second for the four-bar,
 Stephenson-I and Jansen mechanisms, each population a preset jittered by 3 % (seeded). A
 mechanism not yet in the registry is skipped with a note. Times are the best of k repeats after
-a warm-up call, through ``solver_numba.run`` and ``solver_numpy.reduce`` (the same
-outputs, allocation included: fresh output arrays every call, as a caller gets them; at pop
-10 000 that is 115 MB of new pages per call, whose first-touch faults cost ~1-3 us per design on
-this VM). "reused out": the serial kernel alone, writing into outputs allocated once (the
-compute). "solve()": the public ``kinematics.solve(joints=False)``, which also maps the tracked
-point to the leg frame and derives the violation and transmission angles. Compile (or cache
-load) time is reported apart. Targets (issue 3): Stephenson-I numba serial joints=False
->= 500 k/s on one core, numpy reference >= 50 k/s. Not a test: wall-clock numbers depend on the
-machine and its load (the other processes on its 2 cores).
+a warm-up call (k at least enough for ~1 s of calls: fast cases get more tries against the
+noise of a shared machine), through ``solver_numba.run`` and ``solver_numpy.reduce`` (the same
+outputs, allocation included: new arrays every call, as a caller gets them; ``solver_numba``
+hands out the previous call's block of paths again once nothing refers to it, as in this loop
+and in an optimizer that drops each generation's paths, and a block of fresh pages would cost
+~0.6 us per design of first-touch faults at pop 10 000 on this VM). "reused out": the serial
+kernel alone, writing into outputs allocated once (the compute). "solve()": the public
+``kinematics.solve(joints=False)``, which also maps the tracked point to the leg frame and
+derives the violation and transmission angles. Compile (or cache load) time is reported apart.
+Targets (issue 3): Stephenson-I numba serial joints=False >= 500 k/s on one core, numpy
+reference >= 50 k/s. Single-thread columns (``SINGLE_THREAD``) time the calling thread's CPU
+time (``time.thread_time``, page faults included): on a shared machine a call of ~20 ms is
+almost never left alone for its wall-clock duration; the others (parallel, solve()) take
+wall-clock time (``--wall``: wall-clock time everywhere). Not a test: the numbers depend on the machine and its
+load (the other processes on its 2 cores share its caches and memory bandwidth).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -44,6 +51,9 @@ TITLES = {"fourbar": "four-bar", "stephenson1": "Stephenson-I", "jansen": "Janse
 TARGET_NUMBA = 500_000.0
 TARGET_NUMPY = 50_000.0
 JITTER = 0.03
+# Columns timed by thread CPU time (unless --wall); solve() goes parallel from PARALLEL_MIN_POP on.
+SINGLE_THREAD = ("numpy", "numba serial", "reused out", "serial+joints")
+MIN_SECONDS = 1.0  # of timed calls per case, at least (--quick: a tenth)
 
 
 def preset_for(name: str) -> Preset | None:
@@ -99,9 +109,19 @@ def kernel_only(
     return lambda: solver_numba._run_serial(*program, *out)
 
 
+def best_cpu_of(fn: Callable[[], object], repeats: int) -> float:
+    """Least CPU time of the calling thread over repeats calls (s)."""
+    best = np.inf
+    for _ in range(repeats):
+        t = time.thread_time()
+        fn()
+        best = min(best, time.thread_time() - t)
+    return float(best)
+
+
 def rates(
     ops: np.ndarray, vals: np.ndarray, theta: np.ndarray, tracked: int, repeats: int,
-    solve_args: tuple[Mechanism, np.ndarray] | None = None,
+    solve_args: tuple[Mechanism, np.ndarray] | None = None, min_seconds: float = MIN_SECONDS, wall: bool = False,
 ) -> dict[str, float]:
     """Trajectories per second of each backend and mode on one population: keys ``(mode, column)``
     with mode "paths" (positions only) or "d/dtheta" (with exact derivatives)."""
@@ -121,8 +141,12 @@ def rates(
                                              backend="numba")
     out = {}
     for key, fn in cases.items():
+        t = time.perf_counter()
         fn()  # warm-up: caches, first-touch page faults
-        out[key] = pop / best_of(fn, max(1, repeats // 3) if key[1] == "numpy" else repeats)
+        t = time.perf_counter() - t
+        k = max(1, repeats // 3) if key[1] == "numpy" else repeats
+        timer = best_cpu_of if key[1] in SINGLE_THREAD and not wall else best_of
+        out[key] = pop / timer(fn, max(k, min(200, math.ceil(min_seconds / max(t, 1e-6)))))
     return out
 
 
@@ -130,6 +154,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small populations, few repeats (CI)")
     ap.add_argument("--samples", type=int, default=360)
+    ap.add_argument("--wall", action="store_true", help="wall-clock time for every column (else CPU time of "
+                    "the calling thread for the single-thread ones)")
     args = ap.parse_args(argv)
     pops = (200, 1000) if args.quick else (200, 10_000)
     repeats = 3 if args.quick else 7
@@ -150,9 +176,12 @@ def main(argv: list[str] | None = None) -> int:
                 print(compile_report(prog.ops, vals, theta, prog.tracked))
                 compiled = True
             solve_args = (preset.mechanism, jittered(preset, pop))
-            rows.append((name, pop, rates(prog.ops, vals, theta, prog.tracked, repeats, solve_args)))
+            rows.append((name, pop, rates(prog.ops, vals, theta, prog.tracked, repeats, solve_args,
+                                          MIN_SECONDS / 10 if args.quick else MIN_SECONDS, args.wall)))
 
-    print(f"trajectories/s (N = {n}), best of {repeats} (numpy: {max(1, repeats // 3)}); joints=False unless noted")
+    clock = "wall-clock time" if args.wall else "thread CPU time (parallel, solve(): wall-clock)"
+    print(f"trajectories/s (N = {n}), best of >= {repeats} (numpy: {max(1, repeats // 3)}), {clock}; "
+          "joints=False unless noted")
     for mode, title in (("paths", "paths only (derivatives=False)"), ("d/dtheta", "paths and exact d/dtheta")):
         columns = [c for m, c in rows[0][2] if m == mode] if rows else []
         print(f"-- {title}")

@@ -17,6 +17,11 @@ reference's formulas evaluated at the extreme |PQ|^2 of the cycle, found in the 
 With ``want_joints=False`` (the optimizer's path) nothing of size ``pop * n_samples * n_steps`` is
 allocated. Coordinates are assumed below ~1e75 mm (beyond, products in ``_dyad`` overflow).
 
+Memory: the step functions are compiled without reference counting (``_NO_RC``); while a design
+is solved, the output rows of the next one are prefetched for writing (``_place``), so that its
+stores do not wait on DRAM; the block of paths is reused from call to call once nothing refers
+to it (``_PATHS``), so that its pages are not faulted in again.
+
 ``core.metrics_numba.run_designs`` calls ``place`` directly (solve, then analyse each design
 while its rows are in cache).
 """
@@ -31,6 +36,7 @@ from numba import njit, prange, types
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
+from core.blocks import Pool
 from core.mechanisms.model import ATTACH, CRANK, DYAD, GROUND
 
 F64 = NDArray[np.float64]
@@ -44,6 +50,9 @@ _INF_BITS = np.uint64(0x7FF0000000000000)
 # error_model="numpy": x / 0 gives inf or NaN as in numpy instead of raising (and allows SIMD).
 # fastmath "contract" only: fused multiply-adds; no flag that assumes away NaN or inf.
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
+# For functions that allocate nothing: no reference counting of their array arguments (numba's
+# atomic incref / decref of every array on every call cost ~30 ns per construction step).
+_NO_RC = {**_JIT, "_nrt": False}
 
 
 @intrinsic
@@ -70,7 +79,51 @@ def _from_bits(typingctx, v):
     return types.float64(types.uint64), codegen
 
 
-@njit(**_JIT)
+@intrinsic
+def _prefetch_w(typingctx, addr):
+    """Prefetch the cache line at an address (an integer) for writing; never faults."""
+    if not isinstance(addr, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        i32 = ir.IntType(32)
+        ptr = builder.inttoptr(args[0], ir.PointerType(ir.IntType(8)))
+        fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+        fn = builder.module.declare_intrinsic("llvm.prefetch", [ptr.type], fnty)
+        # rw = 1 (write), locality = 3 (keep in all levels), data cache.
+        builder.call(fn, [ptr, ir.Constant(i32, 1), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return types.void(addr), codegen
+
+
+@njit(**_NO_RC)
+def _prefetch_part(lines, part):
+    """Prefetch for writing part ``part`` of the cache lines ``lines = (address of the first,
+    count, count per part)``."""
+    first, count, per = lines
+    for line in range(part * per, min(count, (part + 1) * per)):
+        _prefetch_w(first + (line << 6))
+
+
+@njit(**_NO_RC)
+def _lines(address, n_bytes, parts):
+    """The cache lines of the bytes [address, address + n_bytes) for ``_prefetch_part``, in parts."""
+    first = address & ~63
+    count = (((address + n_bytes + 63) & ~63) - first) >> 6
+    return first, count, (count + parts - 1) // parts
+
+
+@njit(**_NO_RC)
+def _row(a, i, parts):
+    """``_lines`` of row i of a 2-D C-contiguous array (none if it has no rows)."""
+    if a.shape[0] == 0:
+        return 0, 0, 1
+    n_bytes = a.shape[1] * a.itemsize
+    return _lines(np.int64(a.ctypes.data) + i * n_bytes, n_bytes, parts)
+
+
+@njit(**_NO_RC)
 def _pos_part(v: float) -> float:
     """``np.maximum(0, v)``: NaN propagates."""
     if v > 0.0 or v != v:
@@ -78,7 +131,7 @@ def _pos_part(v: float) -> float:
     return 0.0
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def _ground(x, y, j, a, u, v, c, s):
     """Place X = O + R(angle) (u, v), given c, s = cos, sin(angle); constant over the cycle, so
     its derivative rows stay 0."""
@@ -94,7 +147,7 @@ def _ground(x, y, j, a, u, v, c, s):
             y[j, k] = gy + 0.0
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def _crank(x, y, dx, dy, j, a, u, v, cp, sp, ct, st, deriv):
     """Place X = O + R(phase + theta) (u, v), given cp, sp = cos, sin(phase)."""
     # R(phase + theta) (u, v) = R(theta) R(phase) (u, v): rotate by the phase once per design.
@@ -116,7 +169,7 @@ def _crank(x, y, dx, dy, j, a, u, v, cp, sp, ct, st, deriv):
         dy[j, k] = rx
 
 
-@njit(**_JIT, inline="always")
+@njit(**_NO_RC, inline="always")
 def _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq):
     """At sample k: P, w = Q - P, d2 = |w|^2, t and side H (see ``_dyad``)."""
     p_x, p_y = x[a, k], y[a, k]
@@ -127,7 +180,7 @@ def _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq):
     return p_x, p_y, wx, wy, d2, t, sgn * np.sqrt(four_l1sq * d2 - t * t)
 
 
-@njit(**_JIT, inline="always")
+@njit(**_NO_RC, inline="always")
 def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
     """Place X at sample k (see ``_dyad``); returns |PQ|^2."""
     p_x, p_y, wx, wy, d2, t, sh = _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq)
@@ -149,7 +202,7 @@ def _dyad_at(x, y, dx, dy, j, a, b, k, sgn, k1, four_l1sq):
     return d2
 
 
-@njit(**_JIT, inline="always")
+@njit(**_NO_RC, inline="always")
 def _dyad_pos_at(x, y, j, a, b, k, sgn, k1, four_l1sq):
     """Place X at sample k without its derivative (see ``_dyad``); returns |PQ|^2."""
     p_x, p_y, wx, wy, d2, t, sh = _dyad_chord(x, y, a, b, k, sgn, k1, four_l1sq)
@@ -159,7 +212,7 @@ def _dyad_pos_at(x, y, j, a, b, k, sgn, k1, four_l1sq):
     return d2
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2, deriv):
     """Place X with |PX| = l1, |QX| = l2; return the cycle's min margin and min, max cos(mu).
 
@@ -224,7 +277,7 @@ def _dyad(x, y, dx, dy, d2row, j, a, b, side, l1, l2, deriv):
     return min(m_lo, m_hi), min(c_lo, c_hi), max(c_lo, c_hi)
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def _attach(x, y, dx, dy, j, a, b, u, v, known, length, deriv):
     """Place X = P + u e + v rot90(e), e = (Q - P) / |Q - P|.
 
@@ -296,14 +349,26 @@ def scratch(n_steps, n):
             np.empty(n), np.empty(n))
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv):
     """Solve design i into the scratch rows; its cycle statistics into row i of mmin, cmin, cmax, neg.
     Without ``deriv`` the derivative rows are left untouched."""
+    _place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv, ((0, 0, 0),))
+
+
+@njit(**_NO_RC)
+def _place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv, ahead):
+    """``place``, prefetching for writing the cache lines of each range in the tuple ``ahead`` (see
+    ``_lines``), a part at each step: the output rows of the next design, so that its stores hit
+    the cache (written in a burst at the end of a design, their reads for ownership from DRAM
+    would stall the core; spread over the steps they overlap the arithmetic). Tuples, not an
+    array: faster."""
     total_neg = 0.0
     # Steps often share an angle (one crank phase, one frame angle): cache the last cos, sin.
     last, c, s = 0.0, 1.0, 0.0
     for j in range(ops.shape[0]):
+        for lines in ahead:
+            _prefetch_part(lines, j)
         kind, a, b, side = ops[j, 0], ops[j, 1], ops[j, 2], ops[j, 3]
         v0, v1, v2 = vals[i, j, 0], vals[i, j, 1], vals[i, j, 2]
         mmin[i, j] = np.inf
@@ -325,7 +390,7 @@ def place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, ne
     neg[i] = total_neg
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def all_finite(x, y, tracked, sinks, acc):
     """acc[k] = 0 where every point of sample k is finite, else NaN.
 
@@ -340,23 +405,26 @@ def all_finite(x, y, tracked, sinks, acc):
             acc[k] += (x[sink, k] - x[sink, k]) + (y[sink, k] - y[sink, k])
 
 
-@njit(**_JIT)
+@njit(**_NO_RC)
 def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, deriv,
           pos, dpos, point, dpoint, leg, dleg, valid):
     """Write design i's rows of the outputs from the scratch rows; point, dpoint, leg, dleg are
     flat ``(pop, 2 n)`` views (interleaved stores by index vectorize, [k, 0] / [k, 1] pairs do not).
     Without ``deriv`` nothing is written to dpos, dpoint, dleg."""
     n = x.shape[1]
-    if sinks.shape[0] == 0:
+    if sinks.shape[0] == 0:  # the tracked point alone decides
         for k in range(n):
-            acc[k] = 0.0
+            px, py = x[tracked, k], y[tracked, k]
+            valid[i, k] = (px - px) + (py - py) == 0.0
+            point[i, 2 * k] = px
+            point[i, 2 * k + 1] = py
     else:
         all_finite(x, y, sinks[0], sinks[1:], acc)
-    for k in range(n):
-        px, py = x[tracked, k], y[tracked, k]
-        valid[i, k] = (px - px) + (py - py) + acc[k] == 0.0
-        point[i, 2 * k] = px
-        point[i, 2 * k + 1] = py
+        for k in range(n):
+            px, py = x[tracked, k], y[tracked, k]
+            valid[i, k] = (px - px) + (py - py) + acc[k] == 0.0
+            point[i, 2 * k] = px
+            point[i, 2 * k + 1] = py
     if deriv:
         for k in range(n):
             dpoint[i, 2 * k] = dx[tracked, k]
@@ -376,7 +444,7 @@ def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, de
 
 
 # No "contract": numpy rounds p * k, then adds; a fused multiply-add would round once.
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 def _emit_leg(i, x, y, dx, dy, tracked, stage, deriv, leg, dleg):
     """Design i's rows of leg, dleg: ``OutputStage.apply`` and ``apply_derivative``, operation for operation
     (stage = ``OutputStage.kernel_args()``)."""
@@ -396,8 +464,13 @@ def _designs(i0, i1, ops, vals, ct, st, tracked, sinks, links, want_joints, want
              pos, dpos, point, dpoint, leg, dleg, valid, mmin, cmin, cmax, neg):
     """Solve designs i0 .. i1 - 1 into their rows of the outputs, with one set of scratch rows."""
     x, y, dx, dy, d2row, acc = scratch(ops.shape[0], ct.shape[0])
+    n_steps = ops.shape[0]
     for i in range(i0, i1):
-        place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv)
+        # The next design's rows of the paths and valid (not of the joints: rarely asked for).
+        nxt = min(i + 1, i1 - 1)
+        ahead = (_row(point, nxt, n_steps), _row(dpoint, nxt, n_steps), _row(leg, nxt, n_steps),
+                 _row(dleg, nxt, n_steps), _row(valid, nxt, n_steps))
+        _place(i, ops, vals, ct, st, links, x, y, dx, dy, d2row, mmin, cmin, cmax, neg, deriv, ahead)
         _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, deriv,
               pos, dpos, point, dpoint, leg, dleg, valid)
 
@@ -452,6 +525,12 @@ class Outputs(NamedTuple):
     cmin: F64
     cmax: F64
     neg: F64
+
+
+# Blocks of paths of ``solve_all``, reused from call to call once nothing refers to them
+# (``core.blocks``: a kept block's pages are mapped already; a new one's are faulted in when first
+# written, ~0.6 us per design at pop 10 000, a third of the solve).
+_PATHS = Pool()
 
 
 _PREPARED: dict[tuple[bytes, tuple[int, ...], int], Program] = {}
@@ -509,10 +588,9 @@ def solve_all(
     shape = (pop, n, n_steps, 2) if want_joints else (0, 0, 0, 2)
     pos, dpos = np.empty(shape), np.empty(shape if derivatives else (0, 0, 0, 2))
     want_leg = stage is not None
-    # One block for the paths: one large allocation that glibc can reuse from call to call
-    # (several 1 MB blocks get trimmed and faulted back in, page by page, every call).
+    # One block for the paths, reused from call to call once nothing refers to it (``_PATHS``).
     n_paths = (2 if want_leg else 1) * (2 if derivatives else 1)
-    block = np.empty((n_paths, pop, n, 2))
+    block = _PATHS.take(n_paths * pop * n * 2).reshape(n_paths, pop, n, 2)
     point = block[0]
     dpoint = block[1] if derivatives else point[:0]
     leg = block[n_paths // 2] if want_leg else point[:0]

@@ -4,16 +4,22 @@ Vectorized over the population and the samples, one construction step at a time,
 plain vector formulas of the model (``core.mechanisms.model``); ``core.solver_numba`` is the
 fast kernel it checks and shares no arithmetic with. For speed only: the population is solved
 in blocks of designs whose points stay in cache, each coordinate an array ``(designs,
-n_samples)``, and ``reduce`` keeps of a block only the tracked point and the cycle statistics.
+n_samples)``, and ``reduce`` keeps of a block only the tracked point and the cycle statistics;
+the per-design constants of every step are computed once per population (``Constants``), the
+steps write into preallocated scratch rows (``out=``, no temporaries), and products of a
+per-design 2 x 2 matrix with a point are stacked matrix products (numpy broadcasts a column
+against a row about three times slower than it multiplies equal shapes).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+from core.blocks import Pool
 from core.mechanisms.model import ATTACH, CRANK, DYAD, GROUND
 
 F64 = NDArray[np.float64]
@@ -21,9 +27,13 @@ F64 = NDArray[np.float64]
 # Elements (designs x samples) per block: every array of a block is below 128 KiB, glibc's
 # default threshold above which each allocation is a fresh mapping, faulted in page by page.
 BLOCK_ELEMENTS = 16000
+# Scratch rows of ``place`` (each ``(designs, n_samples)``).
+WORK_ROWS = 8
 
 
-def place(ops: NDArray[np.int64], vals: F64, theta: F64, store: F64) -> Iterator[tuple[int, F64, F64]]:
+def place(
+    ops: NDArray[np.int64], vals: F64, theta: F64, store: F64, work: F64 | None = None
+) -> Iterator[tuple[int, F64, F64]]:
     """Place the points of a block of designs, step by step.
 
     Args:
@@ -32,29 +42,72 @@ def place(ops: NDArray[np.int64], vals: F64, theta: F64, store: F64) -> Iterator
         theta: ``(n_samples,)`` input crank angles (rad).
         store: ``(n_steps, 4, designs, n_samples)``, filled with x, y, dx, dy of every point
             (mm, mm/rad); with 2 rows instead of 4, positions only (no derivative work).
+        work: ``(WORK_ROWS, designs, n_samples)`` scratch (allocated if None).
 
     Yields:
         For each dyad, once placed: its index, its assembly margin ``min(d - |l1 - l2|,
         l1 + l2 - d)`` (mm) and the cosine of its transmission angle, each ``(designs,
-        n_samples)``, with d = |PQ|.
+        n_samples)``, with d = |PQ|; valid until the next step.
     """
+    if work is None:
+        work = np.empty((WORK_ROWS,) + store.shape[2:])
+    return steps(ops, constants(vals), angles(theta), store, work)
+
+
+class Constants(NamedTuple):
+    """The per-design constants of every step of a population, computed at once (a few operations
+    per population instead of several per step and block): ``(designs, n_steps)``, with u, v the
+    operands 0 and 1 (for a dyad, l1 and l2), unless noted."""
+
+    vals: F64  # (designs, n_steps, 3) the operands
+    ru: F64  # R(angle) (u, v) of ground and crank steps
+    rv: F64
+    turn: F64  # (designs, n_steps, 2, 2) [[ru, -rv], [rv, ru]] (see ``rotate``)
+    attach: F64  # (designs, n_steps, 2, 2) [[u, -v], [v, u]]
+    k1: F64  # l1^2 - l2^2
+    l1sq: F64  # l1^2
+    dl: F64  # |l1 - l2|
+    sl: F64  # l1 + l2
+    s12: F64  # l1^2 + l2^2
+    den: F64  # 2 l1 l2
+
+    def rows(self, r: slice) -> Constants:
+        return Constants(*(a[r] for a in self))
+
+
+def constants(vals: F64) -> Constants:
+    """``Constants`` of operands ``(designs, n_steps, 3)``."""
+    u, v, angle = vals[:, :, 0], vals[:, :, 1], vals[:, :, 2]
+    c, s = np.cos(angle), np.sin(angle)
+    ru, rv = c * u - s * v, s * u + c * v
+    uu, vv = u * u, v * v
+    return Constants(
+        vals, ru, rv, rotations(ru, rv), rotations(u, v), uu - vv, uu, np.abs(u - v), u + v, uu + vv, 2.0 * u * v
+    )
+
+
+def angles(theta: F64) -> F64:
+    """``(2, n)`` cos and sin of the sample angles."""
+    return np.stack([np.cos(theta), np.sin(theta)])
+
+
+def steps(ops: NDArray[np.int64], k: Constants, cs: F64, store: F64, work: F64) -> Iterator[tuple[int, F64, F64]]:
+    """``place`` from the block's ``Constants`` and ``cs = angles(theta)``, with scratch ``work``."""
     derivatives = store.shape[1] == 4
     x, y = store[:, 0], store[:, 1]
     dx, dy = (store[:, 2], store[:, 3]) if derivatives else (store[:, :0], store[:, :0])
-    cs = np.stack([np.cos(theta), np.sin(theta)])
+    vals = k.vals
     for j, (kind, a, b, side) in enumerate(ops):
-        v0, v1, v2 = vals[:, j, 0:1], vals[:, j, 1:2], vals[:, j, 2:3]
+        v0, v1 = vals[:, j, 0:1], vals[:, j, 1:2]
         if kind == GROUND:
             # X = O + R(angle) (u, v), fixed over the cycle.
-            cg, sg = np.cos(v2), np.sin(v2)
-            x[j] = cg * v0 - sg * v1 + (x[a] if a >= 0 else 0.0)
-            y[j] = sg * v0 + cg * v1 + (y[a] if a >= 0 else 0.0)
+            np.add(k.ru[:, j : j + 1], x[a] if a >= 0 else 0.0, out=x[j])
+            np.add(k.rv[:, j : j + 1], y[a] if a >= 0 else 0.0, out=y[j])
             if derivatives:
                 dx[j], dy[j] = 0.0, 0.0
         elif kind == CRANK:
             # X = O + R(phase + theta) (u, v) = O + R(theta) r with r = R(phase) (u, v); dX = rot90(X - O).
-            cp, sp = np.cos(v2), np.sin(v2)
-            rx, ry = rotate(cp * v0 - sp * v1, sp * v0 + cp * v1, cs)
+            rx, ry = rotate(k.turn[:, j], cs, pair(work, 0))
             np.add(x[a], rx, out=x[j])
             np.add(y[a], ry, out=y[j])
             if derivatives:
@@ -62,16 +115,30 @@ def place(ops: NDArray[np.int64], vals: F64, theta: F64, store: F64) -> Iterator
                 dy[j] = rx
         elif kind == DYAD:
             # X = P + along e + (side h) rot90(e), e = (Q - P) / d, rot90(e) = (-e_y, e_x).
+            # Written into the work rows (out=): no temporary arrays.
             px, py, qx, qy = x[a], y[a], x[b], y[b]
-            l1, l2 = v0, v1
-            wx, wy = qx - px, qy - py
-            d2 = wx * wx + wy * wy
-            d = np.sqrt(d2)
-            ex, ey = wx / d, wy / d
-            along = (l1 * l1 - l2 * l2 + d2) / (2.0 * d)
-            sh = side * np.sqrt(l1 * l1 - along * along)
-            np.subtract(px + along * ex, sh * ey, out=x[j])
-            np.add(py + along * ey, sh * ex, out=y[j])
+            wx, wy, d2, d, ex, ey, along, sh = work[:8]
+            np.subtract(qx, px, out=wx)
+            np.subtract(qy, py, out=wy)
+            np.multiply(wx, wx, out=d2)
+            d2 += np.multiply(wy, wy, out=ex)
+            np.sqrt(d2, out=d)
+            np.divide(wx, d, out=ex)
+            np.divide(wy, d, out=ey)
+            np.add(k.k1[:, j : j + 1], d2, out=along)
+            along /= np.multiply(2.0, d, out=sh)
+            np.multiply(along, along, out=sh)
+            np.subtract(k.l1sq[:, j : j + 1], sh, out=sh)
+            np.sqrt(sh, out=sh)
+            if side != 1:
+                sh *= side
+            # x = (px + along ex) - sh ey, y = (py + along ey) + sh ex
+            np.multiply(along, ex, out=x[j])
+            x[j] += px
+            x[j] -= np.multiply(sh, ey, out=wx)
+            np.multiply(along, ey, out=y[j])
+            y[j] += py
+            y[j] += np.multiply(sh, ex, out=wx)
             if derivatives:
                 # Differentiate |X - P|^2 = l1^2, |X - Q|^2 = l2^2: a 2 x 2 system in dX.
                 a1x, a1y, a2x, a2y = x[j] - px, y[j] - py, x[j] - qx, y[j] - qy
@@ -80,14 +147,28 @@ def place(ops: NDArray[np.int64], vals: F64, theta: F64, store: F64) -> Iterator
                 det = a1x * a2y - a1y * a2x
                 np.divide(r1 * a2y - r2 * a1y, det, out=dx[j])
                 np.divide(a1x * r2 - a2x * r1, det, out=dy[j])
-            yield j, np.minimum(d - np.abs(l1 - l2), l1 + l2 - d), (l1 * l1 + l2 * l2 - d2) / (2.0 * l1 * l2)
+            margin, cos_mu = wx, wy
+            np.subtract(d, k.dl[:, j : j + 1], out=margin)
+            np.minimum(margin, np.subtract(k.sl[:, j : j + 1], d, out=ex), out=margin)
+            np.subtract(k.s12[:, j : j + 1], d2, out=cos_mu)
+            cos_mu /= k.den[:, j : j + 1]
+            yield j, margin, cos_mu
         else:  # ATTACH: X = P + u e + v rot90(e), e = (Q - P) / |Q - P|.
             px, py, qx, qy = x[a], y[a], x[b], y[b]
-            wx, wy = qx - px, qy - py
-            length = np.sqrt(wx * wx + wy * wy)
-            ex, ey = wx / length, wy / length
-            np.subtract(px + v0 * ex, v1 * ey, out=x[j])
-            np.add(py + v0 * ey, v1 * ex, out=y[j])
+            wx, wy, length, tmp = work[:4]
+            e = pair(work, 4)
+            ex, ey = e[:, 0], e[:, 1]
+            np.subtract(qx, px, out=wx)
+            np.subtract(qy, py, out=wy)
+            np.multiply(wx, wx, out=length)
+            length += np.multiply(wy, wy, out=tmp)
+            np.sqrt(length, out=length)
+            np.divide(wx, length, out=ex)
+            np.divide(wy, length, out=ey)
+            # X - P = [[u, -v], [v, u]] e, as a stack of 2 x 2 products (see ``rotate``).
+            r = np.matmul(k.attach[:, j], e, out=pair(work, 0))  # wx, wy are done with
+            np.add(px, r[:, 0], out=x[j])
+            np.add(py, r[:, 1], out=y[j])
             if derivatives:
                 # de = (dw - e (e . dw)) / |w|
                 dwx, dwy = dx[b] - dx[a], dy[b] - dy[a]
@@ -97,17 +178,32 @@ def place(ops: NDArray[np.int64], vals: F64, theta: F64, store: F64) -> Iterator
                 np.add(dy[a] + v0 * dey, v1 * dex, out=dy[j])
 
 
-def rotate(rx: F64, ry: F64, cs: F64) -> tuple[F64, F64]:
-    """``R(theta) r`` for every design and sample: x and y ``(designs, n)`` from r ``(designs, 1)``
-    and ``cs = (cos theta, sin theta)`` ``(2, n)``.
+def pair(work: F64, row: int) -> F64:
+    """Scratch rows row and row + 1 of ``work`` as one ``(designs, 2, n)`` array."""
+    return work[row : row + 2].reshape(work.shape[1], 2, work.shape[2])
 
-    As a stack of 2 x 2 products ``[[r_x, -r_y], [r_y, r_x]] @ cs``: numpy broadcasts a column
-    against a row about three times slower, and a stacked matmul gives each design the same
-    bits whatever the batch (a single 2-D matmul would not).
+
+def rotate(m: F64, cs: F64, out: F64 | None = None) -> tuple[F64, F64]:
+    """``R(theta) r`` for every design and sample: x and y ``(designs, n)`` from
+    ``m = [[r_x, -r_y], [r_y, r_x]]`` ``(designs, 2, 2)`` (see ``rotations``) and
+    ``cs = (cos theta, sin theta)`` ``(2, n)``.
+
+    As a stack of 2 x 2 products ``m @ cs``: numpy broadcasts a column against a row about three
+    times slower, and a stacked matmul gives each design the same bits whatever the batch (a
+    single 2-D matmul would not).
     """
-    m = np.stack([np.concatenate([rx, -ry], axis=1), np.concatenate([ry, rx], axis=1)], axis=1)
-    out = m @ cs
+    out = np.matmul(m, cs, out=out)
     return out[:, 0], out[:, 1]
+
+
+def rotations(a: F64, b: F64) -> F64:
+    """``[[a, -b], [b, a]]`` ``(..., 2, 2)`` for every element of a, b ``(...)``."""
+    m = np.empty(a.shape + (2, 2))
+    m[..., 0, 0] = a
+    m[..., 0, 1] = -b
+    m[..., 1, 0] = b
+    m[..., 1, 1] = a
+    return m
 
 
 def check(ops: NDArray[np.int64], tracked: int | None = None) -> None:
@@ -171,13 +267,19 @@ def run(ops: NDArray[np.int64], vals: F64, theta: F64) -> tuple[F64, F64, F64, F
     pos, dpos = np.empty((pop, n, n_steps, 2)), np.empty((pop, n, n_steps, 2))
     margin, cos_mu = np.full((pop, n, n_steps), np.nan), np.full((pop, n, n_steps), np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
+        consts, cs = constants(vals), angles(theta)
         for rows in blocks(pop, n):
             store = np.empty((n_steps, 4, rows.stop - rows.start, n))
-            for j, m, c in place(ops, vals[rows], theta, store):
+            work = np.empty((WORK_ROWS, rows.stop - rows.start, n))
+            for j, m, c in steps(ops, consts.rows(rows), cs, store, work):
                 margin[rows, :, j], cos_mu[rows, :, j] = m, c
             pos[rows] = store[:, :2].transpose(2, 3, 0, 1)
             dpos[rows] = store[:, 2:].transpose(2, 3, 0, 1)
     return pos, dpos, margin, cos_mu, negative_lengths(ops, vals)
+
+
+# Slabs of ``reduce``, reused from call to call once nothing refers to them (``core.blocks``).
+_SLABS = Pool()
 
 
 def reduce(
@@ -206,22 +308,24 @@ def reduce(
     n = theta.shape[0]
     pos = np.empty((pop, n, n_steps, 2)) if want_joints else None
     dpos = np.empty((pop, n, n_steps, 2)) if want_joints and derivatives else None
-    # The paths and the points of a block (reused from block to block) in one allocation: glibc
-    # keeps freed memory up to twice the largest block recently freed, so the next call reuses
-    # it instead of faulting fresh pages in.
+    # The paths, the points of a block and the scratch rows (both reused from block to block) in
+    # one allocation, itself reused from call to call once nothing refers to it (``core.blocks``).
     n_paths, n_coords = (2, 4) if derivatives else (1, 2)
     n_rows = min(pop, block_rows(n))
-    slab = np.empty(n_paths * pop * n * 2 + n_steps * n_coords * n_rows * n)
+    n_store = n_steps * n_coords * n_rows * n
+    slab = _SLABS.take(n_paths * pop * n * 2 + n_store + WORK_ROWS * n_rows * n)
     paths = slab[: n_paths * pop * n * 2].reshape(n_paths, pop, n, 2)
-    store = slab[n_paths * pop * n * 2 :].reshape(n_steps, n_coords, n_rows, n)
+    store = slab[n_paths * pop * n * 2 :][:n_store].reshape(n_steps, n_coords, n_rows, n)
+    work = slab[n_paths * pop * n * 2 + n_store :].reshape(WORK_ROWS, n_rows, n)
     point, dpoint = paths[0], (paths[1] if derivatives else None)
     valid = np.empty((pop, n), dtype=np.bool_)
     mmin, cmin = np.full((pop, n_steps), np.inf), np.full((pop, n_steps), np.inf)
     cmax = np.full((pop, n_steps), -np.inf)
     with np.errstate(invalid="ignore", divide="ignore"):
+        consts, cs = constants(vals), angles(theta)
         for rows in blocks(pop, n):
             block = store[:, :, : rows.stop - rows.start]
-            for j, margin, cos_mu in place(ops, vals[rows], theta, block):
+            for j, margin, cos_mu in steps(ops, consts.rows(rows), cs, block, work[:, : rows.stop - rows.start]):
                 # fmin and fmax skip NaN.
                 np.fmin.reduce(margin, axis=1, initial=np.inf, out=mmin[rows, j])
                 np.fmin.reduce(cos_mu, axis=1, initial=np.inf, out=cmin[rows, j])

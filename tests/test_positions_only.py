@@ -70,3 +70,24 @@ def test_one_design_is_a_population_of_one() -> None:
     np.testing.assert_array_equal(many.point[1], one.point[0])
     width = one.point[0, :, 0].max() - one.point[0, :, 0].min()
     assert abs(width - 298.94) < 0.05
+
+
+def test_a_later_solve_never_writes_into_paths_still_held() -> None:
+    # 400 designs x 360 samples: path blocks above the size from which the kernel keeps them.
+    m = MECHANISMS["stephenson1"]
+    a, b = population("stephenson1", pop=400, seed=7), population("stephenson1", pop=400, seed=8)
+    first = solve(m, a, 360, output=PAPER_PANTOGRAPH, joints=False, derivatives=False)
+    held = first.point[:, :, 1]  # a view of the block: keeps it in use
+    want = held.copy()
+    blocks = {first.point.ctypes.data}
+    del first
+    second = solve(m, b, 360, output=PAPER_PANTOGRAPH, joints=False, derivatives=False)
+    assert not np.shares_memory(second.point, held)
+    np.testing.assert_array_equal(held, want)
+    want_b = second.point.copy()
+    blocks.add(second.point.ctypes.data)
+    del held, second
+    # Nothing refers to either block any more: the next solve reuses one, with correct values.
+    third = solve(m, b, 360, output=PAPER_PANTOGRAPH, joints=False, derivatives=False)
+    assert third.point.ctypes.data in blocks
+    np.testing.assert_array_equal(third.point, want_b)

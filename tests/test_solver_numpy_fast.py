@@ -134,3 +134,25 @@ def test_the_reference_does_not_load_numba():
     """The oracle checks the kernel, so it must not share code with it."""
     code = "import sys, core.solver_numpy; assert 'numba' not in sys.modules, 'numba loaded'"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_a_later_reduce_never_writes_into_paths_still_held():
+    # 400 designs x 360 samples: slabs above the size from which the reference keeps them.
+    ops, vals_a, tracked = operands(NAMES[0], 400, 0.02, seed=1)
+    _, vals_b, _ = operands(NAMES[0], 400, 0.02, seed=2)
+    theta = sample_angles(360)
+    first = solver_numpy.reduce(ops, vals_a, theta, tracked, False, False)[2]
+    held = first[:, :, 1]  # a view of the slab: keeps it in use
+    want = held.copy()
+    slabs = {first.ctypes.data}
+    del first
+    second = solver_numpy.reduce(ops, vals_b, theta, tracked, False, False)[2]
+    assert not np.shares_memory(second, held)
+    np.testing.assert_array_equal(held, want)
+    want_b = second.copy()
+    slabs.add(second.ctypes.data)
+    del held, second
+    # Nothing refers to either slab any more: the next call reuses one, with the same values.
+    third = solver_numpy.reduce(ops, vals_b, theta, tracked, False, False)[2]
+    assert third.ctypes.data in slabs
+    np.testing.assert_array_equal(third, want_b)
