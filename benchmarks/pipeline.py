@@ -28,6 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from core.memory import keep_freed_memory  # noqa: E402
 from core.optimize.algorithms import AlgorithmSpec  # noqa: E402
 from core.optimize.config import DesignConfig, DesignRun, load_config, run_design  # noqa: E402
 from core.optimize.subtasks import shape_metrics  # noqa: E402
@@ -129,4 +130,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    keep_freed_memory()  # as clm does (core.memory)
     raise SystemExit(main())

@@ -22,6 +22,7 @@ from typing import Literal
 import numpy as np
 import viser
 
+from core.memory import keep_freed_memory
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
 from studio.exports import design_json, figure_html, slug, trajectories_csv
@@ -432,6 +433,7 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the studio until Ctrl-C; returns the exit status."""
     args = _parser().parse_args(argv)
+    keep_freed_memory()
     try:
         if args.session is not None and args.session.exists():
             session = load_session(args.session)

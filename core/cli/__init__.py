@@ -17,6 +17,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from core.memory import keep_freed_memory
+
 # Command modules, in help order; each has register(sub) and run(args).
 COMMANDS = ("presets", "simulate", "evaluate", "design", "compare")
 
@@ -71,6 +73,7 @@ def dumps(obj: dict[str, Any]) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``clm`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    keep_freed_memory()
     try:
         args = build_parser().parse_args(argv)
         return int(args.func(args))

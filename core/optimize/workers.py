@@ -22,6 +22,8 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any, Protocol
 
+from core.memory import keep_freed_memory
+
 
 class Flag(Protocol):
     def is_set(self) -> bool: ...
@@ -60,6 +62,7 @@ def start_method() -> str:
 def _init(q: Any, stop: Any) -> None:
     global _QUEUE, _STOP
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    keep_freed_memory()  # a spawned worker starts with glibc's defaults
     _QUEUE, _STOP = q, stop
 
 
