@@ -111,12 +111,7 @@ def kernel_only(
 
 def best_cpu_of(fn: Callable[[], object], repeats: int) -> float:
     """Least CPU time of the calling thread over repeats calls (s)."""
-    best = np.inf
-    for _ in range(repeats):
-        t = time.thread_time()
-        fn()
-        best = min(best, time.thread_time() - t)
-    return float(best)
+    return best_of(fn, repeats, time.thread_time)
 
 
 def rates(

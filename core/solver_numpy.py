@@ -54,6 +54,19 @@ def place(
     return steps(ops, constants(vals), angles(theta), store, work)
 
 
+def chord(px: F64, py: F64, qx: F64, qy: F64, wx: F64, wy: F64, d2: F64, d: F64, ex: F64, ey: F64,
+          tmp: F64) -> None:
+    """Into the given rows: w = Q - P, d2 = |w|^2, d = |w| (may be d2's row), e = w / d (tmp: scratch,
+    may be ex's row)."""
+    np.subtract(qx, px, out=wx)
+    np.subtract(qy, py, out=wy)
+    np.multiply(wx, wx, out=d2)
+    d2 += np.multiply(wy, wy, out=tmp)
+    np.sqrt(d2, out=d)
+    np.divide(wx, d, out=ex)
+    np.divide(wy, d, out=ey)
+
+
 class Constants(NamedTuple):
     """The per-design constants of every step of a population, computed at once (a few operations
     per population instead of several per step and block): ``(designs, n_steps)``, with u, v the
@@ -118,13 +131,7 @@ def steps(ops: NDArray[np.int64], k: Constants, cs: F64, store: F64, work: F64) 
             # Written into the work rows (out=): no temporary arrays.
             px, py, qx, qy = x[a], y[a], x[b], y[b]
             wx, wy, d2, d, ex, ey, along, sh = work[:8]
-            np.subtract(qx, px, out=wx)
-            np.subtract(qy, py, out=wy)
-            np.multiply(wx, wx, out=d2)
-            d2 += np.multiply(wy, wy, out=ex)
-            np.sqrt(d2, out=d)
-            np.divide(wx, d, out=ex)
-            np.divide(wy, d, out=ey)
+            chord(px, py, qx, qy, wx, wy, d2, d, ex, ey, tmp=ex)
             np.add(k.k1[:, j : j + 1], d2, out=along)
             along /= np.multiply(2.0, d, out=sh)
             np.multiply(along, along, out=sh)
@@ -158,13 +165,7 @@ def steps(ops: NDArray[np.int64], k: Constants, cs: F64, store: F64, work: F64) 
             wx, wy, length, tmp = work[:4]
             e = pair(work, 4)
             ex, ey = e[:, 0], e[:, 1]
-            np.subtract(qx, px, out=wx)
-            np.subtract(qy, py, out=wy)
-            np.multiply(wx, wx, out=length)
-            length += np.multiply(wy, wy, out=tmp)
-            np.sqrt(length, out=length)
-            np.divide(wx, length, out=ex)
-            np.divide(wy, length, out=ey)
+            chord(px, py, qx, qy, wx, wy, length, length, ex, ey, tmp)
             # X - P = [[u, -v], [v, u]] e, as a stack of 2 x 2 products (see ``rotate``).
             r = np.matmul(k.attach[:, j], e, out=pair(work, 0))  # wx, wy are done with
             np.add(px, r[:, 0], out=x[j])
