@@ -61,6 +61,7 @@ from core.optimize.stage import Progress, StageSpec
 from core.optimize.subtasks import LIMIT_METRICS, parse_relative, resolve_limits
 from core.optimize.workers import resolve as resolve_workers
 from core.optimize.workers import run as run_jobs
+from core.optimize.workers import start_method
 
 F64 = NDArray[np.float64]
 
@@ -876,7 +877,22 @@ def _chain_job(job: tuple[_Chain, int, int | None], callback: Callable[[Progress
 
 def _run_chains(chains: list[_Chain], upto: int, pick: int | None, workers: int,
                 callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> list[_Chain]:
+    if resolve_workers(workers, len(chains)) > 1 and start_method() == "fork":
+        _compile_here(chains[0], upto, pick)
     return run_jobs(_chain_job, [(c, upto, pick) for c in chains], workers, callback, cancel)
+
+
+def _compile_here(chain: _Chain, upto: int, pick: int | None) -> None:
+    """Evaluate (and repair) the chain's start design under each of its stages' problems here, so
+    that forked workers inherit every numba kernel the chains use instead of compiling their own:
+    a kernel compiled afresh can differ in the last bits from the same kernel loaded from numba's
+    disk cache, and then chains would depend on the process they ran in."""
+    start, _ = chain.pipe.parent(chain.first + len(chain.picks), pick if not chain.picks else chain.picks[-1])
+    for stage in chain.config.stages[chain.first + len(chain.picks) : upto + 1]:
+        spec = stage.problem_spec()
+        spec.evaluate_metrics(start)
+        if spec.repair is not None:
+            spec.repair(start)
 
 
 def _run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None, starts: Starts,
