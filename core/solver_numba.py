@@ -4,7 +4,7 @@ One generic interpreter of the step program (never one kernel per topology). Per
 steps run in the outer loop and the samples in the inner loop, on scratch rows ``x[j], y[j],
 dx[j], dy[j]`` of shape ``(n_steps, n_samples)`` indexed directly (no per-step array views):
 every inner loop is a branch-free elementwise pass that LLVM turns into SIMD code. The kind of
-a step is decided outside it. The inner loops are compute-bound (FMA and divider throughput),
+a step is decided outside it. The inner loops are compute-bound (multiply and divider throughput),
 so the arithmetic is arranged for few operations per sample.
 
 Where it differs from the reference's arithmetic, for speed (agreement ~1e-12, tested to 1e-9):
@@ -48,8 +48,11 @@ _U64_MAX = np.uint64(0xFFFFFFFFFFFFFFFF)
 _INF_BITS = np.uint64(0x7FF0000000000000)
 
 # error_model="numpy": x / 0 gives inf or NaN as in numpy instead of raising (and allows SIMD).
-# fastmath "contract" only: fused multiply-adds; no flag that assumes away NaN or inf.
-_JIT = {"cache": True, "nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
+# No fastmath, not even "contract": LLVM may fuse a multiply and an add or not, and it decided
+# differently for the code it runs after compiling and the code it writes to the disk cache, so a
+# process that compiled the kernel and one that loaded it got results 1e-13 apart (and optimizer
+# runs that drifted apart). Without it the kernel is ~2-5 % slower and the same in every process.
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 # For functions that allocate nothing: no reference counting of their array arguments (numba's
 # atomic incref / decref of every array on every call cost ~30 ns per construction step).
 _NO_RC = {**_JIT, "_nrt": False}
@@ -284,7 +287,7 @@ def _attach(x, y, dx, dy, j, a, b, u, v, known, length, deriv):
     known: |Q - P| is a dyad length (P, Q on one dyad link), so use ``length`` instead of
     measuring it: the same value up to rounding, and no sqrt or divide per sample.
     """
-    # Without ``deriv``: the same positions (up to fused multiply-adds) and no derivative rows.
+    # Without ``deriv``: the same positions and no derivative rows.
     if known and not deriv:
         inv = 1.0 / length
         uu, vv = u * inv, v * inv
@@ -443,7 +446,7 @@ def _emit(i, x, y, dx, dy, tracked, sinks, acc, want_joints, want_leg, stage, de
                 dpos[i, k, j, 1] = dy[j, k]
 
 
-# No "contract": numpy rounds p * k, then adds; a fused multiply-add would round once.
+# Like numpy: p * k rounded, then the add (no fused multiply-add; see _JIT).
 @njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 def _emit_leg(i, x, y, dx, dy, tracked, stage, deriv, leg, dleg):
     """Design i's rows of leg, dleg: ``OutputStage.apply`` and ``apply_derivative``, operation for operation

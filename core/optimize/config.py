@@ -884,9 +884,8 @@ def _run_chains(chains: list[_Chain], upto: int, pick: int | None, workers: int,
 
 def _compile_here(chain: _Chain, upto: int, pick: int | None) -> None:
     """Evaluate (and repair) the chain's start design under each of its stages' problems here, so
-    that forked workers inherit every numba kernel the chains use instead of compiling their own:
-    a kernel compiled afresh can differ in the last bits from the same kernel loaded from numba's
-    disk cache, and then chains would depend on the process they ran in."""
+    that forked workers inherit every numba kernel the chains use (on a cold cache each worker
+    would otherwise compile them all itself)."""
     start, _ = chain.pipe.parent(chain.first + len(chain.picks), pick if not chain.picks else chain.picks[-1])
     for stage in chain.config.stages[chain.first + len(chain.picks) : upto + 1]:
         spec = stage.problem_spec()
