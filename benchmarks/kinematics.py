@@ -40,11 +40,12 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from core import solver_numba, solver_numpy  # noqa: E402
-from core.kinematics import sample_angles, solve  # noqa: E402
-from core.mechanisms import MECHANISMS  # noqa: E402
-from core.mechanisms.model import Mechanism  # noqa: E402
-from core.presets import PRESETS, Preset  # noqa: E402
+from core.kinematics import kernel as solver_numba  # noqa: E402
+from core.kinematics import reference as solver_numpy  # noqa: E402
+from core.kinematics.mechanisms import MECHANISMS  # noqa: E402
+from core.kinematics.model import Mechanism  # noqa: E402
+from core.kinematics.presets import PRESETS, Preset  # noqa: E402
+from core.kinematics.solver import sample_angles, solve  # noqa: E402
 
 MECHANISM_NAMES = ("fourbar", "stephenson1", "jansen")
 TITLES = {"fourbar": "four-bar", "stephenson1": "Stephenson-I", "jansen": "Jansen"}

@@ -4,7 +4,7 @@
     python benchmarks/metrics.py --pop 200 10000  # several population sizes
     python benchmarks/metrics.py --quick          # a short run for CI
 
-What the optimizer pays is ``core.evaluate.evaluate(design)`` once per generation, on a new
+What the optimizer pays is ``core.analysis.evaluate.evaluate(design)`` once per generation, on a new
 population each time: the "evaluate()" columns time exactly that, as a plain loop over
 ``--loops`` populations (different seeds, fresh arrays, nothing reused between calls), mean and
 best. The parts are timed apart (best of ``--repeats`` on one population): "solve" is
@@ -30,9 +30,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from core.design import Design  # noqa: E402
-from core.evaluate import evaluate, evaluate_paths  # noqa: E402
-from core.presets import get  # noqa: E402
+from core.analysis.evaluate import evaluate, evaluate_paths  # noqa: E402
+from core.kinematics.design import Design  # noqa: E402
+from core.kinematics.presets import get  # noqa: E402
 
 TARGET = 50_000.0
 
@@ -69,12 +69,12 @@ def main(argv: list[str] | None = None) -> int:
     n = args.samples
 
     try:
-        import core.solver_numba  # noqa: F401
+        import core.kinematics.kernel  # noqa: F401
 
         backends = ["numpy", "numba"]
     except ImportError:
         backends = ["numpy"]
-        print("core.solver_numba missing: numpy backend only")
+        print("core.kinematics.kernel missing: numpy backend only")
 
     head = ("pop", "backend", "first call s", "solve ms", "analysis ms", "evaluate() ms mean", "best", "designs/s")
     rows = []

@@ -19,8 +19,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from core.evaluate import evaluate  # noqa: E402
-from core.presets import get  # noqa: E402
+from core.analysis.evaluate import evaluate  # noqa: E402
+from core.kinematics.presets import get  # noqa: E402
 
 N_SAMPLES = 360
 DOC = ROOT / "docs" / "paper-reproduction.md"

@@ -1,6 +1,6 @@
 """Which Watt-I construction does the paper's Appendix B-1 row belong to? (not a test; a few seconds)
 
-Enumerates the discrete family of constructions with the link assignment of ``core/mechanisms/watt.py``
+Enumerates the discrete family of constructions with the link assignment of ``core/kinematics/mechanisms/watt.py``
 (r1 AB, r2 BC, r3 DC, r4 AD; E on the coupler by (r5, r6); F on the rocker by (r7, r8); dyad E-G-F with
 EG, FG = r9, r10; foot on link F-G by (r11, r12)) and prints the variants whose design-frame path comes
 closest to the compound cycloid (spec §3): per attachment the frame origin (either end of its link,
@@ -22,13 +22,13 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from core.kinematics import solve  # noqa: E402
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism  # noqa: E402
-from core.mechanisms.params import offset  # noqa: E402
-from core.mechanisms.watt import WATT1  # noqa: E402
-from core.presets import PAPER_PANTOGRAPH  # noqa: E402
-from core.shape import mse  # noqa: E402
-from core.targets import compound_cycloid  # noqa: E402
+from core.analysis.shape import mse  # noqa: E402
+from core.analysis.targets import compound_cycloid  # noqa: E402
+from core.kinematics.mechanisms.watt import WATT1  # noqa: E402
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism  # noqa: E402
+from core.kinematics.params import offset  # noqa: E402
+from core.kinematics.presets import PAPER_PANTOGRAPH  # noqa: E402
+from core.kinematics.solver import solve  # noqa: E402
 
 ROW = (6.10, 2.46, 64.59, 148.82, 90.88, 177.77, 180.98, 191.94, 214.01, -177.72, 62.41, -50.08,
        200.26, 209.76, -239.21, 29.84)

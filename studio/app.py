@@ -22,7 +22,7 @@ from typing import Literal
 import numpy as np
 import viser
 
-from core.memory import keep_freed_memory
+from core.kinematics.memory import keep_freed_memory
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
 from studio.exports import design_json, figure_html, slug, trajectories_csv

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.design import Design
+from core.kinematics.design import Design
 from core.optimize.result import StageResult
 
 # Metrics compared in the Pick panel after the stage's own objectives and constrained metrics.

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from core.mechanisms.model import Mechanism
+from core.kinematics.model import Mechanism
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.problem import ProblemSpec, make_problem, problem_names

@@ -14,7 +14,7 @@ import re
 import numpy as np
 import plotly.graph_objects as go
 
-from core.validate import design_to_dict
+from core.formats.design import design_to_dict
 from studio.state import DesignView
 
 CSV_COLUMNS = ("sample", "theta_rad", "t_s", "x_design_mm", "y_design_mm", "x_leg_mm", "y_leg_mm", "stance",

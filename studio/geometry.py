@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.mechanisms.model import Crank, Ground, Mechanism
+from core.kinematics.model import Crank, Ground, Mechanism
 
 F64 = NDArray[np.float64]
 F32 = NDArray[np.float32]

@@ -1,8 +1,8 @@
 """Rows of the Metrics panel and the bench-trajectory annotations, as plain data.
 
-The paper's metrics come from ``core.evaluate`` (feature points, h_s, S, I, theta1, theta2, l_s,
+The paper's metrics come from ``core.analysis.evaluate`` (feature points, h_s, S, I, theta1, theta2, l_s,
 h_m, h_bar, psi2, psi4, shape error, feasibility); the kinematic facts (crank and assembly
-margins, transmission angle) from the solver's :class:`core.kinematics.Solution`. A
+margins, transmission angle) from the solver's :class:`core.kinematics.solver.Solution`. A
 :class:`Row` is one line of the table with a stable key; tests and later layers address rows
 by key.
 """
@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths
-from core.kinematics import Solution
-from core.targets import Target
-from core.trajectory import FEATURE_NAMES
+from core.analysis.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths
+from core.analysis.features import FEATURE_NAMES
+from core.analysis.targets import Target
+from core.kinematics.solver import Solution
 
 F64 = NDArray[np.float64]
 
@@ -71,7 +71,7 @@ class Row:
 
 def evaluate_solution(solution: Solution, target: Target, period: float,
                       obstacle: tuple[float, float] = DEFAULT_OBSTACLE) -> Evaluation:
-    """Every paper metric of a solved population, via ``core.evaluate`` (crank period ``period``, s).
+    """Every paper metric of a solved population, via ``core.analysis.evaluate`` (crank period ``period``, s).
 
     A target without a time law (a curve of points only) is compared at the best cyclic shift.
     """

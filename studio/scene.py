@@ -18,7 +18,7 @@ import numpy as np
 import viser
 from numpy.typing import NDArray
 
-from core.mechanisms.model import Ground
+from core.kinematics.model import Ground
 from studio import palette
 from studio.geometry import (
     EDGE_CRANK,

@@ -20,12 +20,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core import mechanisms, presets
-from core.design import Design
-from core.evaluate import Evaluation
-from core.kinematics import Backend, Solution, solve
-from core.mechanisms.params import Param
-from core.validate import check_params, design_from_dict, design_to_dict
+from core.analysis.evaluate import Evaluation
+from core.formats.design import check_params, design_from_dict, design_to_dict
+from core.kinematics import mechanisms, presets
+from core.kinematics.design import Design
+from core.kinematics.params import Param
+from core.kinematics.solver import Backend, Solution, solve
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
 from studio.study import Study
 from studio.target import Curve, TargetSpec
@@ -44,7 +44,7 @@ MAX_SPEED = 10.0
 def _backend() -> Backend:
     """``auto`` (numba) when the fast kernel is importable, else the numpy reference."""
     try:
-        import core.solver_numba  # noqa: F401
+        import core.kinematics.kernel  # noqa: F401
     except ImportError:
         return "numpy"
     return "auto"
@@ -74,7 +74,7 @@ class DesignView:
         solution: kinematics with joints over ``n_samples`` crank angles.
         target_design: ``(n_samples, 2)`` target in the design frame (mm).
         target_leg: ``(n_samples, 2)`` the same target mapped to the leg frame by the output stage (mm).
-        evaluation: every paper metric (``core.evaluate``), pop = 1.
+        evaluation: every paper metric (``core.analysis.evaluate``), pop = 1.
         rows: Metrics panel rows.
         stance: ``(n_samples,)`` True on the stance half-cycle, or None without feature points.
         features: feature points t1 ... t8 as ``(label, (x, y))`` in the leg frame (mm); coincident

@@ -29,7 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from core.design import Design
+from core.kinematics.design import Design
 from core.optimize.box import Box, global_box, search_box
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult, encode

@@ -1,9 +1,9 @@
 """The target the studio compares against: the compound cycloid of spec §3 (L, H, T) or a closed curve
 uploaded as CSV.
 
-The curves themselves come from ``core.targets``; this is the Target panel's small, validated,
+The curves themselves come from ``core.analysis.targets``; this is the Target panel's small, validated,
 JSON-ready set of settings. The optimization problems take their target as an option string
-(``cycloid:L=..,H=..,T=..`` or a CSV path, ``core.targets.parse_target``): an uploaded curve is
+(``cycloid:L=..,H=..,T=..`` or a CSV path, ``core.analysis.targets.parse_target``): an uploaded curve is
 written once to a content-addressed CSV file (:func:`curve_file`) that reproduces it exactly.
 """
 
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample
+from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample
 
 F64 = NDArray[np.float64]
 
@@ -70,7 +70,7 @@ class Curve:
         return Target(self.name, pts, times, self.period)
 
     def csv_text(self) -> str:
-        """CSV that ``core.targets`` reads back to exactly this curve (closed by repeating the first row)."""
+        """CSV that ``core.analysis.targets`` reads back to exactly this curve (closed by repeating the first row)."""
         rows = [(*p, *(() if self.times is None else (self.times[i],))) for i, p in enumerate(self.points)]
         first = (*self.points[0], *(() if self.times is None else (self.times[0] + self.period,)))
         head = "x,y" if self.times is None else "x,y,t"
@@ -134,13 +134,13 @@ class TargetSpec:
         return compound_cycloid(n_samples, float(self.length), float(self.height))[0]
 
     def target(self) -> Target:
-        """The ``core.targets.Target`` for ``core.evaluate``."""
+        """The ``core.analysis.targets.Target`` for ``core.analysis.evaluate``."""
         if self.curve is not None:
             return self.curve.target()
         return cycloid_target(float(self.length), float(self.height), float(self.period))
 
     def option(self) -> str:
-        """The target as the optimization problems' ``target`` option (``core.targets.parse_target``)."""
+        """The target as the optimization problems' ``target`` option (``core.analysis.targets.parse_target``)."""
         if self.curve is not None:
             return str(curve_file(self.curve))
         return f"cycloid:L={float(self.length)!r},H={float(self.height)!r},T={float(self.period)!r}"

@@ -1,11 +1,11 @@
 """The walking view, as pure geometry: a biped module or a quadruped walking over one stride (spec §5).
 
-``core.gait.world_paths`` gives the trunk (leg A's hip) and every foot in the world frame of leg
+``core.analysis.gait.world_paths`` gives the trunk (leg A's hip) and every foot in the world frame of leg
 A; this module turns them into what the scene draws per crank sample (trunk and legs as
 segments, feet as points), the feet's paths over the stride, the ground line, and the ψ
 obstacle: an ``a x b`` rectangle standing on the ground at a chosen place within the stride.
 Whether the obstacle at that place is crossed uses the same exact interval test as ψ
-(``core.metrics.blocked_intervals``), so the fraction of places where it is clear is ψ2 (biped)
+(``core.analysis.metrics.blocked_intervals``), so the fraction of places where it is clear is ψ2 (biped)
 or ψ4 (quadruped).
 """
 
@@ -17,11 +17,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.evaluate import DEFAULT_OBSTACLE
-from core.gait import BIPED, DEFAULT_TRUNK, Layout, WalkingTrajectory, arc_offsets, quadruped, walking_trajectory
-from core.gait import world_paths as core_world_paths
-from core.metrics import blocked_intervals
-from core.trajectory import FeaturePoints, feature_points
+from core.analysis.evaluate import DEFAULT_OBSTACLE
+from core.analysis.features import FeaturePoints, feature_points
+from core.analysis.gait import (
+    BIPED,
+    DEFAULT_TRUNK,
+    Layout,
+    WalkingTrajectory,
+    arc_offsets,
+    quadruped,
+    walking_trajectory,
+)
+from core.analysis.gait import world_paths as core_world_paths
+from core.analysis.metrics import blocked_intervals
 
 F64 = NDArray[np.float64]
 
@@ -116,7 +124,7 @@ def hit_intervals(wt: WalkingTrajectory, robot: Layout, a: float, b: float) -> t
     """Obstacle positions x0 (left edge, mm) where some swing arc enters ``[x0, x0 + a] x [y_g, y_g + b]``.
 
     Member 0 of ``wt``. The set is periodic with the stride; returned as intervals ``[lo, hi]``
-    (NaN rows are empty) and the stride (mm). Same construction as ``core.metrics.psi``.
+    (NaN rows are empty) and the stride (mm). Same construction as ``core.analysis.metrics.psi``.
     """
     lo, hi = blocked_intervals(wt, b)
     shift = arc_offsets(wt.advance, robot)[0]

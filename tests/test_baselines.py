@@ -7,8 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from core.design import Design
-from core.mechanisms import get as get_mechanism
+from core.analysis.targets import compound_cycloid
+from core.kinematics.design import Design
+from core.kinematics.mechanisms import get as get_mechanism
+from core.kinematics.presets import get
 from core.optimize.baselines import (
     BaselineResult,
     BaselineSettings,
@@ -18,8 +20,6 @@ from core.optimize.baselines import (
     sqp,
 )
 from core.optimize.result import dumps
-from core.presets import get
-from core.targets import compound_cycloid
 
 TINY = BaselineSettings(n_points=12, pop_size=16, n_gen=4, maxiter=15, n_samples=72, backend="numpy")
 

@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import metrics as M
-from core.evaluate import evaluate_paths
-from core.gait import BIPED, quadruped, walking_trajectory
-from core.trajectory import feature_points
+from core.analysis import metrics as M
+from core.analysis.evaluate import evaluate_paths
+from core.analysis.features import feature_points
+from core.analysis.gait import BIPED, quadruped, walking_trajectory
 
 SETTINGS = settings(max_examples=40, deadline=None)
 

@@ -14,10 +14,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import presets
 from core.cli import jsonable, main
-from core.mechanisms.stephenson import STEPHENSON1
-from core.validate import check_params, design_from_dict
+from core.formats.design import check_params, design_from_dict
+from core.kinematics import presets
+from core.kinematics.mechanisms.stephenson import STEPHENSON1
 
 ROOT = Path(__file__).resolve().parents[1]
 X3 = presets.get("stephenson1/X3")
@@ -274,7 +274,7 @@ def test_installed_console_script_runs():
     assert r.returncode == 0 and "stephenson1/X3" in r.stdout
 
 
-# --- core.validate directly --------------------------------------------------------------------
+# --- core.formats.design directly --------------------------------------------------------------------
 
 
 def test_every_preset_passes_validation():

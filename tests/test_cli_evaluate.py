@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import core.cli
+from core.analysis.evaluate import evaluate
+from core.analysis.targets import compound_cycloid
 from core.cli import main
-from core.evaluate import evaluate
-from core.presets import get
-from core.targets import compound_cycloid
+from core.kinematics.presets import get
 
 REQUIRED = ("feasible", "violation", "l_s", "h_s", "S", "I", "theta1", "theta2", "width", "y_min", "step_length",
             "h_m", "h_bar", "psi2", "psi4", "mse", "feature_points")

@@ -19,12 +19,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.evaluate import evaluate_paths
-from core.gait import walking_trajectory
-from core.mechanisms.model import OutputStage
-from core.metrics import crossing_height, impact, mean_crossing_height, stance_fluctuation, stance_length, straightness
-from core.targets import compound_cycloid, cycloid_target
-from core.trajectory import feature_points
+from core.analysis.evaluate import evaluate_paths
+from core.analysis.features import feature_points
+from core.analysis.gait import walking_trajectory
+from core.analysis.metrics import (
+    crossing_height,
+    impact,
+    mean_crossing_height,
+    stance_fluctuation,
+    stance_length,
+    straightness,
+)
+from core.analysis.targets import compound_cycloid, cycloid_target
+from core.kinematics.model import OutputStage
 
 CASES = [(300.0, 100.0, 360), (300.0, 100.0, 64), (150.0, 40.0, 200), (420.0, 75.0, 1000)]
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from core.cli import main
-from core.mechanisms import MECHANISMS
-from core.optimize.config import load_config, parse_config
+from core.formats.config import load_config, parse_config
+from core.kinematics.mechanisms import MECHANISMS
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets" / "configs"
 

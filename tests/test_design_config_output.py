@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from core.optimize.config import parse_config
+from core.formats.config import parse_config
 
 
 def with_(output: dict) -> dict:  # type: ignore[type-arg]

@@ -13,8 +13,8 @@ from pymoo.core.individual import Individual
 from pymoo.core.population import Population
 from test_multistart import CONFIG
 
+from core.formats.config import parse_config, run_design
 from core.optimize import fastpop
-from core.optimize.config import parse_config, run_design
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.fourier import (
+from core.analysis.fourier import (
     apply_similarity,
     coefficients,
     descriptor_distance,
@@ -16,8 +16,8 @@ from core.fourier import (
     resample_arclength,
     similarity_transform,
 )
-from core.presets import get
-from core.targets import compound_cycloid
+from core.analysis.targets import compound_cycloid
+from core.kinematics.presets import get
 
 SETTINGS = settings(max_examples=30, deadline=None)
 

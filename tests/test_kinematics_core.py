@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.kinematics import solve
-from core.mechanisms.model import OutputStage
-from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
-from core.presets import PAPER_PANTOGRAPH, PRESETS
+from core.kinematics.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.kinematics.model import OutputStage
+from core.kinematics.presets import PAPER_PANTOGRAPH, PRESETS
+from core.kinematics.solver import solve
 
 BACKENDS = ["numpy", "numba"]
 X3 = np.array(PRESETS["stephenson1/X3"].values)

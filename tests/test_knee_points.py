@@ -1,4 +1,4 @@
-"""Knee points and candidate ranking (core.decision) on fronts whose knee is known in closed form."""
+"""Knee points and candidate ranking (core.optimize.decision) on fronts whose knee is known in closed form."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from core.decision import best_per_objective, pareto_front, shortlist
+from core.optimize.decision import best_per_objective, pareto_front, shortlist
 
 
 def corner_front(knee: tuple[float, float], n: int = 60) -> np.ndarray:

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from core.kinematics import solve
-from core.mechanisms.fourbar import FOURBAR
+from core.kinematics.mechanisms.fourbar import FOURBAR
+from core.kinematics.solver import solve
 
 # b, g, x_a, y_a, r1 (crank), r2 (coupler), r3 (rocker), r4 (ground), r5, r6 (coupler point)
 NAMES = FOURBAR.param_names

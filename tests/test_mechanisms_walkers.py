@@ -10,12 +10,12 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-import core.presets  # noqa: F401 - load the registry before its parts (they import Preset from it)
-from core.kinematics import solve
-from core.mechanisms.extra_presets import PRESETS
-from core.mechanisms.model import Dyad, Mechanism
-from core.mechanisms.walkers import JANSEN, KLANN
-from core.mechanisms.watt import WATT1
+import core.kinematics.presets  # noqa: F401 - load the registry before its parts (they import Preset from it)
+from core.kinematics.mechanisms.walkers import JANSEN, KLANN
+from core.kinematics.mechanisms.watt import WATT1
+from core.kinematics.model import Dyad, Mechanism
+from core.kinematics.presets.walkers import PRESETS
+from core.kinematics.solver import solve
 
 PHASE = {"watt1/paper": "g", "fourbar/chebyshev": "g", "jansen": "phase", "klann": "phase"}
 CRANK = {"watt1/paper": "r1", "fourbar/chebyshev": "r1", "jansen": "m", "klann": "AC"}
@@ -207,7 +207,7 @@ def test_jansen_foot_path_has_a_flat_stance_moving_forward() -> None:
 def test_klann_reproduces_the_published_joint_positions() -> None:
     # mekanizmalar.com mechanical-spider joints (leg retracted), x3 and mirrored like the preset; the
     # dyad branches of H and E must land on the published points, not on their mirror images.
-    from core.mechanisms.extra_presets import _KLANN_JOINTS, _KLANN_SCALE
+    from core.kinematics.presets.walkers import _KLANN_JOINTS, _KLANN_SCALE
 
     ax, ay = _KLANN_JOINTS["A"]
     sol = solve(KLANN, np.array([PRESETS["klann"].values]), 4, backend="numpy")
@@ -225,7 +225,7 @@ def signed_area(path: np.ndarray) -> float:
 @pytest.mark.parametrize("name", ["jansen", "klann", "fourbar/chebyshev", "stephenson1/X3", "stephenson3/paper"])
 def test_walker_leg_frames_go_round_counter_clockwise(name: str) -> None:
     # The spec's leg-frame convention (stance moving +x): Klann and Chebyshev need their mirrored output stage.
-    from core.presets import PRESETS as ALL
+    from core.kinematics.presets import PRESETS as ALL
 
     p = ALL[name]
     sol = solve(p.mechanism, np.array([p.values]), 360, output=p.output, joints=False)
@@ -237,8 +237,8 @@ def test_walker_leg_frames_go_round_counter_clockwise(name: str) -> None:
 
 
 def test_chebyshev_leg_meets_the_eq30_order_once_mirrored() -> None:
-    from core.evaluate import CONSTRAINT_NAMES, evaluate
-    from core.presets import PRESETS as ALL
+    from core.analysis.evaluate import CONSTRAINT_NAMES, evaluate
+    from core.kinematics.presets import PRESETS as ALL
 
     p = ALL["fourbar/chebyshev"]
     mirrored = evaluate(p.design(), 360)

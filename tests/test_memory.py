@@ -1,4 +1,4 @@
-"""core.memory: after keep_freed_memory, megabyte arrays come from the heap, not fresh mappings."""
+"""core.kinematics.memory: after keep_freed_memory, megabyte arrays come from the heap, not fresh mappings."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 CODE = """
 import ctypes, sys
 import numpy as np
-from core.memory import keep_freed_memory
+from core.kinematics.memory import keep_freed_memory
 
 class Info(ctypes.Structure):
     _fields_ = [(n, ctypes.c_size_t) for n in

@@ -7,9 +7,9 @@ from dataclasses import fields, replace
 import numpy as np
 import pytest
 
-from core.design import Design
-from core.evaluate import Evaluation, evaluate, evaluate_paths
-from core.presets import get
+from core.analysis.evaluate import Evaluation, evaluate, evaluate_paths
+from core.kinematics.design import Design
+from core.kinematics.presets import get
 
 
 def assert_same(a: Evaluation, b: Evaluation) -> None:
@@ -51,7 +51,7 @@ def test_kernel_matches_reference_on_odd_paths(n: int) -> None:
 @pytest.mark.parametrize("parallel", [False, True])
 def test_kernel_matches_reference_on_a_perturbed_population(parallel: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     if parallel:  # the kernel goes parallel from the solver's threshold on; force it here
-        monkeypatch.setattr("core.kinematics.PARALLEL_MIN_POP", 1)
+        monkeypatch.setattr("core.kinematics.solver.PARALLEL_MIN_POP", 1)
     base = get("stephenson1/X3").design()
     rng = np.random.default_rng(11)
     p = base.params * (1 + 0.04 * rng.standard_normal((300, base.params.shape[1])))

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from core.optimize.config import DesignRun, choose, parse_config, run_design
+from core.formats.config import DesignRun, choose, parse_config, run_design
 from core.optimize.multistart import (
     SEED_STRIDE,
     Chain,

@@ -7,11 +7,11 @@ import warnings
 import numpy as np
 import pytest
 
-from core.design import Design
-from core.evaluate import evaluate, evaluate_paths
-from core.metrics import order_violation
-from core.presets import get
-from core.trajectory import NO_ROOT_VIOLATION, feature_points
+from core.analysis.evaluate import evaluate, evaluate_paths
+from core.analysis.features import NO_ROOT_VIOLATION, feature_points
+from core.analysis.metrics import order_violation
+from core.kinematics.design import Design
+from core.kinematics.presets import get
 
 METRICS = ("l_s", "h_s", "S", "I", "theta1", "theta2", "width", "y_min", "step_length", "h_m", "h_bar", "psi2", "psi4",
            "mse")

@@ -7,6 +7,7 @@ import threading
 import numpy as np
 import pytest
 
+from core.kinematics.presets import get
 from core.optimize import (
     SUBTASK_STEPS,
     AlgorithmSpec,
@@ -18,7 +19,6 @@ from core.optimize import (
     seeded,
 )
 from core.optimize.box import wrap
-from core.presets import get
 
 X0 = get("stephenson1/X0").design()
 ALG = AlgorithmSpec("nsga2", 10)

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from core.kinematics.presets import get
 from core.optimize import AlgorithmSpec, Pipeline, Stage, StageResult, StageSpec, make_problem
 from core.optimize.result import decode_float, dumps, encode
-from core.presets import get
 
 X0 = get("stephenson1/X0").design()
 

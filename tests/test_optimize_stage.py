@@ -8,11 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core.design import Design
+from core.kinematics.design import Design
+from core.kinematics.presets import get
 from core.optimize import AlgorithmSpec, Progress, Stage, StageResult, StageSpec, make_problem
 from core.optimize.algorithms import ALGORITHMS
 from core.optimize.problem import ASSEMBLY, Constraint, ProblemSpec
-from core.presets import get
 
 X0 = get("stephenson1/X0").design()
 

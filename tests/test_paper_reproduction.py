@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from core.evaluate import evaluate
-from core.presets import get
+from core.analysis.evaluate import evaluate
+from core.kinematics.presets import get
 
 _spec = importlib.util.spec_from_file_location(
     "reproduce_paper", Path(__file__).resolve().parents[1] / "benchmarks" / "reproduce_paper.py"

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.kinematics import solve
-from core.mechanisms import MECHANISMS
-from core.presets import PAPER_PANTOGRAPH, PRESETS
+from core.kinematics.mechanisms import MECHANISMS
+from core.kinematics.presets import PAPER_PANTOGRAPH, PRESETS
+from core.kinematics.solver import solve
 
 TOL = 1e-9
 SAME = ("point", "leg", "violation", "dyad_margin", "mu_min", "mu_max", "crank_margin")

@@ -7,13 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import fourier
-from core.design import Design
-from core.mechanisms import get as get_mechanism
+from core.analysis import fourier
+from core.kinematics.design import Design
+from core.kinematics.mechanisms import get as get_mechanism
+from core.kinematics.presets import get
 from core.optimize import make_problem
+from core.optimize.objectives import shape_metrics
 from core.optimize.predesign import apply_placement, place, placement
-from core.optimize.subtasks import shape_metrics
-from core.presets import get
 
 N = 120
 

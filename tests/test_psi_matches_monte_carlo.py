@@ -1,7 +1,7 @@
 """psi(a, b) from exact intervals equals a Monte-Carlo estimate with real geometry.
 
 The estimate drops an a x b obstacle at random positions over one stride under the robot's
-world-frame foot paths (``core.gait.world_paths``: trunk from the stance leg, every foot at its
+world-frame foot paths (``core.analysis.gait.world_paths``: trunk from the stance leg, every foot at its
 own phase, several strides) and tests every foot segment against the rectangle with the
 Liang-Barsky clip. Points below the ground count as inside (the rectangle extends downwards).
 """
@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.gait import BIPED, Layout, quadruped, walking_trajectory, world_paths
-from core.mechanisms.model import OutputStage
-from core.metrics import psi
-from core.presets import get
-from core.targets import compound_cycloid
-from core.trajectory import feature_points
+from core.analysis.features import feature_points
+from core.analysis.gait import BIPED, Layout, quadruped, walking_trajectory, world_paths
+from core.analysis.metrics import psi
+from core.analysis.targets import compound_cycloid
+from core.kinematics.model import OutputStage
+from core.kinematics.presets import get
 
 N_DROPS = 20_000  # standard error <= 0.35 %: a 1 % tolerance is ~3 sigma
 N_STRIDES = 5

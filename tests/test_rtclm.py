@@ -9,9 +9,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from core.kinematics import solve
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.rtclm import (
+from core.kinematics.mechanisms.rtclm import (
     PARAMS,
     RTCLM_AUXILIARY,
     RTCLM_PRIMARY,
@@ -22,14 +20,16 @@ from core.mechanisms.rtclm import (
     first_loop_shortfall,
     switching_state,
 )
-from core.mechanisms.rtclm_presets import PAPER_ROWS, PRESETS
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
+from core.kinematics.presets.rtclm import PAPER_ROWS, PRESETS
+from core.kinematics.solver import solve
 
 N = 360
 WORKING = [k for k, r in PAPER_ROWS.items() if np.isfinite(r.ours).all()]
 
 
 def _h_m(y: np.ndarray) -> np.ndarray:
-    """PRIVATE stand-in for core.gait's h_m until it lands (spec §5): max WT swing height.
+    """PRIVATE stand-in for core.analysis.gait's h_m until it lands (spec §5): max WT swing height.
 
     y: (pop, n) leg-frame heights at uniform crank angles, n even. The stance half-cycle
     [t1, t2] is the lower one of those bounded by roots of y(t) - y(t + T/2); over the swing

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.design import Design
-from core.evaluate import evaluate
-from core.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions, switching_state
+from core.analysis.evaluate import evaluate
+from core.kinematics.design import Design
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions, switching_state
+from core.kinematics.presets import get
 from core.optimize import AlgorithmSpec, Pipeline, StageSpec, make_problem, seeded
 from core.optimize.rtclm import rtclm_metrics
-from core.presets import get
 
 N = 72
 

@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.kinematics.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.kinematics.presets import PRESETS
 from core.optimize.box import SUBTASK_STEPS, Box, global_box, periodic_mask, search_box
-from core.presets import PRESETS
 
 MECHS = {m.name: m for m in (STEPHENSON1, STEPHENSON3)}
 

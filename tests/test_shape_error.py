@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.shape import mse, mse_phase_optimal
-from core.targets import compound_cycloid
+from core.analysis.shape import mse, mse_phase_optimal
+from core.analysis.targets import compound_cycloid
 
 TARGET = compound_cycloid(120)[0]
 

@@ -7,11 +7,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import solver_numba, solver_numpy
-from core.kinematics import Solution, sample_angles, solve
-from core.mechanisms.model import ATTACH, CRANK, DYAD, GROUND
-from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
-from core.presets import PRESETS
+from core.kinematics import kernel as solver_numba
+from core.kinematics import reference as solver_numpy
+from core.kinematics.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.kinematics.model import ATTACH, CRANK, DYAD, GROUND
+from core.kinematics.presets import PRESETS
+from core.kinematics.solver import Solution, sample_angles, solve
 
 TOL = 1e-9
 BASES = {

@@ -11,9 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import solver_numba, solver_numpy
-from core.kinematics import sample_angles
-from core.presets import PRESETS
+from core.kinematics import kernel as solver_numba
+from core.kinematics import reference as solver_numpy
+from core.kinematics.presets import PRESETS
+from core.kinematics.solver import sample_angles
 
 # One preset per program (mechanism).
 NAMES = sorted({p.mechanism.name: k for k, p in reversed(PRESETS.items())}.values())
@@ -132,7 +133,7 @@ def test_empty_populations_and_cycles_have_the_kernels_shapes_and_values(shape):
 
 def test_the_reference_does_not_load_numba():
     """The oracle checks the kernel, so it must not share code with it."""
-    code = "import sys, core.solver_numpy; assert 'numba' not in sys.modules, 'numba loaded'"
+    code = "import sys, core.kinematics.reference; assert 'numba' not in sys.modules, 'numba loaded'"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import mechanisms, presets
-from core.mechanisms.model import Ground
+from core.kinematics import mechanisms, presets
+from core.kinematics.model import Ground
 from studio.figures import make_bench_figure
 from studio.geometry import (
     EDGE_CRANK,

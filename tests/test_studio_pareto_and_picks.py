@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core import decision, presets
+from core.kinematics import presets
+from core.optimize import decision
 from core.optimize.box import search_box
 from studio.candidates import candidates, front_order, history_rows
 from studio.figures import make_pareto_figure

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from core import presets
-from core.kinematics import solve
-from core.trajectory import FEATURE_NAMES
+from core.analysis.features import FEATURE_NAMES
+from core.kinematics import presets
+from core.kinematics.solver import solve
 from studio.metrics import feature_labels, metrics_html, min_transmission_angle
 from studio.state import (
     MAX_SPEED,

@@ -8,10 +8,10 @@ import threading
 import numpy as np
 import pytest
 
-from core import presets
+from core.analysis.targets import parse_target
+from core.kinematics import presets
 from core.optimize.box import SUBTASK_STEPS, periodic_mask
 from core.optimize.result import StageResult
-from core.targets import parse_target
 from studio.chains import RunSettings, chain_for, find, stage_spec
 from studio.state import Session
 from studio.study import Runner, Study, study_view

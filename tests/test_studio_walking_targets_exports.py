@@ -9,9 +9,9 @@ import re
 import numpy as np
 import pytest
 
-from core import presets
-from core.targets import parse_target
-from core.validate import design_from_dict
+from core.analysis.targets import parse_target
+from core.formats.design import design_from_dict
+from core.kinematics import presets
 from studio.exports import design_json, figure_html, parse_trajectories_csv, trajectories_csv
 from studio.figures import make_pareto_figure
 from studio.state import Session, build_view

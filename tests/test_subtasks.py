@@ -7,21 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.design import Design
-from core.evaluate import evaluate_paths
+from core.analysis.evaluate import evaluate_paths
+from core.analysis.targets import compound_cycloid
+from core.kinematics.design import Design
+from core.kinematics.presets import PAPER_PANTOGRAPH, get
 from core.optimize import make_problem
-from core.optimize.subtasks import (
-    EQ22,
-    EQ23,
-    load_target,
-    metrics_of,
-    parse_relative,
-    resolve_limits,
-    shape_metrics,
-    width_penalty,
-)
-from core.presets import PAPER_PANTOGRAPH, get
-from core.targets import compound_cycloid
+from core.optimize.objectives import EQ22, EQ23, load_target, metrics_of, shape_metrics, width_penalty
+from core.optimize.subtasks import parse_relative, resolve_limits
 
 N = 120  # samples: enough for the metrics, quick
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.targets import compound_cycloid, curve_from_rows, cycloid_target, load_curve, parse_target, resample
+from core.analysis.targets import compound_cycloid, curve_from_rows, cycloid_target, load_curve, parse_target, resample
 
 
 def test_cycloid_formula_and_derivative() -> None:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.gait import BIPED, arc_offsets, quadruped, walking_trajectory, world_paths
-from core.metrics import stance_fluctuation, stance_length
-from core.presets import get
-from core.trajectory import feature_points
+from core.analysis.features import feature_points
+from core.analysis.gait import BIPED, arc_offsets, quadruped, walking_trajectory, world_paths
+from core.analysis.metrics import stance_fluctuation, stance_length
+from core.kinematics.presets import get
 
 N = 360
 

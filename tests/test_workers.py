@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from test_multistart import CONFIG
 
+from core.formats.config import parse_config, run_design
 from core.optimize import workers
-from core.optimize.config import parse_config, run_design
 from core.optimize.pipeline import Pipeline
 from core.optimize.problem import ASSEMBLY, ProblemSpec, make_problem
 from core.optimize.result import dumps, encode

@@ -17,7 +17,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from core.memory import keep_freed_memory
+from core.kinematics.memory import keep_freed_memory
 
 # Command modules, in help order; each has register(sub) and run(args).
 COMMANDS = ("presets", "simulate", "evaluate", "design", "compare")

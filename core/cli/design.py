@@ -22,7 +22,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from core.cli import CLIError
-from core.optimize.config import DesignRun, load_config, run_design
+from core.formats.config import DesignRun, load_config, run_design
 from core.optimize.multistart import MultiStart, where_name
 from core.optimize.result import StageResult, dumps
 from core.optimize.stage import Progress

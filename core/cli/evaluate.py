@@ -9,12 +9,19 @@ from typing import Any
 
 import numpy as np
 
+from core.analysis.evaluate import (
+    CONSTRAINT_NAMES,
+    CONSTRAINT_UNITS,
+    DEFAULT_OBSTACLE,
+    Evaluation,
+    evaluate,
+    evaluate_paths,
+)
+from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
+from core.analysis.gait import DEFAULT_TRUNK
+from core.analysis.targets import load_curve, parse_target
 from core.cli import CLIError, dumps
-from core.evaluate import CONSTRAINT_NAMES, CONSTRAINT_UNITS, DEFAULT_OBSTACLE, Evaluation, evaluate, evaluate_paths
-from core.gait import DEFAULT_TRUNK
-from core.presets import PAPER_PANTOGRAPH
-from core.targets import load_curve, parse_target
-from core.trajectory import DEFAULT_PERIOD, FEATURE_NAMES
+from core.kinematics.presets import PAPER_PANTOGRAPH
 
 MAX_SAMPLES = 100_000
 

@@ -6,8 +6,8 @@ import argparse
 import json
 from typing import Any
 
-from core import presets
-from core.validate import design_to_dict
+from core.formats.design import design_to_dict
+from core.kinematics import presets
 
 
 def preset_dict(p: presets.Preset) -> dict[str, Any]:

@@ -9,12 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from core import presets
 from core.cli import CLIError, dumps
-from core.design import Design
-from core.kinematics import Solution
-from core.mechanisms.model import IDENTITY
-from core.validate import check_design, design_from_dict
+from core.formats.design import check_design, design_from_dict
+from core.kinematics import presets
+from core.kinematics.design import Design
+from core.kinematics.model import IDENTITY
+from core.kinematics.solver import Solution
 
 # Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
 MAX_SAMPLES = 100_000

@@ -8,7 +8,7 @@
 - ``pipeline``: stages chained by picks.
 - ``multistart``: a block of stages rerun as several chains with other seeds; the best chain goes on.
 - ``examples``: small test problems.
-Knee points live in ``core.decision``.
+Knee points live in ``core.optimize.decision``.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Baselines of paper §3.4.3-3.4.4: single-level optimization and discrete-point (DP) synthesis.
 
 - Single-level: all five objectives at once over the global box, the ``single_level`` problem
-  of ``core.optimize.subtasks`` run as a one-stage pipeline (``core.optimize.config``).
+  of ``core.optimize.subtasks`` run as a one-stage pipeline (``core.formats.config``).
 - DP methods: the path is represented by ``n_points`` crank-uniform points compared, index by
   index, with the target's time-uniform points; the DP error is their mean *squared* distance
   (mm^2, smooth, so SQP can use it). Assembly is a constraint, never a penalty objective:
@@ -28,13 +28,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize
 
-from core.design import Design
-from core.mechanisms.model import Mechanism, OutputStage
+from core.kinematics.design import Design
+from core.kinematics.model import Mechanism, OutputStage
 from core.optimize.algorithms import AlgorithmSpec
+from core.optimize.objectives import ASSEMBLY_TIER, DEFAULT_TARGET, load_target, quantize, shape_metrics, tiered
 from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec, register
 from core.optimize.result import decode_array, decode_float
 from core.optimize.stage import Progress, Stage, StageSpec
-from core.optimize.subtasks import ASSEMBLY_TIER, DEFAULT_TARGET, load_target, quantize, shape_metrics, tiered
 
 F64 = NDArray[np.float64]
 
@@ -85,7 +85,7 @@ class BaselineSettings:
         pop_size, n_gen: the GA's population and generations.
         maxiter: SLSQP iterations.
         n_samples: samples for the reported metrics.
-        target: target option string (``subtasks.load_target``).
+        target: target option string (``objectives.load_target``).
         backend: solver backend.
     """
 
@@ -156,7 +156,7 @@ class BaselineResult:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> BaselineResult:
-        from core.mechanisms import get
+        from core.kinematics.mechanisms import get
 
         mech = get(d["mechanism"])
         o = d["output"]

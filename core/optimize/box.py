@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core.mechanisms.model import Mechanism
+from core.kinematics.model import Mechanism
 
 F64 = NDArray[np.float64]
 TWO_PI = 2.0 * np.pi

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.design import Design
-from core.kinematics import solve
+from core.kinematics.design import Design
+from core.kinematics.solver import solve
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
 
 

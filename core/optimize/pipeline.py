@@ -21,9 +21,9 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
-from core.design import Design
-from core.mechanisms import get as get_mechanism
-from core.mechanisms.model import OutputStage
+from core.kinematics.design import Design
+from core.kinematics.mechanisms import get as get_mechanism
+from core.kinematics.model import OutputStage
 from core.optimize.box import Box
 from core.optimize.result import PickRule, StageResult, decode_array, dumps, versions
 from core.optimize.stage import Callback, Progress, Stage, StageSpec

@@ -2,7 +2,7 @@
 
 The ``predesign`` problem searches a mechanism's global bounds. Every new member is first
 *placed* (the problem's Lamarckian repair): its design-frame path is mapped onto the target
-by the best similarity transform (``core.fourier.similarity_transform``: scale, rotation,
+by the best similarity transform (``core.analysis.fourier.similarity_transform``: scale, rotation,
 translation, cyclic shift), and the transform is applied to the design itself:
 
 - lengths and signed offsets are multiplied by the scale;
@@ -26,12 +26,12 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from core import fourier
-from core.design import Design
-from core.evaluate import Backend
-from core.mechanisms.model import Crank, Dyad, Ground, Mechanism, Operand
+from core.analysis import fourier
+from core.analysis.evaluate import Backend
+from core.kinematics.design import Design
+from core.kinematics.model import Crank, Dyad, Ground, Mechanism, Operand
+from core.optimize.objectives import DEFAULT_TARGET, LABELS, load_target, quantize, shape_metrics
 from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec
-from core.optimize.subtasks import DEFAULT_TARGET, LABELS, load_target, quantize, shape_metrics
 
 F64 = NDArray[np.float64]
 
@@ -151,7 +151,7 @@ def place(design: Design, target: str = DEFAULT_TARGET, n_samples: int = 360, ba
 
     Args:
         design: population to place.
-        target: target option string (``cycloid`` or a CSV path, see ``subtasks.load_target``).
+        target: target option string (``cycloid`` or a CSV path, see ``objectives.load_target``).
         n_samples: crank samples (against the target's n time-uniform samples).
         backend: solver backend.
         fit: ``lsq`` the least-squares similarity; ``extent`` refined so the width and the lowest

@@ -31,8 +31,8 @@ from numpy.typing import NDArray
 from pymoo.core.problem import Problem
 from pymoo.core.repair import Repair
 
-from core.design import Design
-from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics.design import Design
+from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.optimize.box import Box
 
 F64 = NDArray[np.float64]

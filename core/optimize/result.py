@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core.decision import Shortlist
-from core.design import Design
-from core.mechanisms import get as get_mechanism
-from core.mechanisms.model import Mechanism, OutputStage
+from core.kinematics.design import Design
+from core.kinematics.mechanisms import get as get_mechanism
+from core.kinematics.model import Mechanism, OutputStage
 from core.optimize.box import Box
+from core.optimize.decision import Shortlist
 
 F64 = NDArray[np.float64]
 FORMAT = "clm-stage-result"

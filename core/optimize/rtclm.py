@@ -1,6 +1,6 @@
 """RTCLM stepwise design (paper §4.2) as registered problems: ``rtclm1`` then ``rtclm2``.
 
-Both evaluate a population of RTCLM design vectors (``core.mechanisms.rtclm``, 13 entries) in
+Both evaluate a population of RTCLM design vectors (``core.kinematics.mechanisms.rtclm``, 13 entries) in
 the primary mode (Watt-I six-bar driven at A, h6 = its walking-trajectory h_m) and the
 auxiliary mode (four-bar E-H-F-G driven at H, h4 = its h_m). Metrics (``(pop,)``):
 
@@ -8,7 +8,7 @@ auxiliary mode (four-bar E-H-F-G driven at H, h4 = its h_m). Metrics (``(pop,)``
   absolute deviations (the paper squares them; its stop threshold [0.5, 0.5] and its tables
   speak of deviations in mm, so the absolute value is the natural unit here);
 - ``violation`` (primary assembly and coupling), ``aux_violation`` (auxiliary assembly): 0 when the
-  mode assembles, else ``ASSEMBLY_TIER`` + the shortfall in mm (``subtasks.tiered``);
+  mode assembles, else ``ASSEMBLY_TIER`` + the shortfall in mm (``objectives.tiered``);
 - ``crank1``, ``crank2``: Eq. 29 (mm, <= 0 satisfied; crank AB, crank HF);
 - ``order_6``, ``theta1_6``, ``theta2_6`` and ``order_4``, ``theta1_4``, ``theta2_4``: Eq. 30 for
   each mode (rad, <= 0 satisfied: cyclic order t1 -> t2 -> t5 -> t4, 15 degrees minus the
@@ -29,11 +29,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from core.design import Design
-from core.evaluate import Evaluation, evaluate
-from core.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions
+from core.analysis.evaluate import Evaluation, evaluate
+from core.kinematics.design import Design
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions
+from core.optimize.objectives import ASSEMBLY_TIER, quantize, tiered
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
-from core.optimize.subtasks import ASSEMBLY_TIER, quantize, tiered
 
 F64 = NDArray[np.float64]
 

@@ -35,9 +35,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pymoo.core.algorithm import Algorithm
 
-from core import decision
-from core.design import Design
-from core.optimize import fastpop
+from core.kinematics.design import Design
+from core.optimize import decision, fastpop
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm, validate
 from core.optimize.box import Box, global_box, search_box
 from core.optimize.problem import BoxRepair, DesignProblem, ProblemSpec, make_problem

@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from typing import Any, Protocol
 
-from core.memory import keep_freed_memory
+from core.kinematics.memory import keep_freed_memory
 
 
 class Flag(Protocol):

@@ -1,6 +1,6 @@
 """Mechanism panel: topology, preset, and every parameter of the current design.
 
-Built from the registries (``core.mechanisms.MECHANISMS``, ``core.presets.PRESETS``) so new
+Built from the registries (``core.kinematics.mechanisms.MECHANISMS``, ``core.kinematics.presets.PRESETS``) so new
 topologies and presets appear without touching the studio. The parameter inputs are
 rebuilt when the topology changes.
 """
@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
-from core import mechanisms, presets
-from core.mechanisms.model import Mechanism
+from core.kinematics import mechanisms, presets
+from core.kinematics.model import Mechanism
 from studio.panels._inputs import ValidatedNumbers, set_value
 from studio.state import DesignView, assembly_reason, preset_label, presets_for
 

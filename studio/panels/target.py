@@ -1,7 +1,7 @@
 """Target panel: L, H and T of the compound-cycloid target (spec §3), or a closed curve uploaded as CSV.
 
 A CSV holds rows ``x,y`` (a curve without a time law, compared at the best cyclic shift) or
-``x,y,t`` (uniform in time after resampling), with an optional header (``core.targets``). A
+``x,y,t`` (uniform in time after resampling), with an optional header (``core.analysis.targets``). A
 malformed file is refused with a notification naming the problem; the target stays as it was.
 """
 

@@ -14,7 +14,7 @@ from typing import Any
 from playwright.sync_api import Error as PlaywrightError
 from playwright.sync_api import expect
 
-from core import presets
+from core.kinematics import presets
 
 ROOT = Path(__file__).resolve().parents[2]
 X3 = presets.get("stephenson1/X3")

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import expect
 
-from core.validate import design_from_dict
+from core.formats.design import design_from_dict
 from studio.candidates import candidates
 from studio.chains import chain_for, find
 from studio.exports import parse_trajectories_csv

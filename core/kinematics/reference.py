@@ -1,7 +1,7 @@
 """Reference interpreter of a compiled mechanism in plain numpy (the test oracle).
 
 Vectorized over the population and the samples, one construction step at a time, with the
-plain vector formulas of the model (``core.mechanisms.model``); ``core.solver_numba`` is the
+plain vector formulas of the model (``core.kinematics.model``); ``core.kinematics.kernel`` is the
 fast kernel it checks and shares no arithmetic with. For speed only: the population is solved
 in blocks of designs whose points stay in cache, each coordinate an array ``(designs,
 n_samples)``, and ``reduce`` keeps of a block only the tracked point and the cycle statistics;
@@ -19,8 +19,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from core.blocks import Pool
-from core.mechanisms.model import ATTACH, CRANK, DYAD, GROUND
+from core.kinematics.blocks import Pool
+from core.kinematics.model import ATTACH, CRANK, DYAD, GROUND
 
 F64 = NDArray[np.float64]
 
@@ -279,14 +279,14 @@ def run(ops: NDArray[np.int64], vals: F64, theta: F64) -> tuple[F64, F64, F64, F
     return pos, dpos, margin, cos_mu, negative_lengths(ops, vals)
 
 
-# Slabs of ``reduce``, reused from call to call once nothing refers to them (``core.blocks``).
+# Slabs of ``reduce``, reused from call to call once nothing refers to them (``core.kinematics.blocks``).
 _SLABS = Pool()
 
 
 def reduce(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, derivatives: bool = True
 ) -> tuple[F64 | None, F64 | None, F64, F64 | None, NDArray[np.bool_], F64, F64, F64, F64]:
-    """``run`` reduced to the outputs of ``core.solver_numba.run`` (see there for shapes).
+    """``run`` reduced to the outputs of ``core.kinematics.kernel.run`` (see there for shapes).
 
     mmin, cmin, cmax are the min or max over samples ignoring NaN (+inf, +inf, -inf where no
     sample has a value, and for steps other than dyads); valid is True where every coordinate
@@ -310,7 +310,7 @@ def reduce(
     pos = np.empty((pop, n, n_steps, 2)) if want_joints else None
     dpos = np.empty((pop, n, n_steps, 2)) if want_joints and derivatives else None
     # The paths, the points of a block and the scratch rows (both reused from block to block) in
-    # one allocation, itself reused from call to call once nothing refers to it (``core.blocks``).
+    # one allocation, itself reused from call to call once nothing refers to it (``core.kinematics.blocks``).
     n_paths, n_coords = (2, 4) if derivatives else (1, 2)
     n_rows = min(pop, block_rows(n))
     n_store = n_steps * n_coords * n_rows * n

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import CRANK_LOOP, length, offset
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
+from core.kinematics.params import CRANK_LOOP, length, offset
 
 _HEAD = CRANK_LOOP
 

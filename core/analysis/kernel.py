@@ -1,14 +1,15 @@
 """Fast kernel (numba) of the analysis stack; same results as the numpy reference modules.
 
-One pass per design over its samples computes what ``core.trajectory.feature_points``,
-``core.metrics`` (h_s, h_m, h_bar, psi), ``core.gait.walking_trajectory`` and ``core.shape.mse``
+One pass per design over its samples computes what ``core.analysis.features.feature_points``,
+``core.analysis.metrics`` (h_s, h_m, h_bar, psi), ``core.analysis.gait.walking_trajectory``
+and ``core.analysis.shape.mse``
 compute with whole-array numpy operations; the same rules, in the same order (see those modules
 for the definitions). ``tests/test_metrics_kernel_matches_reference.py`` holds them equal.
 
 Two entries: ``run`` analyses given paths; ``run_designs`` solves each design with the solver
-kernel (``core.solver_numba``) and analyses its path at once, from rows still in cache: no
+kernel (``core.kinematics.kernel``) and analyses its path at once, from rows still in cache: no
 ``(pop, n_samples, 2)`` array is ever allocated (the optimizer's path, through
-``core.evaluate.evaluate``). Scratch arrays are allocated once per chunk of designs.
+``core.analysis.evaluate.evaluate``). Scratch arrays are allocated once per chunk of designs.
 
 Where the arithmetic differs from the reference (agreement ~1e-13, tested to 1e-9): sums are
 sequential, and psi merges the touching blocked pieces of the swing arc before the union over
@@ -24,7 +25,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from core import solver_numba as SK
+from core.kinematics import kernel as SK
 
 F64 = NDArray[np.float64]
 
@@ -100,7 +101,7 @@ def _parab(v, i):
 
 @njit(**_JIT)
 def _vertex(y, i, start, length):
-    """``core.metrics._window_extreme``'s value at sample i: the parabola's vertex if both
+    """``core.analysis.metrics._window_extreme``'s value at sample i: the parabola's vertex if both
     neighbours lie in the window, else the sample."""
     n = y.shape[0]
     im, ip = _wrap(i - 1, n), _wrap(i + 1, n)
@@ -346,7 +347,7 @@ def _one(px, py, dpx, dpy, qx, qy, T, period, a, b, offs2, ph2, offs4, ph4, W, i
         pts[k, 1] = y
         tans[k, 0] = vx
         tans[k, 1] = vy
-    # stance fluctuation (core.metrics.stance_fluctuation)
+    # stance fluctuation (core.analysis.metrics.stance_fluctuation)
     e1, e2 = pts[0, 1], pts[1, 1]
     wmax = _vertex(py, smax, index[0], half_n) if smax >= 0 else -np.inf
     wmin = _vertex(py, smin, index[0], half_n) if smin >= 0 else np.inf
@@ -511,9 +512,9 @@ def run(
     """Fill ``index (pop, 8)``, ``pts``/``tans (pop, 8, 2)`` and ``S (pop, N_SCALARS)`` for every design.
 
     Rows with a non-finite leg, dleg or point sample are left NaN (``VALID`` = 0). Designs run in
-    parallel from ``core.kinematics.PARALLEL_MIN_POP`` on, like the solver.
+    parallel from ``core.kinematics.solver.PARALLEL_MIN_POP`` on, like the solver.
     """
-    from core.kinematics import PARALLEL_MIN_POP
+    from core.kinematics.solver import PARALLEL_MIN_POP
 
     kernel = _run_parallel if leg.shape[0] >= PARALLEL_MIN_POP else _run_serial
     kernel(leg, dleg, point, target, period, a, b, offs2, ph2, offs4, ph4, index, pts, tans, S)
@@ -586,7 +587,7 @@ def run_designs(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, stage: tuple[float, float, float, float],
     target: F64, period: float, a: float, b: float, offs2: F64, ph2: F64, offs4: F64, ph4: F64, parallel: bool,
 ) -> tuple[F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
-    """Solve every design (``core.solver_numba``) and analyse its path in the same pass.
+    """Solve every design (``core.kinematics.kernel``) and analyse its path in the same pass.
 
     The results of ``solver_numba.solve_all(..., stage=stage)`` followed by ``run`` on its point,
     leg and dleg, without those ``(pop, n_samples, 2)`` arrays.

@@ -1,4 +1,4 @@
-"""Fast interpreter of a compiled mechanism (numba); the results of ``core.solver_numpy``.
+"""Fast interpreter of a compiled mechanism (numba); the results of ``core.kinematics.reference``.
 
 One generic interpreter of the step program (never one kernel per topology). Per design the
 steps run in the outer loop and the samples in the inner loop, on scratch rows ``x[j], y[j],
@@ -22,7 +22,7 @@ is solved, the output rows of the next one are prefetched for writing (``_place`
 stores do not wait on DRAM; the block of paths is reused from call to call once nothing refers
 to it (``_PATHS``), so that its pages are not faulted in again.
 
-``core.metrics_numba.run_designs`` calls ``place`` directly (solve, then analyse each design
+``core.analysis.kernel.run_designs`` calls ``place`` directly (solve, then analyse each design
 while its rows are in cache).
 """
 
@@ -36,8 +36,8 @@ from numba import njit, prange, types
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
-from core.blocks import Pool
-from core.mechanisms.model import ATTACH, CRANK, DYAD, GROUND
+from core.kinematics.blocks import Pool
+from core.kinematics.model import ATTACH, CRANK, DYAD, GROUND
 
 F64 = NDArray[np.float64]
 
@@ -531,7 +531,7 @@ class Outputs(NamedTuple):
 
 
 # Blocks of paths of ``solve_all``, reused from call to call once nothing refers to them
-# (``core.blocks``: a kept block's pages are mapped already; a new one's are faulted in when first
+# (``core.kinematics.blocks``: a kept block's pages are mapped already; a new one's are faulted in when first
 # written, ~0.6 us per design at pop 10 000, a third of the solve).
 _PATHS = Pool()
 
@@ -618,7 +618,7 @@ def run(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, want_joints: bool, parallel: bool,
     derivatives: bool = True,
 ) -> tuple[F64 | None, F64 | None, F64, F64 | None, NDArray[np.bool_], F64, F64, F64, F64]:
-    """Solve a population; the same outputs as ``core.solver_numpy.reduce``.
+    """Solve a population; the same outputs as ``core.kinematics.reference.reduce``.
 
     Never raises for non-finite operands: NaN propagates to every point built on it. Raises
     ValueError only for a malformed program (a step using a later or missing point).

@@ -8,8 +8,8 @@ lowest half of its path (the spec's leg-frame convention). Figures: ``docs/mecha
 
 from __future__ import annotations
 
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import Param, angle, length, offset, position
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
+from core.kinematics.params import Param, angle, length, offset, position
 
 
 def _len(name: str, doc: str) -> Param:

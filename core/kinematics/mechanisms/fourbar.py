@@ -13,8 +13,8 @@ The crank turns fully iff the loop is Grashof with the crank shortest
 
 from __future__ import annotations
 
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import CRANK_LOOP, offset
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
+from core.kinematics.params import CRANK_LOOP, offset
 
 FOURBAR = Mechanism(
     name="fourbar",

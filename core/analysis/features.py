@@ -12,7 +12,7 @@ Rules where the paper and spec are silent (see ``docs/metrics.md``):
   ``|f|`` but the largest (zero when the extra roots merge away);
 - no root (``f`` identically zero, a path folded on itself): ``root_violation = 1`` mm;
 - the turning number of the sampled polygon must be +-1 (a simple closed curve); otherwise the
-  path self-intersects (``turning`` reports it; the constraint is in ``core.metrics``);
+  path self-intersects (``turning`` reports it; the constraint is in ``core.analysis.metrics``);
 - a row with any NaN sample is NaN everywhere with ``root_violation = inf``.
 """
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from core.mechanisms.fourbar import FOURBAR
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism, OutputStage
-from core.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
-from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
-from core.mechanisms.walkers import JANSEN, KLANN
-from core.mechanisms.watt import WATT1
+from core.kinematics.mechanisms.fourbar import FOURBAR
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
+from core.kinematics.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.kinematics.mechanisms.walkers import JANSEN, KLANN
+from core.kinematics.mechanisms.watt import WATT1
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism, OutputStage
 
 MECHANISMS: dict[str, Mechanism] = {
     m.name: m for m in (FOURBAR, WATT1, STEPHENSON1, STEPHENSON3, RTCLM_PRIMARY, RTCLM_AUXILIARY, JANSEN, KLANN)

@@ -16,8 +16,8 @@ reproduce the reported MSE (see the docs for the numbers).
 
 from __future__ import annotations
 
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import CRANK_LOOP, length, offset
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
+from core.kinematics.params import CRANK_LOOP, length, offset
 
 WATT1 = Mechanism(
     name="watt1",

@@ -1,4 +1,4 @@
-"""A named design: the unit the preset registry (``core.presets``) is made of."""
+"""A named design: the unit the preset registry (``core.kinematics.presets``) is made of."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.design import Design
-from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics.design import Design
+from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 
 # The paper's Stephenson presets map the design frame to the leg frame by this pantograph (spec §2).
 PAPER_PANTOGRAPH = OutputStage(k=-1.0, ox=150.0, oy=0.0)

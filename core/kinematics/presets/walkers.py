@@ -1,4 +1,4 @@
-"""Presets of the four-bar, Watt-I and the reference walkers (merged into ``core.presets.PRESETS``).
+"""Presets of the four-bar, Watt-I and the reference walkers (merged into ``core.kinematics.presets.PRESETS``).
 
 Sources are in each preset's ``source`` and in ``docs/mechanisms.md``.
 """
@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.mechanisms.fourbar import FOURBAR
-from core.mechanisms.model import OutputStage
-from core.mechanisms.walkers import JANSEN, KLANN
-from core.mechanisms.watt import WATT1
-from core.preset import PAPER_PANTOGRAPH, Preset
+from core.kinematics.mechanisms.fourbar import FOURBAR
+from core.kinematics.mechanisms.walkers import JANSEN, KLANN
+from core.kinematics.mechanisms.watt import WATT1
+from core.kinematics.model import OutputStage
+from core.kinematics.presets.preset import PAPER_PANTOGRAPH, Preset
 
 # Appendix B-1, Watt-I column: b, g, x_a, y_a, r1 ... r12 (rad, mm).
 _WATT1_PAPER = (6.10, 2.46, 64.59, 148.82, 90.88, 177.77, 180.98, 191.94, 214.01, -177.72, 62.41, -50.08,

@@ -1,7 +1,7 @@
 """The generic construction model: a mechanism is an ordered list of steps over named points.
 
 Every topology is data: a tuple of steps, each placing one point from points placed
-before it. The solvers (``core/kinematics.py``) interpret the compiled form
+before it. The solvers (``core/kinematics/solver.py``) interpret the compiled form
 (:class:`Program`) and never branch on the topology.
 
 Step kinds (spec notation, ``rot90(v) = (-v_y, v_x)``, ``R(a)`` a rotation by ``a``):
@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core.mechanisms.params import Param
+from core.kinematics.params import Param
 
 Operand = str | float
 

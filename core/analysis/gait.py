@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.trajectory import FeaturePoints, hermite, periodic_derivative
+from core.analysis.features import FeaturePoints, hermite, periodic_derivative
 
 F64 = NDArray[np.float64]
 

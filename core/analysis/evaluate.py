@@ -18,13 +18,13 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from core import metrics as M
-from core.design import Design
-from core.gait import BIPED, DEFAULT_TRUNK, quadruped, walking_trajectory
-from core.shape import mse as shape_mse
-from core.shape import mse_phase_optimal
-from core.targets import Target, cycloid_target
-from core.trajectory import DEFAULT_PERIOD, FEATURE_NAMES, FeaturePoints, feature_points, periodic_derivative
+from core.analysis import metrics as M
+from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES, FeaturePoints, feature_points, periodic_derivative
+from core.analysis.gait import BIPED, DEFAULT_TRUNK, quadruped, walking_trajectory
+from core.analysis.shape import mse as shape_mse
+from core.analysis.shape import mse_phase_optimal
+from core.analysis.targets import Target, cycloid_target
+from core.kinematics.design import Design
 
 F64 = NDArray[np.float64]
 Backend = Literal["auto", "numpy", "numba"]
@@ -115,7 +115,7 @@ def _numba_ready(backend: Backend) -> bool:
     if backend == "numpy":
         return False
     try:
-        import core.solver_numba  # noqa: F401
+        import core.kinematics.kernel  # noqa: F401
     except ImportError:
         if backend == "numba":
             raise
@@ -201,8 +201,8 @@ def _evaluate_fused(
     the ``(pop, n_samples, 2)`` paths: nothing per sample is allocated, nothing makes a second pass.
     """
     # Imported here: PARALLEL_MIN_POP is read at call time (tests lower it to run the parallel kernel).
-    from core import metrics_numba as K
-    from core.kinematics import PARALLEL_MIN_POP, assembly_violation, prepare, sample_angles
+    from core.analysis import kernel as K
+    from core.kinematics.solver import PARALLEL_MIN_POP, assembly_violation, prepare, sample_angles
 
     prep = prepare(design.mechanism, design.params)
     tgt = _default_target(float(period)) if target is None else target
@@ -222,7 +222,7 @@ def _kernel(
     point: F64, leg: F64, dleg: F64 | None, target: F64, period: float, a: float, b: float, trunk: float
 ) -> tuple[FeaturePoints, F64, F64, F64, F64, F64, F64, F64, F64, F64]:
     """The numba kernel's outputs in the numpy modules' shapes."""
-    from core import metrics_numba as K
+    from core.analysis import kernel as K
 
     pop, n = leg.shape[:2]
     dleg = periodic_derivative(np.nan_to_num(leg)) if dleg is None else np.asarray(dleg).reshape(leg.shape)
@@ -241,7 +241,7 @@ def _kernel(
 def _kernel_results(
     index: F64, pts: F64, tans: F64, S: F64, period: float, n: int
 ) -> tuple[FeaturePoints, F64, F64, F64, F64, F64, F64, F64, F64, F64]:
-    from core import metrics_numba as K
+    from core.analysis import kernel as K
 
     fp = FeaturePoints(
         index=index,
@@ -280,7 +280,7 @@ def evaluate_paths(
         dleg: its d/dtheta (mm/rad); periodic differences when None.
         kinematic_violation: ``(pop,)`` assembly violation (0 if None).
         target, period, obstacle, trunk, phase_optimal: see ``evaluate``.
-        kernel: use the numba kernel ``core.metrics_numba`` (same results) instead of the numpy modules.
+        kernel: use the numba kernel ``core.analysis.kernel`` (same results) instead of the numpy modules.
     """
     point = np.asarray(point, dtype=np.float64)
     point = point[None] if point.ndim == 2 else point

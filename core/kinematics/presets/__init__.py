@@ -6,9 +6,10 @@ A preset is addressed as ``mechanism/row`` (``stephenson1/X3``) or by a bare nam
 
 from __future__ import annotations
 
-from core.mechanisms import extra_presets, rtclm_presets
-from core.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
-from core.preset import PAPER_PANTOGRAPH, Preset
+from core.kinematics.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
+from core.kinematics.presets import rtclm as rtclm_presets
+from core.kinematics.presets import walkers as extra_presets
+from core.kinematics.presets.preset import PAPER_PANTOGRAPH, Preset
 
 # Appendix B, Stephenson-I: b, g, x_a, y_a, r1 ... r12 (rad, mm).
 _S1_ROWS: dict[str, tuple[str, str]] = {

@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from core.mechanisms.model import Attach, Crank, Dyad, Ground, Mechanism
-from core.mechanisms.params import Param, angle, length, offset, position
+from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
+from core.kinematics.params import Param, angle, length, offset, position
 
 F64 = NDArray[np.float64]
 

@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from core.kinematics import Solution, solve
-from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics.solver import Solution, solve
 
 
 @dataclass(frozen=True)

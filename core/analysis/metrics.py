@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from core.gait import Layout, WalkingTrajectory, arc_offsets
-from core.trajectory import FeaturePoints
+from core.analysis.features import FeaturePoints
+from core.analysis.gait import Layout, WalkingTrajectory, arc_offsets
 
 F64 = NDArray[np.float64]
 

@@ -18,8 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from core.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
-from core.preset import Preset
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
+from core.kinematics.presets.preset import Preset
 
 NAN = float("nan")
 

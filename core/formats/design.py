@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from core import mechanisms
-from core.design import Design
-from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics import mechanisms
+from core.kinematics.design import Design
+from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 
 F64 = NDArray[np.float64]
 

@@ -44,11 +44,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core import decision, presets
-from core.design import Design
-from core.mechanisms import MECHANISMS
-from core.mechanisms.model import IDENTITY, Mechanism, OutputStage
-from core.mechanisms.params import Param
+from core.kinematics import presets
+from core.kinematics.design import Design
+from core.kinematics.mechanisms import MECHANISMS
+from core.kinematics.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics.params import Param
+from core.optimize import decision
 from core.optimize import problem as problem_registry
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, validate
 from core.optimize.baselines import DP_METHODS, BaselineResult, BaselineSettings, run_baseline
@@ -298,7 +299,7 @@ def _target(data: dict[str, Any], base: Path) -> str:
     p = (base / curve).resolve()
     if not p.is_file():
         raise _fail("target.curve", f"file {str(p)!r} not found")
-    from core.targets import load_curve
+    from core.analysis.targets import load_curve
 
     try:
         load_curve(p)

@@ -6,8 +6,8 @@ crank's absolute angle is ``phase + theta_i``. With a crank period T, sample i i
 taken with respect to theta (mm/rad); ``derivatives=False`` skips them (about half the work)
 when only the paths are needed (shape matching, drawing).
 
-Two interpreters of the same compiled program: ``core.solver_numpy`` (reference) and
-``core.solver_numba`` (fast kernel). ``backend="auto"`` picks numba.
+Two interpreters of the same compiled program: ``core.kinematics.reference`` (reference) and
+``core.kinematics.kernel`` (fast kernel). ``backend="auto"`` picks numba.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from core import solver_numpy
-from core.mechanisms.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage, Program
+from core.kinematics import reference as solver_numpy
+from core.kinematics.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage, Program
 
 F64 = NDArray[np.float64]
 Backend = Literal["auto", "numpy", "numba"]
@@ -150,7 +150,7 @@ def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.b
 
     Args:
         prep: the population.
-        mmin, neg: see ``core.solver_numba.run``.
+        mmin, neg: see ``core.kinematics.kernel.run``.
         broken: ``(pop,)`` True where some sample has a non-finite joint.
     """
     margin = mmin[:, prep.program.ops[:, 0] == DYAD]
@@ -199,7 +199,7 @@ def solve(
         leg = output.apply(point)
         dleg = None if dpoint is None else output.apply_derivative(dpoint)
     else:
-        from core import solver_numba
+        from core.kinematics import kernel as solver_numba
 
         out = solver_numba.solve_all(prog.ops, vals, theta, prog.tracked, joints, vals.shape[0] >= PARALLEL_MIN_POP,
                                      stage=output.kernel_args(), derivatives=derivatives)
