@@ -1,4 +1,4 @@
-"""Imports point down only: cli -> formats -> optimize -> analysis -> kinematics, and no circles in core or studio.
+"""Imports point down only (cli -> study -> formats -> optimize -> analysis -> kinematics); no circles in core, studio.
 
 Read from the source (every ``import``, also inside functions), so a lazy import cannot hide an upward arrow.
 """
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ["kinematics", "analysis", "optimize", "formats", "cli"]  # low to high
+LAYERS = ["kinematics", "analysis", "optimize", "formats", "study", "cli"]  # low to high
 
 
 def module_name(path: Path) -> str:

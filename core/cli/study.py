@@ -1,0 +1,76 @@
+"""``clm study``: run a study (algorithms x cases x seeds) on Dask, or write its report.
+
+    clm study STUDY.toml --out DIR [--scheduler tcp://host:8786] [--workers N]
+    clm study report DIR
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from core.cli import CLIError
+
+MAX_WORKERS = 256
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "study",
+        help="run a study of algorithms x cases x seeds on Dask, or write its report",
+        description="Run every (algorithm, case, seed) cell of a study file as a Dask task (a local cluster with one "
+        "worker per core, or --scheduler), keep each finished run in DIR/study.sqlite and DIR/runs/, and write "
+        "DIR/report.md and DIR/report.html. Running the same command again resumes: finished cells are skipped "
+        "and failed ones run again. 'clm study report DIR' writes the report of what is there.",
+    )
+    p.add_argument("args", nargs="+", metavar="STUDY.toml | report DIR", help="a study file, or 'report' and a study "
+                   "directory")
+    p.add_argument("--out", help="study directory (created; resumed if it holds the same study)")
+    p.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
+    p.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    p.set_defaults(func=run)
+
+
+def _check_out(out: str | None) -> Path:
+    if out is None or not out.strip():
+        raise CLIError("--out is required: the study directory")
+    d = Path(out)
+    if d.exists() and not d.is_dir():
+        raise CLIError(f"--out {out}: exists and is not a directory")
+    probe = d
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
+        raise CLIError(f"--out {out}: cannot write there")
+    return d
+
+
+def run(args: argparse.Namespace) -> int:
+    from core.study.report import write_report
+
+    if args.args[0] == "report":
+        if len(args.args) != 2:
+            raise CLIError("usage: clm study report DIR")
+        md, page = write_report(args.args[1])
+        print(f"wrote {md} and {page}")
+        return 0
+    if len(args.args) != 1:
+        raise CLIError("give one study file (or 'report DIR')")
+    if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
+        raise CLIError(f"--workers must be between 1 and {MAX_WORKERS}, got {args.workers}")
+    if args.scheduler is not None and args.workers is not None:
+        raise CLIError("--workers sets up a local cluster; a --scheduler's cluster has its own workers")
+    from core.study.runner import run_study
+    from core.study.spec import load_study
+
+    study = load_study(args.args[0])
+    out = _check_out(args.out)
+    summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
+                        stream=None if args.quiet else sys.stderr)
+    md, page = write_report(out)
+    print(f"{study.name}: {summary.total} cells, {summary.skipped} already done, {summary.ran} run now "
+          f"({summary.failed} failed) in {summary.wall_time:.1f} s; report: {md}, {page}")
+    return 1 if summary.failed else 0

@@ -1,0 +1,117 @@
+"""One study cell, self-contained: (algorithm, case, seed) in as plain data, a JSON-able record out.
+
+The case's design config is read again in the task (no pickled state), narrowed to the case's
+stages, started from its preset, given the cell's algorithm and seed, run on one core (multi-start
+blocks off: a study compares algorithms seed by seed) and measured.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import tomllib
+import traceback
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.formats.config import parse_config, run_design
+from core.optimize.decision import pareto_front
+from core.optimize.result import dumps
+
+PICK_METRICS = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
+# Function evaluations per generation of an algorithm, in units of the population size.
+EVALS_PER_GENERATION: dict[str, float] = {}
+
+
+def n_gen_for(algorithm: str, pop_size: int, budget: int) -> int:
+    """Generations that spend ``budget`` function evaluations (at least 1; the first population counts)."""
+    per = EVALS_PER_GENERATION.get(algorithm, 1.0) * pop_size
+    return max(1, math.ceil(budget / per))
+
+
+def read_config(path: str) -> dict[str, Any]:
+    with open(path, "rb") as f:
+        return tomllib.load(f)
+
+
+def stage_names(data: dict[str, Any]) -> list[str]:
+    return [str(s.get("name", "")) for s in data.get("stages", []) if isinstance(s, dict)]
+
+
+def case_config(case: dict[str, Any], algorithm: dict[str, Any], seed: int) -> dict[str, Any]:
+    """The case's config narrowed to one cell (plain TOML data, checked later by ``parse_config``)."""
+    data = read_config(case["config"])
+    stages = [dict(s) for s in data.get("stages", [])]
+    if case.get("stages"):
+        by_name = {s.get("name"): s for s in stages}
+        missing = [n for n in case["stages"] if n not in by_name]
+        if missing:
+            raise ValueError(f"case {case['name']!r}: no stage {missing[0]!r} in {case['config']} "
+                             f"(stages: {', '.join(stage_names(data))})")
+        stages = [dict(by_name[n]) for n in case["stages"]]
+    base = dict(data.get("algorithm", {}))
+    pop = int(algorithm.get("pop_size") or base.get("pop_size", 100))
+    for s in stages:
+        s.pop("starts", None)
+        s.pop("algorithm", None)
+        s["n_gen"] = n_gen_for(algorithm["name"], pop, int(case["budget"]))
+    if case.get("start"):
+        data["preset"] = case["start"]
+    data["stages"] = stages
+    data["seed"] = int(seed)
+    data["workers"] = 1
+    data["algorithm"] = {"name": algorithm["name"], "pop_size": pop, "options": dict(algorithm.get("options", {}))}
+    return data
+
+
+def _front(F: np.ndarray, feasible: np.ndarray) -> list[list[float]]:
+    ok = feasible & np.isfinite(F).all(axis=1)
+    idx = np.flatnonzero(ok)
+    if idx.size == 0:
+        return []
+    front = idx[pareto_front(F[idx])]
+    return F[front].tolist()
+
+
+def measure(run: Any) -> dict[str, Any]:
+    """What a study keeps of a finished run: the last stage's front, feasibility, the pick, time, evaluations."""
+    results = run.results
+    out: dict[str, Any] = {"n_eval": int(sum(r.n_evals for r in results)), "wall_time": float(run.wall_time),
+                           "run_status": run.status}
+    if not results:
+        return out
+    last = results[-1]
+    feasible = np.asarray(last.feasible)
+    out.update(objectives=list(last.objectives), front=_front(np.asarray(last.F), feasible),
+               feasible_ratio=float(feasible.mean()) if feasible.size else 0.0, stage=last.name)
+    fin = run.final()
+    if fin is not None:
+        r, i = fin
+        out["pick"] = {k: float(r.metrics[k][i]) for k in PICK_METRICS if k in r.metrics}
+        out["pick_feasible"] = bool(r.feasible[i])
+        out["params"] = r.named(i)
+    return out
+
+
+def run_cell(cell: dict[str, Any]) -> dict[str, Any]:
+    """Run one cell; never raises: a failure comes back as ``status = "failed"`` with its message."""
+    t0 = time.perf_counter()
+    record: dict[str, Any] = {"key": cell["key"], "algorithm": cell["algorithm"]["name"],
+                              "case": cell["case"]["name"], "seed": cell["seed"]}
+    try:
+        if cell.get("threads"):
+            import numba
+
+            numba.set_num_threads(max(1, min(int(cell["threads"]), numba.config.NUMBA_NUM_THREADS)))
+        data = case_config(cell["case"], cell["algorithm"], cell["seed"])
+        config = parse_config(data, Path(cell["case"]["config"]).parent, cell["case"]["config"])
+        run = run_design(config)
+        record.update(status="done", metrics=measure(run), result=dumps(run.to_dict(), indent=None))
+    except Exception as e:  # a cell's failure is data for the study, not a crash of it
+        last = traceback.extract_tb(e.__traceback__)[-1] if e.__traceback__ else None
+        where = f" ({Path(last.filename).name}:{last.lineno})" if last else ""
+        record.update(status="failed", error=f"{type(e).__name__}: {e}{where}")
+    record["task_time"] = time.perf_counter() - t0
+    return record

@@ -1,0 +1,131 @@
+"""Run a study's cells on Dask distributed: a LocalCluster (one worker process per core) or a scheduler.
+
+Re-running the same command resumes: finished cells are skipped, failed ones run again (their
+attempts counted). Only this client writes the store, as each task completes.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any, TextIO
+
+from core.study.cell import run_cell
+from core.study.spec import Study
+from core.study.store import Store
+
+
+@dataclass
+class Summary:
+    """What one invocation did: cells in the study, skipped as finished, run now, failed now, wall time (s)."""
+
+    total: int
+    skipped: int
+    ran: int
+    failed: int
+    wall_time: float
+
+
+def default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+
+
+@contextmanager
+def client_for(scheduler: str | None, workers: int | None) -> Iterator[Any]:
+    """A Dask client: connected to ``scheduler`` if given, else to a new LocalCluster on 127.0.0.1."""
+    from distributed import Client, LocalCluster
+
+    for name in ("distributed", "distributed.worker", "distributed.nanny", "distributed.scheduler"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+    if scheduler:
+        client = Client(scheduler, timeout="20s")
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = workers or default_workers()
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+class Progress:
+    """``cells done/total, failures, ETA`` on one self-overwriting stderr line (a plain line when not a tty)."""
+
+    def __init__(self, total: int, done: int, stream: TextIO | None) -> None:
+        self.total, self.done, self.start_done = total, done, done
+        self.failed = 0
+        self.stream = stream
+        self.t0 = time.perf_counter()
+
+    def step(self, failed: bool) -> None:
+        self.done += 1
+        self.failed += int(failed)
+        if self.stream is None:
+            return
+        ran = self.done - self.start_done
+        rate = ran / max(time.perf_counter() - self.t0, 1e-9)
+        eta = (self.total - self.done) / rate if rate > 0 else float("inf")
+        tty = getattr(self.stream, "isatty", lambda: False)()
+        line = f"cells {self.done}/{self.total}, {self.failed} failed, ETA {eta:.0f} s"
+        self.stream.write(("\r" + line + ("\n" if self.done == self.total else "")) if tty else line + "\n")
+        self.stream.flush()
+
+
+def run_study(study: Study, out: str, scheduler: str | None = None, workers: int | None = None,
+              stream: TextIO | None = sys.stderr, task: Callable[[dict[str, Any]], dict[str, Any]] = run_cell,
+              limit: int | None = None) -> Summary:
+    """Run every unfinished cell of ``study`` and keep the results in ``out``.
+
+    Args:
+        study: the decoded study.
+        out: the study directory (created if needed).
+        scheduler: a Dask scheduler address (``tcp://host:8786``); None starts a LocalCluster.
+        workers: LocalCluster worker processes (default: one per core).
+        stream: where the progress line goes (None: silent).
+        task: the function a cell runs (tests swap in one that fails).
+        limit: run at most this many cells now (the rest wait for the next invocation).
+    """
+    from distributed import as_completed
+
+    t0 = time.perf_counter()
+    store = Store(out)
+    try:
+        store.set_meta("study", {"name": study.name, "path": study.path, "reference": study.reference,
+                                 "algorithms": [a.name for a in study.algorithms],
+                                 "labels": {a.name: a.title for a in study.algorithms},
+                                 "cases": [c.name for c in study.cases], "seeds": list(study.seeds),
+                                 "best": {c.name: c.best for c in study.cases}})
+        cells = study.cells()
+        finished = store.done()
+        todo = [dict(c, threads=1) for c in cells if c["key"] not in finished]
+        if limit is not None:
+            todo = todo[:limit]
+        progress = Progress(len(cells), len(cells) - len([c for c in cells if c["key"] not in finished]), stream)
+        failed = 0
+        if todo:
+            with client_for(scheduler, workers) as client:
+                futures = client.map(task, todo, pure=False, key=[f"cell-{c['key']}-{os.getpid()}" for c in todo])
+                by_key = {f.key: c for f, c in zip(futures, todo, strict=True)}
+                for fut in as_completed(futures):
+                    cell = by_key[fut.key]
+                    if fut.status == "finished":
+                        record = fut.result()
+                    else:  # the worker died or the task could not run at all
+                        exc = fut.exception()
+                        record = {"key": cell["key"], "algorithm": cell["algorithm"]["name"],
+                                  "case": cell["case"]["name"], "seed": cell["seed"], "status": "failed",
+                                  "error": f"{type(exc).__name__}: {exc}"}
+                    store.save(record)
+                    failed += record["status"] != "done"
+                    progress.step(record["status"] != "done")
+                    fut.release()
+        return Summary(len(cells), len(cells) - len(todo), len(todo), failed, time.perf_counter() - t0)
+    finally:
+        store.close()

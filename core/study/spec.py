@@ -1,0 +1,202 @@
+"""The study file (TOML): which cases, algorithms and seeds, decoded through msgspec Structs.
+
+Format (docs/studies.md)::
+
+    name = "smoke"
+    seeds = "1..3"                 # or a list [1, 2, 5]
+    reference = "nsga2"            # the algorithm the others are tested against (default: the first)
+
+    [[algorithms]]
+    name = "nsga2"                 # a registered algorithm (core.optimize.algorithms)
+    label = "NSGA-II"              # optional
+    pop_size = 100                 # optional; the case config's otherwise
+    options = {}
+
+    [[cases]]
+    name = "subtask2"
+    config = "../configs/stephenson1_cycloid.toml"   # relative to the study file
+    stages = ["subtask2"]          # the config's stages to run, in order (default: all)
+    start = "stephenson1/X1"       # preset the first stage starts from (default: the config's start)
+    budget = 4000                  # function evaluations per stage
+    best = "mse"                   # pick metric that ranks runs for "best design" (default: first present)
+
+Every error is a ``ValueError`` of one line that starts with the key path (``cases[1].budget: ...``).
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any
+
+import msgspec
+
+from core.kinematics import presets
+from core.optimize.algorithms import ALGORITHMS
+
+MAX_SEED = 2**32 - 1
+MAX_RUNS = 100_000
+
+Name = Annotated[str, msgspec.Meta(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\-]+$")]
+Budget = Annotated[int, msgspec.Meta(ge=1, le=10**9)]
+PopSize = Annotated[int, msgspec.Meta(ge=4, le=100_000)]
+
+
+class AlgorithmEntry(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    name: Name
+    label: str = ""
+    pop_size: PopSize | None = None
+    options: dict[str, Any] = {}
+
+    @property
+    def title(self) -> str:
+        return self.label or self.name
+
+
+class CaseEntry(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    name: Name
+    config: Annotated[str, msgspec.Meta(min_length=1)]
+    budget: Budget
+    stages: list[Name] = []
+    start: str = ""
+    best: str = ""
+
+
+class StudyFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    algorithms: Annotated[list[AlgorithmEntry], msgspec.Meta(min_length=1)]
+    cases: Annotated[list[CaseEntry], msgspec.Meta(min_length=1)]
+    seeds: str | list[Annotated[int, msgspec.Meta(ge=0, le=MAX_SEED)]]
+    name: str = "study"
+    reference: str = ""
+
+
+class Study(msgspec.Struct, frozen=True):
+    """A decoded study: its file's entries with seeds expanded and config paths made absolute."""
+
+    name: str
+    algorithms: tuple[AlgorithmEntry, ...]
+    cases: tuple[CaseEntry, ...]
+    seeds: tuple[int, ...]
+    reference: str
+    path: str = ""
+
+    def cells(self) -> list[dict[str, Any]]:
+        """Every (algorithm, case, seed) as a self-contained task description (plain JSON data)."""
+        return [
+            {"key": cell_key(a.name, c.name, s), "algorithm": msgspec.to_builtins(a), "case": msgspec.to_builtins(c),
+             "seed": s}
+            for c in self.cases for a in self.algorithms for s in self.seeds
+        ]
+
+
+def cell_key(algorithm: str, case: str, seed: int) -> str:
+    return f"{case}/{algorithm}/{seed}"
+
+
+_PATH = re.compile(r"`\$((?:\.[A-Za-z_0-9]+|\[\d+\])*)`")
+
+
+def _message(err: msgspec.ValidationError) -> str:
+    """msgspec's "Expected `int` >= 1 - at `$.cases[0].budget`" as "cases[0].budget: expected an int >= 1"."""
+    text = str(err)
+    m = _PATH.search(text)
+    path = m.group(1).lstrip(".") if m else ""
+    body = text.split(" - at ")[0]
+    body = body.replace("`", "")
+    body = body[:1].lower() + body[1:]
+    if not path and body.startswith("object "):
+        return f"study: {body.removeprefix('object ')}"
+    return f"{path or 'study'}: {body}"
+
+
+def parse_seeds(v: str | list[int], key: str = "seeds") -> tuple[int, ...]:
+    """``"1..20"`` (inclusive), ``"3"`` or a list of ints -> the seeds, each in [0, 2**32 - 1], no repeats."""
+    if isinstance(v, list):
+        seeds = tuple(v)
+    else:
+        m = re.fullmatch(r"\s*(\d+)\s*(?:\.\.\s*(\d+)\s*)?", v)
+        if m is None:
+            raise ValueError(f"{key}: expected \"a..b\", a seed or a list of seeds, got {v!r}")
+        lo = int(m.group(1))
+        hi = int(m.group(2)) if m.group(2) is not None else lo
+        if hi > MAX_SEED:
+            raise ValueError(f"{key}: seeds must be <= {MAX_SEED}, got {hi}")
+        if hi < lo:
+            raise ValueError(f"{key}: empty seed range {v!r}")
+        if hi - lo + 1 > MAX_RUNS:
+            raise ValueError(f"{key}: at most {MAX_RUNS} seeds, got {hi - lo + 1}")
+        seeds = tuple(range(lo, hi + 1))
+    if not seeds:
+        raise ValueError(f"{key}: no seeds")
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"{key}: a seed is listed twice")
+    return seeds
+
+
+def _unique(names: list[str], key: str) -> None:
+    seen: set[str] = set()
+    for i, n in enumerate(names):
+        if n in seen:
+            raise ValueError(f"{key}[{i}].name: {n!r} is listed twice")
+        seen.add(n)
+
+
+def _check_case(i: int, case: CaseEntry, config: Path) -> None:
+    """The case's stages exist in its config and its start preset exists (read before any work is sent out)."""
+    try:
+        data = tomllib.loads(config.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise ValueError(f"cases[{i}].config: {config} is not a valid TOML file ({str(e).splitlines()[0]})") from None
+    names = [str(s.get("name", "")) for s in data.get("stages", []) if isinstance(s, dict)]
+    for j, s in enumerate(case.stages):
+        if s not in names:
+            raise ValueError(f"cases[{i}].stages[{j}]: no stage {s!r} in {config.name} (stages: {', '.join(names)})")
+    if case.start:
+        try:
+            presets.get(case.start)
+        except (KeyError, ValueError):
+            raise ValueError(f"cases[{i}].start: unknown preset {case.start!r} (see 'clm presets')") from None
+
+
+def parse_study(data: dict[str, Any], base: str | Path = ".", path: str = "") -> Study:
+    """Check a study given as a dict (the parsed TOML) and resolve its seeds and config paths."""
+    try:
+        f = msgspec.convert(data, StudyFile)
+    except msgspec.ValidationError as e:
+        raise ValueError(_message(e)) from None
+    seeds = parse_seeds(f.seeds)
+    _unique([a.name for a in f.algorithms], "algorithms")
+    _unique([c.name for c in f.cases], "cases")
+    for i, a in enumerate(f.algorithms):
+        if a.name not in ALGORITHMS:
+            raise ValueError(f"algorithms[{i}].name: unknown algorithm {a.name!r}; known: {', '.join(ALGORITHMS)}")
+    cases = []
+    for i, c in enumerate(f.cases):
+        cfg = (Path(base) / c.config).resolve()
+        if not cfg.is_file():
+            raise ValueError(f"cases[{i}].config: no such config file {str(cfg)!r}")
+        _check_case(i, c, cfg)
+        cases.append(msgspec.structs.replace(c, config=str(cfg)))
+    names = [a.name for a in f.algorithms]
+    reference = f.reference or names[0]
+    if reference not in names:
+        raise ValueError(f"reference: {reference!r} is not one of the study's algorithms ({', '.join(names)})")
+    n_runs = len(seeds) * len(names) * len(cases)
+    if n_runs > MAX_RUNS:
+        raise ValueError(f"study: {n_runs} runs is more than the {MAX_RUNS} a study may hold")
+    return Study(f.name, tuple(f.algorithms), tuple(cases), seeds, reference, path)
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and check a study file; ValueError (one line) if it is missing or malformed."""
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"{p}: no such study file")
+    if p.stat().st_size > 1_000_000:
+        raise ValueError(f"{p}: a study file is at most 1 MB")
+    try:
+        data = tomllib.loads(p.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise ValueError(f"{p}: not a valid TOML file ({str(e).splitlines()[0]})") from None
+    return parse_study(data, p.parent, str(p.resolve()))

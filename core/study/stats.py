@@ -1,0 +1,104 @@
+"""A study's numbers: per-run front quality against the case's pooled fronts, medians, IQRs, rank-sum verdicts.
+
+Front quality is measured in the case's normalised objective space: the ideal and nadir of the union
+of every run's feasible non-dominated front map to 0 and 1, HV uses the reference point 1.1 in every
+objective (PlatEMO's convention, spec §1.7) and IGD+ the non-dominated members of that union.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import moocore
+import numpy as np
+from numpy.typing import NDArray
+from pymoo.indicators.igd_plus import IGDPlus
+from scipy.stats import ranksums
+
+from core.optimize.decision import pareto_front
+
+F64 = NDArray[np.float64]
+HV_REF = 1.1
+ALPHA = 0.05
+# Metrics per run and whether larger is better.
+HIGHER_IS_BETTER = {"hv": True, "igd_plus": False, "feasible_ratio": True, "mse": False, "S": False, "I": False,
+                    "h_s": False, "h6": None, "h4": None, "dh6": False, "dh4": False, "wall_time": False,
+                    "n_eval": None}
+
+
+@dataclass(frozen=True)
+class Normaliser:
+    ideal: F64
+    nadir: F64
+    reference: F64  # the union's non-dominated points, normalised
+
+    def __call__(self, F: F64) -> F64:
+        span = np.where(self.nadir - self.ideal > 0, self.nadir - self.ideal, 1.0)
+        return (np.asarray(F, dtype=np.float64) - self.ideal) / span
+
+
+def normaliser(fronts: Sequence[F64]) -> Normaliser | None:
+    """The case's normalisation from every run's front; None if no run has a feasible member."""
+    pts = [np.asarray(f, dtype=np.float64) for f in fronts if len(f)]
+    if not pts:
+        return None
+    union = np.vstack(pts)
+    nd = union[pareto_front(union)]
+    ideal, nadir = union.min(axis=0), nd.max(axis=0)
+    base = Normaliser(ideal, nadir, nd)
+    return Normaliser(ideal, nadir, base(nd))
+
+
+def front_quality(front: F64, norm: Normaliser | None) -> dict[str, float]:
+    """HV (normalised, ref 1.1; 0 for an empty front) and IGD+ (NaN for an empty front) of one run."""
+    F = np.asarray(front, dtype=np.float64).reshape(-1, 0 if norm is None else norm.ideal.size)
+    if norm is None or F.shape[0] == 0:
+        return {"hv": 0.0, "igd_plus": float("nan")}
+    Fn = norm(F)
+    inside = Fn[(Fn < HV_REF).all(axis=1)]
+    hv = float(moocore.hypervolume(inside, ref=np.full(Fn.shape[1], HV_REF))) if len(inside) else 0.0
+    return {"hv": hv, "igd_plus": float(IGDPlus(norm.reference)(Fn))}
+
+
+def run_values(rows: list[dict[str, Any]]) -> list[tuple[dict[str, Any], dict[str, float]]]:
+    """Per done row of one case: (row, values) with hv, igd_plus, feasible_ratio, the pick's metrics (|dh6|,
+    |dh4|), wall_time and n_eval."""
+    done = [r for r in rows if r["status"] == "done" and r["metrics"]]
+    norm = normaliser([np.asarray(r["metrics"].get("front", []), dtype=np.float64) for r in done])
+    out = []
+    for r in done:
+        m = r["metrics"]
+        v = front_quality(np.asarray(m.get("front", []), dtype=np.float64), norm)
+        v["feasible_ratio"] = float(m.get("feasible_ratio", 0.0))
+        for k, x in (m.get("pick") or {}).items():
+            v[k] = abs(float(x)) if k in ("dh6", "dh4") else float(x)
+        v["wall_time"] = float(m.get("wall_time", np.nan))
+        v["n_eval"] = float(m.get("n_eval", np.nan))
+        out.append((r, v))
+    return out
+
+
+def verdict(values: Sequence[float], reference: Sequence[float], higher: bool | None) -> str:
+    """``+`` significantly better than the reference, ``-`` worse, ``≈`` neither (Wilcoxon rank-sum, 5 %)."""
+    a = np.asarray([x for x in values if np.isfinite(x)])
+    b = np.asarray([x for x in reference if np.isfinite(x)])
+    if higher is None or len(a) < 2 or len(b) < 2:
+        return "≈"
+    if np.array_equal(np.sort(a), np.sort(b)):
+        return "≈"
+    p = float(ranksums(a, b).pvalue)
+    if not p < ALPHA:
+        return "≈"
+    better = np.median(a) > np.median(b) if higher else np.median(a) < np.median(b)
+    return "+" if better else "-"
+
+
+def summary(values: Sequence[float]) -> dict[str, float]:
+    """Median, IQR and count of the finite values (NaN median for none)."""
+    a = np.asarray([x for x in values if np.isfinite(x)], dtype=np.float64)
+    if a.size == 0:
+        return {"median": float("nan"), "iqr": float("nan"), "n": 0}
+    q25, q50, q75 = np.percentile(a, [25, 50, 75])
+    return {"median": float(q50), "iqr": float(q75 - q25), "n": int(a.size)}

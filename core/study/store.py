@@ -1,0 +1,98 @@
+"""A study's results: one SQLite row per cell, written only by the client as tasks complete.
+
+Each finished cell's full result goes to ``runs/<case>/<algorithm>/<seed>.json`` (written atomically
+before its row), so a crash or Ctrl-C loses nothing finished, and a row never names a half-written file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sqlite3
+import tempfile
+from pathlib import Path
+from typing import Any
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    key TEXT PRIMARY KEY,
+    case_name TEXT NOT NULL,
+    algorithm TEXT NOT NULL,
+    seed INTEGER NOT NULL,
+    status TEXT NOT NULL,
+    error TEXT,
+    metrics TEXT,
+    result_path TEXT,
+    task_time REAL,
+    attempts INTEGER NOT NULL DEFAULT 1
+);
+CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
+"""
+
+
+def atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, 0o644)
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+class Store:
+    """The study directory: ``study.sqlite``, ``runs/``, ``report.md``, ``report.html``."""
+
+    def __init__(self, directory: str | Path) -> None:
+        self.dir = Path(directory)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.db = sqlite3.connect(self.dir / "study.sqlite", isolation_level=None)
+        self.db.executescript(SCHEMA)
+
+    def close(self) -> None:
+        self.db.close()
+
+    def set_meta(self, name: str, value: Any) -> None:
+        self.db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (name, json.dumps(value)))
+
+    def meta(self, name: str, default: Any = None) -> Any:
+        row = self.db.execute("SELECT value FROM meta WHERE name = ?", (name,)).fetchone()
+        return default if row is None else json.loads(row[0])
+
+    def done(self) -> set[str]:
+        return {k for (k,) in self.db.execute("SELECT key FROM runs WHERE status = 'done'")}
+
+    def save(self, record: dict[str, Any]) -> None:
+        """Keep a finished cell: its result file first, then its row (replacing an earlier failed one)."""
+        path = None
+        if record["status"] == "done":
+            rel = Path("runs") / record["case"] / record["algorithm"] / f"{record['seed']}.json"
+            atomic_write(self.dir / rel, record["result"])
+            path = str(rel)
+        prev = self.db.execute("SELECT attempts FROM runs WHERE key = ?", (record["key"],)).fetchone()
+        attempts = 1 if prev is None else prev[0] + 1
+        self.db.execute(
+            "INSERT OR REPLACE INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (record["key"], record["case"], record["algorithm"], record["seed"], record["status"],
+             record.get("error"), json.dumps(record.get("metrics")), path, record.get("task_time"), attempts),
+        )
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Every row, ordered by case, algorithm and seed, metrics decoded."""
+        cur = self.db.execute(
+            "SELECT key, case_name, algorithm, seed, status, error, metrics, result_path, task_time, attempts "
+            "FROM runs ORDER BY case_name, algorithm, seed")
+        names = ("key", "case", "algorithm", "seed", "status", "error", "metrics", "result_path", "task_time",
+                 "attempts")
+        out = []
+        for row in cur:
+            d = dict(zip(names, row, strict=True))
+            d["metrics"] = json.loads(d["metrics"]) if d["metrics"] else None
+            out.append(d)
+        return out

@@ -1,0 +1,230 @@
+"""Studies on Dask: a tiny grid runs, resumes after a killed client, records failures, and is the same for any
+number of workers or a real scheduler; malformed study files are refused with one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from core.cli import main
+from core.study.report import write_report
+from core.study.runner import run_study
+from core.study.spec import load_study, parse_seeds
+from core.study.store import Store
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / "assets" / "configs" / "stephenson1_cycloid.toml"
+
+TINY = f"""
+name = "tiny"
+seeds = "1..3"
+[[algorithms]]
+name = "nsga2"
+pop_size = 20
+[[algorithms]]
+name = "spea2"
+pop_size = 20
+[[cases]]
+name = "subtask2"
+config = "{CONFIG}"
+stages = ["subtask2"]
+start = "stephenson1/X1"
+budget = 100
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "study.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def comparable(rows: list[dict]) -> dict[str, dict]:
+    """Each row's metrics without what depends on the machine's speed."""
+    out = {}
+    for r in rows:
+        m = dict(r["metrics"] or {})
+        m.pop("wall_time", None)
+        out[r["key"]] = {"status": r["status"], **m}
+    return out
+
+
+def report_without_times(directory: Path) -> list[str]:
+    return [ln for ln in (directory / "report.md").read_text().splitlines() if not ln.startswith("| time")]
+
+
+@pytest.fixture(scope="module")
+def reference_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The tiny study, uninterrupted, on a LocalCluster with two workers."""
+    d = tmp_path_factory.mktemp("study")
+    study = load_study(write(d, TINY))
+    summary = run_study(study, str(d / "out"), workers=2, stream=None)
+    assert (summary.total, summary.ran, summary.failed) == (6, 6, 0)
+    write_report(d / "out")
+    return d / "out"
+
+
+def test_a_tiny_study_keeps_one_row_and_one_result_file_per_cell(reference_run: Path):
+    rows = Store(reference_run).rows()
+    assert sorted(r["key"] for r in rows) == sorted(f"subtask2/{a}/{s}" for a in ("nsga2", "spea2") for s in (1, 2, 3))
+    for r in rows:
+        assert r["status"] == "done"
+        result = json.loads((reference_run / r["result_path"]).read_text())
+        assert result["format"] == "clm-design"
+        assert result["config"]["seed"] == r["seed"]
+        m = r["metrics"]
+        assert m["objectives"] == ["h_s", "I"] and 0.0 <= m["feasible_ratio"] <= 1.0
+        assert m["n_eval"] >= 100  # the budget is spent, by whole generations
+    text = (reference_run / "report.md").read_text()
+    assert "## subtask2" in text and "| HV |" in text and "Best picked design" in text
+    assert "Plotly.newPlot" in (reference_run / "report.html").read_text()
+
+
+def test_results_do_not_depend_on_the_number_of_workers(reference_run: Path, tmp_path: Path):
+    study = load_study(write(tmp_path, TINY))
+    run_study(study, str(tmp_path / "one"), workers=1, stream=None)
+    assert comparable(Store(tmp_path / "one").rows()) == comparable(Store(reference_run).rows())
+
+
+def test_a_rerun_skips_finished_cells(reference_run: Path, tmp_path: Path):
+    study = load_study(write(tmp_path, TINY))
+    summary = run_study(study, str(reference_run), workers=1, stream=None)
+    assert (summary.skipped, summary.ran) == (6, 0)
+    assert len(Store(reference_run).rows()) == 6
+
+
+def test_a_failing_task_is_recorded_and_the_study_goes_on(tmp_path: Path):
+    bad = TINY.replace('name = "spea2"\npop_size = 20', 'name = "spea2"\npop_size = 20\noptions = {no_such_option = 1}')
+    study = load_study(write(tmp_path, bad))
+    summary = run_study(study, str(tmp_path / "out"), workers=2, stream=None)
+    assert (summary.ran, summary.failed) == (6, 3)
+    rows = Store(tmp_path / "out").rows()
+    failed = [r for r in rows if r["status"] == "failed"]
+    assert {r["algorithm"] for r in failed} == {"spea2"}
+    assert all("no_such_option" in r["error"] for r in failed)
+    assert sum(r["status"] == "done" for r in rows) == 3
+    # A rerun tries the failed cells again and counts the attempt.
+    run_study(study, str(tmp_path / "out"), workers=1, stream=None)
+    assert {r["attempts"] for r in Store(tmp_path / "out").rows() if r["status"] == "failed"} == {2}
+
+
+def test_resume_after_killing_the_client_loses_nothing_and_matches_an_uninterrupted_run(reference_run: Path,
+                                                                                          tmp_path: Path):
+    study_file = write(tmp_path, TINY.replace("budget = 100", "budget = 100\nbest = \"mse\""))
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    cmd = [sys.executable, "-m", "core.cli", "study", str(study_file), "--out", str(out), "--workers", "1"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    n = 0
+    while time.monotonic() < deadline and proc.poll() is None:
+        if (out / "study.sqlite").exists():
+            with sqlite3.connect(out / "study.sqlite") as db:
+                try:
+                    n = db.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+                except sqlite3.OperationalError:
+                    n = 0
+            if n >= 2:
+                break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)  # the client and its local workers, mid-study
+    proc.wait()
+    kept = Store(out).rows()
+    assert 2 <= len(kept) < 6 and all(r["status"] == "done" for r in kept)
+    summary = run_study(load_study(study_file), str(out), workers=2, stream=None)
+    assert summary.skipped == len(kept) and summary.ran == 6 - len(kept)
+    rows = Store(out).rows()
+    assert len(rows) == 6 and len({r["key"] for r in rows}) == 6
+    assert comparable(rows) == comparable(Store(reference_run).rows())
+    write_report(out)
+    assert report_without_times(out) == report_without_times(reference_run)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_the_same_study_runs_on_a_real_dask_scheduler_and_worker(reference_run: Path, tmp_path: Path):
+    port = free_port()
+    bindir = Path(sys.executable).parent
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    procs = [subprocess.Popen([str(bindir / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                               "--no-dashboard"], cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        procs.append(subprocess.Popen([str(bindir / "dask"), "worker", f"tcp://127.0.0.1:{port}", "--nthreads", "1",
+                                       "--nworkers", "1", "--no-dashboard", "--host", "127.0.0.1"], cwd=ROOT, env=env,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        out = tmp_path / "out"
+        code = main([
+            "study", str(write(tmp_path, TINY)), "--out", str(out), "--scheduler", f"tcp://127.0.0.1:{port}", "--quiet",
+        ])
+        assert code == 0
+        assert comparable(Store(out).rows()) == comparable(Store(reference_run).rows())
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (('name = "spea2"', 'name = "nope"'), "algorithms[1].name: unknown algorithm 'nope'"),
+    (('seeds = "1..3"', 'seeds = "3..1"'), "seeds: empty seed range"),
+    (('seeds = "1..3"', 'seeds = []'), "seeds: no seeds"),
+    (('seeds = "1..3"', 'seeds = "1..99999999999"'), "seeds: seeds must be <="),
+    (('stages = ["subtask2"]', 'stages = ["subtask9"]'), "cases[0].stages[0]: no stage 'subtask9'"),
+    (("budget = 100", "budget = -5"), "cases[0].budget: expected int >= 1"),
+    (("budget = 100", 'budget = "lots"'), "cases[0].budget: expected int, got str"),
+    (('start = "stephenson1/X1"', 'start = "stephenson1/X9"'), "cases[0].start: unknown preset"),
+    (("pop_size = 20\n[[algorithms]]", "pop_size = 20\ncolour = 1\n[[algorithms]]"), "algorithms[0]: "),
+    (('name = "tiny"', 'name = "tiny"\nreference = "moead"'), "reference: 'moead' is not one of"),
+    ((f'config = "{CONFIG}"', 'config = "missing.toml"'), "cases[0].config: no such config file"),
+    (('name = "spea2"', 'name = "nsga2"'), "algorithms[1].name: 'nsga2' is listed twice"),
+])
+def test_a_malformed_study_file_is_refused_with_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str], edit,
+                                                         message):
+    text = TINY.replace(*edit)
+    assert text != TINY
+    code = main(["study", str(write(tmp_path, text)), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("clm: error: ") and message in err, err
+    assert not (tmp_path / "out").exists()  # nothing was started
+
+
+def test_command_line_mistakes_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    study = write(tmp_path, TINY)
+    (tmp_path / "file").write_text("x")
+    for argv in (["study", str(study)], ["study", str(study), "--out", ""],
+                 ["study", str(study), "--out", str(tmp_path / "file")],
+                 ["study", str(study), "--out", str(tmp_path / "o"), "--workers", "0"],
+                 ["study", "report", str(tmp_path)], ["study", "report"], ["study", str(tmp_path / "none.toml"),
+                                                                           "--out", str(tmp_path / "o")],
+                 ["study", str(tmp_path / "file"), "--out", str(tmp_path / "o")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("clm: error: "), (argv, err)
+
+
+def test_seed_ranges():
+    assert parse_seeds("1..20") == tuple(range(1, 21))
+    assert parse_seeds("7") == (7,)
+    assert parse_seeds([3, 1]) == (3, 1)
+    with pytest.raises(ValueError, match="listed twice"):
+        parse_seeds([1, 1])
