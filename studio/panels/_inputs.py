@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 REJECT_DELAY = 0.8
 

@@ -10,7 +10,7 @@ from studio.figures import make_bench_figure
 from studio.state import DesignView
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 
 class BenchPanel:

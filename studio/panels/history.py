@@ -17,7 +17,7 @@ from studio.study import StudyView, status_text
 from studio.tables import history_html
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 NO_BRANCH = "(no branches)"
 

@@ -18,7 +18,7 @@ from studio.panels._inputs import ValidatedNumbers, set_value
 from studio.state import DesignView, assembly_reason, preset_label, presets_for
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 NO_PRESET = "(none)"
 

@@ -8,7 +8,7 @@ from studio.metrics import metrics_html
 from studio.state import DesignView
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 
 class MetricsPanel:

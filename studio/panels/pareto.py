@@ -16,7 +16,7 @@ from studio.figures import make_pareto_figure
 from studio.study import StudyView, status_text
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 # The chart's mode bar: "download as PNG" (rendered by plotly.js in the browser), zoom, pan, reset;
 # nothing that talks to a network service.

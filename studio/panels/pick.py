@@ -28,7 +28,7 @@ from studio.study import StudyView
 from studio.tables import compare_html
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 NONE = "(no candidates yet)"
 

@@ -12,7 +12,7 @@ from studio.panels._inputs import set_value
 from studio.state import MAX_SPEED, Playback
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 # While playing, the angle slider follows the animation at this rate (GUI messages are
 # broadcast to every client, so not at the frame rate).

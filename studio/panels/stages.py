@@ -21,7 +21,7 @@ from studio.study import StudyView
 from studio.tables import box_html
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 FROM_EDITOR = "the design in the editor"
 FROM_PICK = "the previous stage's pick"

@@ -17,7 +17,7 @@ from studio.state import DesignView
 from studio.target import Curve
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 FIELDS = (("length", "L [mm]", "step length of the arch"), ("height", "H [mm]", "height of the arch"),
           ("period", "T [s]", "period of one step cycle (one crank revolution)"))

@@ -13,7 +13,7 @@ from studio.scene import walk_text
 from studio.state import DesignView
 
 if TYPE_CHECKING:
-    from studio.app import Studio
+    from studio.context import StudioContext as Studio
 
 ROBOTS = {"biped module (ψ₂)": "biped", "quadruped (ψ₄)": "quadruped"}
 
