@@ -1,10 +1,11 @@
 """pymoo multi-objective algorithms that handle constraints, selectable by name with settings.
 
-Offered (pymoo 0.6.2; all rank infeasible members by total violation, all reproducible from a
-seed): ``nsga2`` (default), ``nsga3``, ``unsga3``, ``agemoea``, ``agemoea2``, ``smsemoa``,
-``spea2``, ``ctaea``, ``gde3``. Left out: MOEA/D, D-NSGA-II and KGB (pymoo asserts they take no
-constraints), RVEA (keeps infeasible members it should drop), CMOPSO (not reproducible from a
-seed with three objectives), R-NSGA-II/III (need reference points from the user).
+Offered (all rank infeasible members by total violation, all reproducible from a seed): ``nsga2``
+(default; NSGA-II on our array-based core, ``core.optimize.evolve``), and from pymoo 0.6.2
+``nsga2_pymoo`` (pymoo's NSGA-II, the reference it is tested against), ``nsga3``, ``unsga3``,
+``agemoea``, ``agemoea2``, ``smsemoa``, ``spea2``, ``ctaea``, ``gde3``. Left out: MOEA/D, D-NSGA-II
+and KGB (pymoo asserts they take no constraints), RVEA (keeps infeasible members it should drop),
+CMOPSO (not reproducible from a seed with three objectives), R-NSGA-II/III (need reference points).
 
 Every call builds fresh operator instances; nothing mutable is shared between runs.
 """
@@ -159,6 +160,16 @@ def _ref(cls_path: str, ops: Callable[[], dict[str, Any]], fixed_pop: bool = Fal
     return build
 
 
+def _array_nsga2(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.nsga2 import NSGA2
+
+    o = {**ALGORITHMS[spec.name].defaults, **opts}
+    return NSGA2(pop_size=spec.pop_size, seed=seed, crossover_prob=float(o["crossover_prob"]),
+                 crossover_eta=float(o["crossover_eta"]), mutation_prob=float(o.get("mutation_prob", 0.9)),
+                 mutation_prob_var=None if o.get("mutation_prob_var") is None else float(o["mutation_prob_var"]),
+                 mutation_eta=float(o["mutation_eta"]), eliminate_duplicates=bool(o.get("eliminate_duplicates", True)))
+
+
 def _de(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from pymoo.algorithms.moo.gde3 import GDE3
     from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
@@ -182,7 +193,8 @@ _SBX15 = {"crossover_prob": 0.9, "crossover_eta": 15.0, "mutation_eta": 20.0}
 _SBX30 = {"crossover_prob": 1.0, "crossover_eta": 30.0, "mutation_eta": 20.0}
 
 ALGORITHMS: dict[str, AlgorithmInfo] = {
-    "nsga2": AlgorithmInfo("NSGA-II", GA_OPTIONS, _ga(_MOO + "nsga2.NSGA2", _ops_nsga2), _SBX15),
+    "nsga2": AlgorithmInfo("NSGA-II", GA_OPTIONS, _array_nsga2, _SBX15),
+    "nsga2_pymoo": AlgorithmInfo("NSGA-II (pymoo)", GA_OPTIONS, _ga(_MOO + "nsga2.NSGA2", _ops_nsga2), _SBX15),
     "nsga3": AlgorithmInfo("NSGA-III", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "nsga3.NSGA3", _ops_nsga3), _SBX30),
     "unsga3": AlgorithmInfo("U-NSGA-III", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "unsga3.UNSGA3", _ops_unsga3), _SBX30),
     "agemoea": AlgorithmInfo("AGE-MOEA", GA_OPTIONS, _ga(_MOO + "age.AGEMOEA", _ops_age), _SBX15),

@@ -36,15 +36,13 @@ from numpy.typing import NDArray
 from pymoo.core.algorithm import Algorithm
 
 from core.kinematics.design import Design
-from core.optimize import decision, fastpop
+from core.optimize import decision
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm, validate
 from core.optimize.box import Box, global_box, search_box
 from core.optimize.problem import BoxRepair, DesignProblem, ProblemSpec, make_problem
 from core.optimize.result import PickRule, StageResult, versions
 
 F64 = NDArray[np.float64]
-
-fastpop.install()  # pymoo's per-member attribute loops, same values (see core.optimize.fastpop)
 
 
 @dataclass(frozen=True)
@@ -300,8 +298,12 @@ class Stage:
         return self.result()
 
     def _population(self) -> tuple[F64, F64, F64, F64]:
-        pop = None if self.algorithm is None else self.algorithm.pop
         n_con = len(self.spec.problem.constraints)
+        arrays = getattr(self.algorithm, "arrays", None)
+        if arrays is not None:  # an array-based algorithm: no pymoo Population needed
+            return (self.box.decode(arrays.X), np.array(arrays.F, dtype=np.float64),
+                    np.array(arrays.G, dtype=np.float64).reshape(len(arrays), n_con), arrays.cv.copy())
+        pop = None if self.algorithm is None else self.algorithm.pop
         if pop is None or len(pop) == 0:
             n = self.start.mechanism.n_params
             return np.zeros((0, n)), np.zeros((0, self.spec.problem.n_obj)), np.zeros((0, n_con)), np.zeros(0)

@@ -1,0 +1,158 @@
+"""``ArrayAlgorithm``: a pymoo ``Algorithm`` whose generation loop runs on arrays.
+
+Subclasses implement ``_initialize_advance`` and ``_advance`` with :meth:`evaluate` and set
+``self.arrays``; pymoo's ``pop`` and ``opt`` are built from those arrays only when something reads
+them (the API boundary: ``minimize``'s result, a callback), so a generation pays no per-member
+Python objects. Evaluations are counted on pymoo's evaluator, so ``("n_eval", k)`` terminations hold.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from pymoo.core.algorithm import Algorithm
+from pymoo.core.population import Population
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Arrays:
+    """A population as arrays: X ``(n, d)``, F ``(n, m)``, G ``(n, k)``, cv ``(n,)`` (sum of positive G and |H|)."""
+
+    X: F64
+    F: F64
+    G: F64
+    cv: F64
+
+    def __len__(self) -> int:
+        return int(self.X.shape[0])
+
+    def take(self, idx: NDArray[Any]) -> Arrays:
+        return Arrays(self.X[idx], self.F[idx], self.G[idx], self.cv[idx])
+
+    @staticmethod
+    def concat(*parts: Arrays) -> Arrays:
+        return Arrays(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("X", "F", "G", "cv")))
+
+    def population(self) -> Population:
+        """The pymoo Population of these members (F, G, CV and feasibility set as pymoo reads them)."""
+        n = len(self)
+        pop = Population.new("X", self.X, "F", self.F, "G", self.G, "H", np.zeros((n, 0)))
+        cv = self.cv[:, None]
+        for ind, c in zip(pop, cv, strict=True):
+            ind._CV = c
+            ind.evaluated.update(("F", "G", "H", "CV"))
+        return pop
+
+
+class Initialization:
+    """Holds the initial sample: ``sampling`` may be an ``(n, d)`` array (the stage sets one) or None."""
+
+    def __init__(self) -> None:
+        self.sampling: F64 | None = None
+
+
+class ArrayAlgorithm(Algorithm):
+    """Base of the array-based algorithms. ``self.arrays`` is the current (output) population."""
+
+    def __init__(self, pop_size: int = 100, repair: Any = None, **kwargs: Any) -> None:
+        self._arrays: Arrays | None = None
+        self._pop_cache: Population | None = None
+        self._opt_cache: Population | None = None
+        super().__init__(**kwargs)
+        self.pop_size = int(pop_size)
+        self.repair = repair
+        self.initialization = Initialization()
+        self.trace: list[dict[str, float]] = []
+
+    # pymoo's pop/opt, built on demand from the arrays.
+    @property
+    def arrays(self) -> Arrays | None:
+        return self._arrays
+
+    @arrays.setter
+    def arrays(self, value: Arrays | None) -> None:
+        self._arrays = value
+        self._pop_cache = self._opt_cache = None
+
+    @property
+    def pop(self) -> Population | None:
+        if self._pop_cache is None and self._arrays is not None:
+            self._pop_cache = self._arrays.population()
+        return self._pop_cache
+
+    @pop.setter
+    def pop(self, value: Population | None) -> None:
+        self._pop_cache = value  # pymoo resets it to empty/None while initializing; the arrays stay the truth
+
+    @property
+    def opt(self) -> Population | None:
+        if self._opt_cache is None and self._arrays is not None and len(self._arrays):
+            self._opt_cache = self._arrays.take(self.optimum_index()).population()
+        return self._opt_cache
+
+    @opt.setter
+    def opt(self, value: Population | None) -> None:
+        self._opt_cache = value
+
+    def _set_optimum(self) -> None:
+        self._opt_cache = None  # computed when read
+
+    def optimum_index(self) -> NDArray[np.int64]:
+        """The feasible non-dominated members of the output population, else the least infeasible ones."""
+        from core.optimize.evolve.sorting import nd_ranks
+
+        a = self._arrays
+        assert a is not None
+        feas = np.flatnonzero(a.cv <= 0.0)
+        if feas.size:
+            return feas[nd_ranks(a.F[feas]) == 0]
+        return np.flatnonzero(a.cv == a.cv.min())
+
+    # Sampling, repair, evaluation.
+    def initial_X(self) -> F64:
+        s = self.initialization.sampling
+        if s is not None and not isinstance(s, np.ndarray):
+            raise TypeError("an array algorithm samples from an (n, d) array or uniformly (sampling=None)")
+        if s is None:
+            X = self.random_state.uniform(self.problem.xl, self.problem.xu, size=(self.pop_size, self.problem.n_var))
+        else:
+            X = np.asarray(s, dtype=np.float64)
+        return self.repaired(X)
+
+    def repaired(self, X: F64) -> F64:
+        if self.repair is None or len(X) == 0:
+            return X
+        return np.asarray(self.repair._do(self.problem, X), dtype=np.float64)
+
+    def evaluate(self, X: F64) -> Arrays:
+        """Evaluate ``(n, d)`` members through the problem, counted on pymoo's evaluator."""
+        X = np.asarray(X, dtype=np.float64)
+        n = len(X)
+        if n == 0:
+            p = self.problem
+            return Arrays(X.reshape(0, p.n_var), np.zeros((0, p.n_obj)), np.zeros((0, p.n_ieq_constr)), np.zeros(0))
+        out = self.problem.evaluate(X, return_as_dictionary=True)
+        F = np.asarray(out["F"], dtype=np.float64).reshape(n, -1)
+        G = np.asarray(out.get("G", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
+        H = np.asarray(out.get("H", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
+        with np.errstate(invalid="ignore"):
+            cv = np.maximum(G, 0.0).sum(axis=1) + np.abs(H).sum(axis=1)
+        cv = np.where(np.isnan(cv), np.inf, cv)
+        self.evaluator.n_eval += n
+        return Arrays(X, F, G, cv)
+
+    def log(self, **values: float) -> None:
+        """Append this generation's trace row (generation and evaluations added)."""
+        self.trace.append({"gen": float(self.n_iter or 0), "n_eval": float(self.evaluator.n_eval), **values})
+
+    # pymoo's loop: everything happens in advance(), nothing is handed to pymoo's evaluator.
+    def _initialize_infill(self) -> None:
+        return None
+
+    def _infill(self) -> None:
+        return None

@@ -1,0 +1,131 @@
+"""The array-based evolution blocks against small cases computed by hand (spec §8.3 item 1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from core.optimize.evolve import spea2
+from core.optimize.evolve.selection import tournament
+from core.optimize.evolve.sorting import cdp_better, cdp_ranks, crowding, nd_ranks
+from core.optimize.evolve.variation import de_rand_1, ga, polynomial_mutation, sbx
+from core.optimize.evolve.weights import das_dennis, neighbours, pbi, tchebycheff
+
+
+def test_non_dominated_sort_of_a_hand_made_set():
+    F = np.array([[1, 5], [2, 3], [3, 1], [2, 4], [4, 4], [5, 5]], dtype=float)
+    # (2,4) is dominated by (2,3); (4,4) by (2,4); (5,5) by (4,4).
+    assert nd_ranks(F).tolist() == [0, 0, 0, 1, 2, 3]
+
+
+def test_constraint_domination_puts_feasible_fronts_first_then_violation_order():
+    F = np.array([[1, 5], [2, 3], [0, 0], [0, 1], [9, 9]], dtype=float)
+    cv = np.array([0.0, 0.0, 2.0, 0.5, 0.0])
+    # Feasible: (1,5),(2,3) front 0; (9,9) front 1. Infeasible after: cv 0.5 then cv 2.
+    assert cdp_ranks(F, cv).tolist() == [0, 0, 3, 2, 1]
+    assert cdp_ranks(F, np.full(5, 1.0)).tolist() == [0, 0, 0, 0, 0]  # equal violation: one front
+    assert cdp_better(F, cv, np.array([0, 3, 1]), np.array([2, 2, 4])).tolist() == [True, True, True]
+
+
+def test_crowding_of_a_four_point_front():
+    F = np.array([[0, 4], [1, 2], [2, 1], [4, 0]], dtype=float)
+    cd = crowding(F, np.zeros(4, dtype=np.int64))
+    # objective 1 (range 4): (1,2) gets (2-0)/4, (2,1) gets (4-1)/4; objective 2 the mirror image.
+    assert cd[0] == cd[3] == math.inf
+    np.testing.assert_allclose(cd[1:3], [0.5 + 0.75, 0.75 + 0.5])
+    assert crowding(F[:2], np.zeros(2, dtype=np.int64)).tolist() == [math.inf, math.inf]
+
+
+def test_spea2_fitness_of_a_hand_computed_set():
+    F = np.array([[0, 0], [1, 1], [2, 0.5], [0, 2]], dtype=float)
+    # (0,0) dominates all three others: S = 3, R = 3 for each of them; k = floor(sqrt(4)) = 2nd nearest.
+    want = [0 + 1 / (2 + 2), 3 + 1 / (math.sqrt(2) + 2), 3 + 1 / (math.sqrt(4.25) + 2), 3 + 1 / (2 + 2)]
+    np.testing.assert_allclose(spea2.fitness(F), want, rtol=1e-12)
+
+
+def test_spea2_constraint_domination_orders_infeasible_by_violation():
+    F = np.array([[0, 0], [5, 5], [1, 1]], dtype=float)
+    cv = np.array([3.0, 0.0, 1.0])
+    D = spea2.dominance(F, cv)
+    # smaller cv dominates whatever the objectives: (5,5) > (1,1) > (0,0)
+    assert D.tolist() == [[False, False, False], [True, False, True], [True, False, False]]
+
+
+def test_spea2_truncation_drops_the_most_crowded_member():
+    F = np.array([[0, 3], [1, 2], [1.1, 1.9], [3, 0]], dtype=float)
+    # (1,2) and (1.1,1.9) are nearest each other; (1,2) is also nearer its next neighbour (sqrt 2 < 1.556).
+    assert spea2.truncate(F, 3).tolist() == [True, False, True, True]
+    order, fit, mask = spea2.select(F, 3)
+    assert mask.tolist() == [True, False, True, True]
+    assert sorted(order.tolist()) == [0, 2, 3] and np.all(np.diff(fit) >= 0)
+
+
+def test_spea2_select_fills_with_the_best_dominated_when_too_few_are_non_dominated():
+    F = np.array([[0, 0], [1, 1], [2, 2], [3, 3]], dtype=float)
+    order, fit, mask = spea2.select(F, 2)
+    assert order.tolist() == [0, 1] and mask.tolist() == [True, True, False, False]
+
+
+def test_tournament_lower_key_wins_and_ties_go_to_the_first_drawn():
+    keys = (np.array([0, 0, 1, 1]), np.array([5.0, 3.0, 0.0, 0.0]))
+    w = tournament(keys, 400, np.random.default_rng(7))
+    rng = np.random.default_rng(7)
+    a, b = rng.integers(0, 4, 400), rng.integers(0, 4, 400)
+    want = [
+        (x if (keys[0][x], keys[1][x]) <= (keys[0][y], keys[1][y]) else y) for x, y in zip(a, b, strict=True)
+    ]
+    assert w.tolist() == want
+
+
+def test_sbx_without_crossover_returns_the_parents_and_keeps_the_mean_otherwise():
+    rng = np.random.default_rng(1)
+    P1, P2 = rng.uniform(0, 10, (50, 6)), rng.uniform(0, 10, (50, 6))
+    lo, hi = np.full(6, -1e9), np.full(6, 1e9)
+    c1, c2 = sbx(P1, P2, lo, hi, np.random.default_rng(2), prob=0.0)
+    assert np.array_equal(c1, P1) and np.array_equal(c2, P2)
+    c1, c2 = sbx(P1, P2, lo, hi, np.random.default_rng(2))
+    np.testing.assert_allclose(c1 + c2, P1 + P2, rtol=1e-12)
+    assert not np.array_equal(c1, P1)
+
+
+@settings(max_examples=50, deadline=None)
+@given(arrays(np.float64, (8, 5), elements=st.floats(-3, 3)), st.integers(0, 2**32 - 1))
+def test_variation_stays_in_bounds_and_is_reproducible(X, seed):
+    xl, xu = np.full(5, -3.0), np.full(5, 3.0)
+    for op in (
+        lambda r: ga(X[:4], X[4:], xl, xu, r),
+        lambda r: polynomial_mutation(X, xl, xu, r, prob_var=1.0),
+        lambda r: de_rand_1(X[:3], X[3:6], X[5:8], xl, xu, r),
+    ):
+        a, b = op(np.random.default_rng(seed)), op(np.random.default_rng(seed))
+        assert np.array_equal(a, b)
+        assert np.all(a >= xl) and np.all(a <= xu)
+
+
+def test_ga_half_gives_one_child_per_pair():
+    X = np.random.default_rng(0).random((6, 3))
+    assert ga(X[:3], X[3:], np.zeros(3), np.ones(3), np.random.default_rng(0), half=True).shape == (3, 3)
+    assert ga(X[:3], X[3:], np.zeros(3), np.ones(3), np.random.default_rng(0)).shape == (6, 3)
+
+
+@pytest.mark.parametrize(("n", "m", "count"), [(50, 2, 50), (100, 2, 100), (200, 2, 200), (100, 3, 91),
+                                               (200, 3, 190)])
+def test_das_dennis_counts(n, m, count):
+    W = das_dennis(n, m)
+    assert W.shape == (count, m)
+    np.testing.assert_allclose(W.sum(axis=1), 1.0, atol=1e-5)
+    assert W.min() >= 1e-6
+
+
+def test_neighbourhoods_and_scalarisations():
+    W = das_dennis(5, 2)
+    B = neighbours(W, 2)
+    assert B[:, 0].tolist() == list(range(5))
+    assert tchebycheff(np.array([1.0, 2.0]), np.array([0.5, 0.5]), np.zeros(2)) == 1.0
+    # PBI on the weight direction itself: d2 = 0, d1 = the distance along it.
+    np.testing.assert_allclose(pbi(np.array([1.0, 1.0]), np.array([0.5, 0.5]), np.zeros(2)), math.sqrt(2))
