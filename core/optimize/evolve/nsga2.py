@@ -2,7 +2,8 @@
 elimination, and rank-and-crowding survival under constraint domination (Deb et al. 2002).
 
 Options are the names the stage configs use (``core.optimize.algorithms.GA_OPTIONS``), with pymoo's NSGA-II
-defaults: SBX probability 0.9 per pair and η 15, mutation probability 0.9 per member, 1/d per variable, η 20.
+defaults and operators: bounded SBX (probability 0.9 per pair, η 15), polynomial mutation (probability 0.9 per
+member, 1/d per variable, η 20).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.sorting import cdp_ranks, crowding
-from core.optimize.evolve.variation import polynomial_mutation, sbx
+from core.optimize.evolve.variation import polynomial_mutation, sbx_bounded
 
 F64 = np.ndarray
 MAX_REFILLS = 100
@@ -72,7 +73,8 @@ class NSGA2(ArrayAlgorithm):
         for _ in range(MAX_REFILLS):
             k = (n - have + 1) // 2
             par = tournament((self.rank, -self.crowd), 2 * k, rng)
-            c1, c2 = sbx(a.X[par[0::2]], a.X[par[1::2]], xl, xu, rng, self.crossover_prob, self.crossover_eta)
+            c1, c2 = sbx_bounded(a.X[par[0::2]], a.X[par[1::2]], xl, xu, rng, self.crossover_prob,
+                                 self.crossover_eta)
             C = np.vstack([c1, c2])
             mutate = rng.random(len(C)) < self.mutation_prob
             C[mutate] = polynomial_mutation(C[mutate], xl, xu, rng, self.mutation_prob_var, self.mutation_eta)

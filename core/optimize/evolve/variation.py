@@ -31,6 +31,28 @@ def sbx(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, prob: floa
     return np.clip(c1, xl, xu), np.clip(c2, xl, xu)
 
 
+def sbx_bounded(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, prob: float = 0.9,
+                eta: float = 15.0, prob_var: float = 0.5, prob_bin: float = 0.5) -> tuple[F64, F64]:
+    """Deb's bounded SBX as pymoo's NSGA-II does it (``pymoo.operators.crossover.sbx.cross_sbx``): the spread
+    factor accounts for the distance to the bounds, so children near a bound are as likely as elsewhere.
+
+    A pair crosses with probability ``prob``; a variable with ``prob_var``; children swap per variable with
+    ``prob_bin``.
+    """
+    from pymoo.operators.crossover.sbx import cross_sbx
+
+    k = len(P1)
+    X = np.stack([P1, P2]).astype(np.float64)
+    Q = X.copy()
+    do = rng.random(k) < prob
+    m = int(do.sum())
+    if m:
+        Q[:, do] = cross_sbx(X[:, do], np.asarray(xl, dtype=np.float64), np.asarray(xu, dtype=np.float64),
+                             np.full((m, 1), eta), np.full((m, 1), prob_var), np.full((m, 1), prob_bin),
+                             random_state=rng)
+    return Q[0], Q[1]
+
+
 def polynomial_mutation(X: F64, xl: F64, xu: F64, rng: np.random.Generator, prob_var: float | None = None,
                         eta: float = 20.0) -> F64:
     """Deb's bounded polynomial mutation, each variable with probability ``prob_var`` (default 1/d)."""
