@@ -59,6 +59,8 @@ class Initialization:
 class ArrayAlgorithm(Algorithm):
     """Base of the array-based algorithms. ``self.arrays`` is the current (output) population."""
 
+    is_initialized: bool
+
     def __init__(self, pop_size: int = 100, repair: Any = None, **kwargs: Any) -> None:
         self._arrays: Arrays | None = None
         self._pop_cache: Population | None = None
@@ -151,6 +153,24 @@ class ArrayAlgorithm(Algorithm):
         self.trace.append({"gen": float(self.n_iter or 0), "n_eval": float(self.evaluator.n_eval), **values})
 
     # pymoo's loop: everything happens in advance(), nothing is handed to pymoo's evaluator.
+    def advance(self, infills: Any = None, **kwargs: Any) -> Any:
+        """pymoo's ``Algorithm.advance`` without building ``opt`` for its return value every generation
+        (it returns the result once terminated, else None; an ask/tell user reads ``opt`` when needed)."""
+        self.off = infills
+        if not self.is_initialized:
+            self.n_iter = 1
+            self._initialize_advance(infills=infills, **kwargs)
+            self.is_initialized = True
+            self._post_advance()
+        else:
+            val = self._advance(infills=infills, **kwargs)
+            if val is None or val:
+                self._post_advance()
+        if self.termination.has_terminated():
+            self.finalize()
+            return self.result()
+        return None
+
     def _initialize_infill(self) -> None:
         return None
 

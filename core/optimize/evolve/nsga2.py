@@ -71,7 +71,7 @@ class NSGA2(ArrayAlgorithm):
         out: list[F64] = []
         have = 0
         for _ in range(MAX_REFILLS):
-            k = (n - have + 1) // 2
+            k = (n - have + 1) // 2 + (n - have) // 20 + 1  # a few spare pairs: duplicates rarely need a refill
             par = tournament((self.rank, -self.crowd), 2 * k, rng)
             c1, c2 = sbx_bounded(a.X[par[0::2]], a.X[par[1::2]], xl, xu, rng, self.crossover_prob,
                                  self.crossover_eta)

@@ -1,11 +1,12 @@
 """Non-dominated sorting under constraint domination (CDP), and crowding distance.
 
-Both are numba kernels: at n = 400 merged members and 3 objectives a sort takes ~0.2 ms, several times
-less than moocore's or pymoo's for these sizes (measured in benchmarks/algorithms.py).
+Sorting is moocore's ``pareto_rank`` (0.05 ms at n = 400 and 3 objectives on this machine, against 0.1 ms for
+pymoo's and 1.1 ms for a plain O(m n^2) numba kernel); crowding is a numba kernel.
 """
 
 from __future__ import annotations
 
+import moocore
 import numba
 import numpy as np
 from numpy.typing import NDArray
@@ -14,58 +15,12 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
 
-@numba.njit(cache=True)
-def _nd_ranks(F: F64) -> I64:  # pragma: no cover - compiled
-    n, m = F.shape
-    dominates = np.zeros((n, n), dtype=np.bool_)
-    count = np.zeros(n, dtype=np.int64)
-    for i in range(n):
-        for j in range(i + 1, n):
-            bi = False
-            bj = False
-            for k in range(m):
-                if F[i, k] < F[j, k]:
-                    bi = True
-                elif F[j, k] < F[i, k]:
-                    bj = True
-            if bi and not bj:
-                dominates[i, j] = True
-                count[j] += 1
-            elif bj and not bi:
-                dominates[j, i] = True
-                count[i] += 1
-    rank = np.full(n, -1, dtype=np.int64)
-    current = np.empty(n, dtype=np.int64)
-    nxt = np.empty(n, dtype=np.int64)
-    n_cur = 0
-    for i in range(n):
-        if count[i] == 0:
-            current[n_cur] = i
-            n_cur += 1
-    r = 0
-    while n_cur > 0:
-        n_next = 0
-        for a in range(n_cur):
-            i = current[a]
-            rank[i] = r
-            for j in range(n):
-                if dominates[i, j]:
-                    count[j] -= 1
-                    if count[j] == 0:
-                        nxt[n_next] = j
-                        n_next += 1
-        current, nxt = nxt, current
-        n_cur = n_next
-        r += 1
-    return rank
-
-
 def nd_ranks(F: F64) -> I64:
     """``(n,)`` Pareto front index of each member (0 = non-dominated); NaN objectives count as +inf."""
     F = np.asarray(F, dtype=np.float64)
     if F.shape[0] == 0:
         return np.zeros(0, dtype=np.int64)
-    return _nd_ranks(np.ascontiguousarray(np.where(np.isnan(F), np.inf, F)))
+    return np.asarray(moocore.pareto_rank(np.where(np.isnan(F), np.inf, F)), dtype=np.int64)
 
 
 def cdp_ranks(F: F64, cv: F64) -> I64:

@@ -1,0 +1,109 @@
+"""Algorithms on pymoo's constrained test problems: problems by name, reference fronts shipped with the
+package, and IGD and HV measured as PlatEMO measures them (spec §1.7). Used by ``clm moea`` and
+``benchmarks/algorithms.py``.
+
+Both indicators use the feasible non-dominated members of the final population only; IGD is NaN when
+there is none. HV normalises by ``(F - fmin) / ((fmax - fmin) * 1.1)`` with ``fmin = min(min F, 0)`` and
+``fmax`` the reference front's maximum, drops points with a coordinate > 1, reference point (1, ..., 1).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import moocore
+import numpy as np
+from numpy.typing import NDArray
+from pymoo.core.problem import Problem
+from pymoo.indicators.igd import IGD
+from pymoo.optimize import minimize
+
+from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+from core.optimize.decision import pareto_front
+
+F64 = NDArray[np.float64]
+FRONTS = Path(__file__).resolve().parent / "evolve" / "fronts"
+DASCMOP_DIFFICULTY = 8  # PlatEMO's (0.5, 0.5, 0.5) for DAS-CMOP3-9 (spec §8.1)
+PROBLEMS = (*(f"mw{i}" for i in range(1, 15)), *(f"ctp{i}" for i in range(1, 9)),
+            *(f"dascmop{i}" for i in range(1, 10)), "zdt1", "zdt2", "zdt3")
+MAX_EVALS = 10**8
+
+
+def test_problem(name: str) -> Problem:
+    """A pymoo test problem by name (``mw1``…``mw14``, ``ctp1``…``ctp8``, ``dascmop1``…``dascmop9`` at
+    difficulty 8, ``zdt1``…``zdt3``); ValueError naming the known ones otherwise."""
+    from pymoo.problems import get_problem
+
+    key = name.lower()
+    if key not in PROBLEMS:
+        raise ValueError(f"unknown problem {name!r}; known: mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3")
+    return get_problem(key, DASCMOP_DIFFICULTY) if key.startswith("dascmop") else get_problem(key)
+
+
+def reference_front(name: str) -> F64 | None:
+    """The problem's true Pareto front: a shipped file (MW, CTP), pymoo's analytic one (ZDT), else None."""
+    key = name.lower()
+    for f in (FRONTS / f"{key.upper()}.pf", FRONTS / f"{key}.pf"):
+        if f.is_file():
+            return np.loadtxt(f, ndmin=2)
+    if key.startswith("zdt"):
+        return np.asarray(test_problem(key).pareto_front(), dtype=np.float64)
+    return None
+
+
+def feasible_front(F: F64, cv: F64 | None = None) -> F64:
+    F = np.asarray(F, dtype=np.float64).reshape(len(F), -1) if len(F) else np.zeros((0, 1))
+    ok = np.isfinite(F).all(axis=1) if cv is None else (np.asarray(cv) <= 0) & np.isfinite(F).all(axis=1)
+    F = F[ok]
+    return F[pareto_front(F)] if len(F) else F
+
+
+def igd(F: F64, pf: F64 | None) -> float:
+    """Mean distance from each reference point to its nearest member of F (NaN without members or front)."""
+    if pf is None or len(F) == 0:
+        return float("nan")
+    return float(IGD(pf)(np.asarray(F, dtype=np.float64)))
+
+
+def hv_platemo(F: F64, pf: F64 | None) -> float:
+    """PlatEMO's normalised hypervolume (module doc); 0 without members, NaN without a front."""
+    if pf is None:
+        return float("nan")
+    F = np.asarray(F, dtype=np.float64)
+    if len(F) == 0:
+        return 0.0
+    fmin = np.minimum(F.min(axis=0), 0.0)
+    fmax = pf.max(axis=0)
+    Fn = (F - fmin) / ((fmax - fmin) * 1.1)
+    Fn = Fn[(Fn <= 1.0).all(axis=1)]
+    if len(Fn) == 0:
+        return 0.0
+    return float(moocore.hypervolume(Fn, ref=np.ones(F.shape[1])))
+
+
+def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: dict[str, Any] | None = None
+        ) -> dict[str, Any]:
+    """Run an algorithm on a test problem for ``evals`` function evaluations; IGD, HV, evaluations, feasible
+    count and wall time."""
+    if not 4 <= pop <= 100_000:
+        raise ValueError(f"--pop must be between 4 and 100000, got {pop}")
+    if not 1 <= evals <= MAX_EVALS:
+        raise ValueError(f"--evals must be between 1 and {MAX_EVALS}, got {evals}")
+    if not 0 <= seed <= 2**32 - 1:
+        raise ValueError(f"--seed must be between 0 and {2**32 - 1}, got {seed}")
+    p = test_problem(problem)
+    alg = make_algorithm(AlgorithmSpec(algorithm, pop, options or {}), p.n_obj, seed)
+    t = time.perf_counter()
+    res = minimize(p, alg, ("n_eval", evals), seed=seed)
+    wall = time.perf_counter() - t
+    pop_ = res.pop
+    F = np.asarray(pop_.get("F"), dtype=np.float64)
+    cv = np.asarray(pop_.get("CV"), dtype=np.float64).reshape(-1)
+    front = feasible_front(F, cv)
+    pf = reference_front(problem)
+    return {"problem": problem.lower(), "algorithm": algorithm, "pop": pop, "seed": seed,
+            "igd": igd(front, pf), "hv": hv_platemo(front, pf), "n_eval": int(res.algorithm.evaluator.n_eval),
+            "feasible": int((cv <= 0).sum()), "front_size": int(len(front)), "wall_time": wall,
+            "reference_points": 0 if pf is None else int(len(pf))}

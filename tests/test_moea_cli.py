@@ -1,0 +1,46 @@
+"""``clm moea`` on pymoo's test problems: PlatEMO's indicators, offline fronts, one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from core.cli import main
+from core.optimize.moea import PROBLEMS, hv_platemo, igd, reference_front
+
+
+def test_indicators_by_hand():
+    pf = np.array([[0.0, 1.0], [1.0, 0.0]])
+    # IGD: each reference point's distance to the one member (0.5, 0.5) is sqrt(0.5).
+    assert igd(np.array([[0.5, 0.5]]), pf) == pytest.approx(np.sqrt(0.5))
+    assert np.isnan(igd(np.zeros((0, 2)), pf))
+    # HV: (0.5, 0.5) normalised by fmax * 1.1 = 1.1 -> (0.4545..), box to (1, 1): (1 - 0.5/1.1)^2.
+    assert hv_platemo(np.array([[0.5, 0.5]]), pf) == pytest.approx((1 - 0.5 / 1.1) ** 2)
+    assert hv_platemo(np.array([[2.0, 2.0]]), pf) == 0.0  # outside the normalised box
+
+
+@pytest.mark.parametrize("name", [p for p in PROBLEMS if p.startswith(("mw", "ctp"))])
+def test_every_mw_and_ctp_front_ships_with_the_package(name):
+    pf = reference_front(name)
+    assert pf is not None and pf.ndim == 2 and len(pf) >= 5 and np.isfinite(pf).all()
+
+
+def test_clm_moea_prints_json_with_the_budget_spent(capsys):
+    assert main(["moea", "--problem", "ctp2", "--pop", "20", "--evals", "400", "--seed", "3", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_eval"] == 400 and out["problem"] == "ctp2" and out["algorithm"] == "nsga2"
+    assert 0 <= out["feasible"] <= 20 and out["reference_points"] > 0
+
+
+@pytest.mark.parametrize("argv", [
+    ["moea", "--problem", "mw99"], ["moea", "--problem", "mw1", "--algorithm", "nope"],
+    ["moea", "--problem", "mw1", "--evals", "0"], ["moea", "--problem", "mw1", "--evals", "-5"],
+    ["moea", "--problem", "mw1", "--pop", "0"], ["moea", "--problem", "mw1", "--seed", "-1"],
+    ["moea", "--problem", "mw1", "--seed", str(10**30)], ["moea"], ["moea", "--problem", "mw1", "--pop", "x"],
+])
+def test_bad_arguments_are_one_line_errors(argv, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("clm: error: ") and err.count("\n") == 1
