@@ -8,10 +8,11 @@ import threading
 import numpy as np
 import pytest
 
-from core.formats.config import DesignRun, choose, next_feasible, parse_config, run_design
+from core.formats.config import parse_config
 from core.optimize import Pipeline, search_box
 from core.optimize.objectives import shape_metrics
 from core.optimize.result import StageResult, dumps
+from core.optimize.run import DesignRun, choose, next_feasible, run_design
 
 CONFIG = {
     "name": "tiny",
@@ -69,8 +70,8 @@ def test_picks_satisfy_their_stage_constraints(run: DesignRun) -> None:
 def test_the_pick_prefers_members_feasible_for_the_next_stage(run: DesignRun) -> None:
     s1 = run.results[0]
     nxt = parse_config(CONFIG).stages[1]
-    from core.formats.config import placeholder
     from core.optimize.problem import make_problem
+    from core.optimize.run import placeholder
 
     mask = next_feasible(s1, make_problem(nxt.problem, **placeholder(nxt.options)))
     assert mask[s1.picked]

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from core.formats.config import DesignRun, choose, parse_config, run_design
+from core.formats.config import parse_config
 from core.optimize.multistart import (
     SEED_STRIDE,
     Chain,
@@ -24,6 +24,7 @@ from core.optimize.multistart import (
 )
 from core.optimize.problem import Constraint
 from core.optimize.result import dumps, encode
+from core.optimize.run import DesignRun, choose, run_design
 
 CONFIG: dict[str, Any] = {
     "name": "tiny multi-start",

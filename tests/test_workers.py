@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 from test_multistart import CONFIG
 
-from core.formats.config import parse_config, run_design
+from core.formats.config import parse_config
 from core.optimize import workers
 from core.optimize.pipeline import Pipeline
 from core.optimize.problem import ASSEMBLY, ProblemSpec, make_problem
 from core.optimize.result import dumps, encode
+from core.optimize.run import run_design
 
 
 def square(job: int, callback: Any, cancel: Any) -> int:

@@ -22,9 +22,10 @@ from typing import Any, TextIO
 import numpy as np
 
 from core.cli import CLIError
-from core.formats.config import DesignRun, load_config, run_design
+from core.formats.config import load_config
 from core.optimize.multistart import MultiStart, where_name
 from core.optimize.result import StageResult, dumps
+from core.optimize.run import DesignRun, run_design
 from core.optimize.stage import Progress
 
 BAR = 24

@@ -16,9 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from core.formats.config import parse_config, run_design
+from core.formats.config import parse_config
 from core.optimize.decision import pareto_front
 from core.optimize.result import dumps
+from core.optimize.run import run_design
 
 PICK_METRICS = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
 # Function evaluations per generation of an algorithm, in units of the population size.
