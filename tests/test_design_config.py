@@ -117,6 +117,12 @@ BAD = [
     ("stages.2.options.f9_max", 1.0, "stages[2].options.f9_max: unknown key"),
     ("stages.2.options.place", "somewhere", "stages[2].options: place must be"),
     ("stages.2.options.eq30", 1, "stages[2].options.eq30: expected true or false"),
+    ("seed", 10**30, "seed: must be <= 4294967295"),
+    ("n_samples", 100_000_000, "n_samples: must be <= 100000"),
+    ("target.L", float("inf"), "target.L: must be finite"),
+    ("stages.0.n_gen", 0, "stages[0].n_gen: must be >= 1, got 0"),
+    ("stages.0.box", 5, "stages[0].box: expected a string or a table, got an integer"),
+    ("workers", "many", "workers: 'many' is not one of auto"),
     ("stages.0.algorithm.pop_size", 0, "stages[0].algorithm.pop_size: must be >= 2"),
     ("baseline.n_gen", 5, "baseline: only for the DP methods"),
 ]

@@ -21,9 +21,11 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import msgspec
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from core.formats.typed import decode
 from core.kinematics import mechanisms
 from core.kinematics.design import Design
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
@@ -33,6 +35,27 @@ F64 = NDArray[np.float64]
 DESIGN_KEYS = ("mechanism", "params", "output")
 INFO_KEYS = ("name", "title", "source", "units")
 OUTPUT_KEYS = ("k", "ox", "oy", "mirror")
+
+
+class OutputFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    """The output stage of a design file: leg = O + k R(mirror) (P - O)."""
+
+    k: float = 1.0
+    ox: float = 0.0
+    oy: float = 0.0
+    mirror: bool = False
+
+
+class DesignFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    """A design: a mechanism by name, its parameters by name or in order (mm, rad), an optional output stage."""
+
+    mechanism: str
+    params: dict[str, float] | list[float]
+    output: OutputFile | None = None
+    name: str | None = None
+    title: str | None = None
+    source: str | None = None
+    units: dict[str, str] | None = None
 
 
 def _number(label: str, unit: str, value: object) -> float:
@@ -170,6 +193,7 @@ def design_from_dict(data: object) -> Design:
                 raise ValueError(f"{k} is given in {u!r} but {mech.name} takes it in {expected[k]}")
     params = params_from(mech, data["params"])
     output = output_from(data["output"]) if "output" in data else IDENTITY
+    decode(dict(data), DesignFile)  # what the checks above, which name parameters with units, leave out
     return Design(mech, params, output)
 
 

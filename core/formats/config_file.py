@@ -1,0 +1,104 @@
+"""The design-run configuration file as msgspec Structs (see ``core.formats.config`` for the format).
+
+The Structs type every key and its range; ``core.formats.config`` decodes a file through them and then
+checks what depends on more than one key (mechanisms, problems, picks, multi-start blocks).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from msgspec import Meta, Struct
+
+from core.formats.typed import MAX_SAMPLES, MAX_SEED
+from core.optimize.run import BACKENDS, METHODS
+
+Pos = Annotated[float, Meta(gt=0)]
+NonNeg = Annotated[float, Meta(ge=0)]
+PosInt = Annotated[int, Meta(ge=1)]
+
+
+class Output(Struct, forbid_unknown_fields=True, frozen=True):
+    k: float = 1.0
+    ox: float = 0.0
+    oy: float = 0.0
+    mirror: Any = False  # checked by hand: "must be true or false, got 'yes'" reads better for a flag
+
+
+class Target(Struct, forbid_unknown_fields=True, frozen=True):
+    curve: str = "cycloid"
+    L: Pos | None = None
+    H: Pos | None = None
+    T: Pos | None = None
+
+
+class Rtclm(Struct, forbid_unknown_fields=True, frozen=True):
+    h6: Pos | None = None
+    h4: Pos | None = None
+
+
+class Algorithm(Struct, forbid_unknown_fields=True, frozen=True):
+    name: str | None = None
+    pop_size: Annotated[int, Meta(ge=2)] | None = None
+    options: dict[str, Any] = {}
+
+
+class Box(Struct, forbid_unknown_fields=True, frozen=True):
+    s: Pos | None = None  # both required: checked by hand to say what each one is
+    d: Pos | None = None
+
+
+class Screen_(Struct, forbid_unknown_fields=True, frozen=True):
+    after: str
+    keep: PosInt
+    by: str
+
+
+class Starts_(Struct, forbid_unknown_fields=True, frozen=True):
+    n: PosInt
+    select: str
+    until: str | None = None
+    where: dict[str, Any] | None = None
+    screen: Screen_ | None = None
+
+
+class Stage(Struct, forbid_unknown_fields=True, frozen=True):
+    name: str
+    problem: str | None = None
+    box: Literal["global", "subtask1", "subtask2", "subtask3"] | Box = "global"
+    n_gen: PosInt = 100
+    pick: str | Annotated[int, Meta(ge=0)] = "knee"
+    pick_where: dict[str, Any] | None = None
+    starts: Starts_ | None = None
+    stop_below: list[NonNeg] | None = None
+    fixed: list[str] = []
+    seed_start: bool = True
+    options: dict[str, Any] = {}
+    algorithm: Algorithm | None = None
+
+
+class Baseline(Struct, forbid_unknown_fields=True, frozen=True):
+    n_points: PosInt | None = None
+    pop_size: PosInt | None = None
+    n_gen: PosInt | None = None
+    maxiter: PosInt | None = None
+
+
+class ConfigFile(Struct, forbid_unknown_fields=True, frozen=True):
+    """A design run: a mechanism or preset, a target, an algorithm and its stages (docs/optimization.md)."""
+
+    name: str = "design"
+    method: Literal[METHODS] = "hierarchical"  # type: ignore[valid-type]
+    mechanism: str | None = None
+    preset: str | None = None
+    output: Output | None = None
+    seed: Annotated[int, Meta(ge=0, le=MAX_SEED)] = 0
+    n_samples: Annotated[int, Meta(ge=8, le=MAX_SAMPLES)] = 360
+    backend: Literal[BACKENDS] = "auto"  # type: ignore[valid-type]
+    target: Target | None = None
+    rtclm: Rtclm | None = None
+    bounds: dict[str, Any] = {}
+    algorithm: Algorithm = Algorithm()
+    stages: list[Stage] | None = None
+    baseline: Baseline | None = None
+    workers: Literal["auto"] | PosInt = "auto"

@@ -1,0 +1,50 @@
+"""JSON Schemas of the file formats, generated from their msgspec Structs, for editors that validate files.
+
+    python -m core.formats.schemas [DIR]     # (re)write DIR/*.schema.json (default assets/schemas)
+
+``tests/test_schemas.py`` checks that the committed files equal freshly generated ones.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from core.formats.config_file import ConfigFile
+from core.formats.design import DesignFile
+
+DEFAULT_DIR = Path(__file__).resolve().parents[2] / "assets" / "schemas"
+FORMATS: dict[str, tuple[Any, str]] = {
+    "design-config": (ConfigFile, "A CLM Studio design-run configuration (clm design CONFIG.toml)"),
+    "design": (DesignFile, "A CLM Studio design (clm simulate --design FILE.json)"),
+}
+
+
+def schema(name: str) -> dict[str, Any]:
+    t, title = FORMATS[name]
+    s: dict[str, Any] = msgspec.json.schema(t)
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "title": title, **s}
+
+
+def text(name: str) -> str:
+    return json.dumps(schema(name), indent=2, sort_keys=True) + "\n"
+
+
+def write_all(directory: str | Path = DEFAULT_DIR) -> list[Path]:
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    out = []
+    for name in FORMATS:
+        p = d / f"{name}.schema.json"
+        p.write_text(text(name))
+        out.append(p)
+    return out
+
+
+if __name__ == "__main__":
+    for p in write_all(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_DIR):
+        print(p)
