@@ -32,8 +32,9 @@ from core.formats.config import load_config  # noqa: E402
 from core.kinematics.memory import keep_freed_memory  # noqa: E402
 from core.kinematics.presets import get  # noqa: E402
 from core.optimize.algorithms import AlgorithmSpec  # noqa: E402
+from core.optimize.design_config import DesignConfig  # noqa: E402
 from core.optimize.objectives import shape_metrics  # noqa: E402
-from core.optimize.run import DesignConfig, DesignRun, run_design  # noqa: E402
+from core.optimize.run import DesignRun, run_design  # noqa: E402
 
 CONFIGS = ROOT / "assets" / "configs"
 PAPER_TIMES = {"predesign": 2.18 * 60, "subtask1": 0.93 * 60, "subtask2": 1.08 * 60, "subtask3": 3.50 * 60}

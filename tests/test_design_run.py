@@ -10,9 +10,10 @@ import pytest
 
 from core.formats.config import parse_config
 from core.optimize import Pipeline, search_box
+from core.optimize.lineage import choose, next_feasible
 from core.optimize.objectives import shape_metrics
 from core.optimize.result import StageResult, dumps
-from core.optimize.run import DesignRun, choose, next_feasible, run_design
+from core.optimize.run import DesignRun, run_design
 
 CONFIG = {
     "name": "tiny",
@@ -70,8 +71,8 @@ def test_picks_satisfy_their_stage_constraints(run: DesignRun) -> None:
 def test_the_pick_prefers_members_feasible_for_the_next_stage(run: DesignRun) -> None:
     s1 = run.results[0]
     nxt = parse_config(CONFIG).stages[1]
+    from core.optimize.design_config import placeholder
     from core.optimize.problem import make_problem
-    from core.optimize.run import placeholder
 
     mask = next_feasible(s1, make_problem(nxt.problem, **placeholder(nxt.options)))
     assert mask[s1.picked]

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from core.formats.config import parse_config
+from core.optimize.lineage import choose
 from core.optimize.multistart import (
     SEED_STRIDE,
     Chain,
@@ -24,7 +25,7 @@ from core.optimize.multistart import (
 )
 from core.optimize.problem import Constraint
 from core.optimize.result import dumps, encode
-from core.optimize.run import DesignRun, choose, run_design
+from core.optimize.run import DesignRun, run_design
 
 CONFIG: dict[str, Any] = {
     "name": "tiny multi-start",

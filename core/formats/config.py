@@ -54,15 +54,10 @@ from core.optimize import problem as problem_registry
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, validate
 from core.optimize.baselines import DP_METHODS, BaselineSettings
 from core.optimize.box import SUBTASK_STEPS
+from core.optimize.design_config import PAPER_OUTPUT, DesignConfig, StageConfig, placeholder
 from core.optimize.multistart import Screen, Starts
 from core.optimize.problem import Constraint, ProblemSpec, make_problem
 from core.optimize.result import PickRule
-from core.optimize.run import (
-    PAPER_OUTPUT,
-    DesignConfig,
-    StageConfig,
-    placeholder,
-)
 from core.optimize.subtasks import LIMIT_METRICS, parse_relative
 
 

@@ -11,7 +11,7 @@ from typing import Annotated, Any, Literal
 from msgspec import Meta, Struct
 
 from core.formats.typed import MAX_SAMPLES, MAX_SEED
-from core.optimize.run import BACKENDS, METHODS
+from core.optimize.design_config import BACKENDS, METHODS
 
 Pos = Annotated[float, Meta(gt=0)]
 NonNeg = Annotated[float, Meta(ge=0)]

@@ -13,106 +13,25 @@ The file format that produces a :class:`DesignConfig` is ``core.formats.config``
 
 from __future__ import annotations
 
-import inspect
 import threading
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from core.kinematics import presets
-from core.kinematics.design import Design
-from core.kinematics.model import Mechanism
-from core.optimize import decision
-from core.optimize import problem as problem_registry
-from core.optimize.algorithms import AlgorithmSpec
-from core.optimize.baselines import DP_METHODS, BaselineResult, BaselineSettings, run_baseline
-from core.optimize.multistart import SEED_STRIDE, Chain, MultiStart, Starts, rank_chains, select_chain
+from core.optimize.baselines import DP_METHODS, BaselineResult, run_baseline
+from core.optimize.design_config import DesignConfig, placeholder
+from core.optimize.lineage import run_block, run_stage
+from core.optimize.multistart import MultiStart
 from core.optimize.pipeline import Pipeline
-from core.optimize.problem import Constraint, ProblemSpec, make_problem
-from core.optimize.result import PickRule, StageResult, best_metric
-from core.optimize.stage import Progress, StageSpec
-from core.optimize.subtasks import LIMIT_METRICS, resolve_limits
+from core.optimize.result import StageResult
+from core.optimize.stage import Progress
 from core.optimize.workers import resolve as resolve_workers
-from core.optimize.workers import run as run_jobs
-from core.optimize.workers import start_method
 
 F64 = NDArray[np.float64]
-
-METHODS = ("hierarchical", "single_level", *DP_METHODS)
-BACKENDS = ("auto", "numpy", "numba")
-SHAPE_PROBLEMS = ("predesign", "subtask1", "subtask2", "subtask3", "single_level", "dp")
-PAPER_OUTPUT = presets.PAPER_PANTOGRAPH
-
-# ---------------------------------------------------------------------------------------
-# Parsed configuration.
-
-
-@dataclass(frozen=True)
-class StageConfig:
-    """One ``[[stages]]`` entry, validated; ``options`` may still hold relative limits."""
-
-    name: str
-    problem: str
-    s: float | None
-    d: float
-    n_gen: int
-    pick: PickRule
-    algorithm: AlgorithmSpec
-    options: Mapping[str, Any]
-    stop_below: tuple[float, ...] | None = None
-    fixed: tuple[str, ...] = ()
-    seed_start: bool = True
-    pick_where: tuple[Constraint, ...] = ()
-    starts: Starts | None = None
-
-    def problem_spec(self) -> ProblemSpec:
-        """The stage's problem with relative limits replaced by non-binding placeholders."""
-        return make_problem(self.problem, **placeholder(self.options))
-
-    def spec(self, seed: int, options: Mapping[str, Any] | None = None) -> StageSpec:
-        """The :class:`StageSpec` with resolved options (default: ``options`` as given, which must be numbers)."""
-        prob = make_problem(self.problem, **dict(self.options if options is None else options))
-        return StageSpec(self.name, prob, s=self.s, d=self.d, algorithm=self.algorithm, n_gen=self.n_gen, seed=seed,
-                         fixed=self.fixed, seed_start=self.seed_start, stop_below=self.stop_below,
-                         pick=self.pick)
-
-
-@dataclass(frozen=True)
-class DesignConfig:
-    """A validated design configuration (see the module doc).
-
-    Attributes:
-        name: label of the run.
-        method: one of ``METHODS``.
-        mechanism: the topology (with the configuration's ``[bounds]`` applied).
-        start: the one-member start design (a preset, or the middle of the bounds).
-        seed: run seed (stage k uses seed + k).
-        stages: the stages (hierarchical / single_level).
-        baseline: DP baseline settings (DP methods).
-        source: the parsed TOML as a dict (recorded in results).
-        path: the configuration file, if read from one.
-        workers: processes a multi-start block's chains run in (0: every available core). The
-            results do not depend on it: every chain's stages are seeded.
-    """
-
-    name: str
-    method: str
-    mechanism: Mechanism
-    start: Design
-    seed: int
-    stages: tuple[StageConfig, ...] = ()
-    baseline: BaselineSettings = field(default_factory=BaselineSettings)
-    source: Mapping[str, Any] = field(default_factory=dict)
-    path: str | None = None
-    workers: int = 0
-
-
-# ---------------------------------------------------------------------------------------
-# Running.
 
 
 @dataclass
@@ -208,255 +127,6 @@ def _row(label: str, method: str, total: float, r: StageResult, i: int, status: 
     return row
 
 
-def placeholder(options: Mapping[str, Any], absolute: bool = False) -> dict[str, Any]:
-    """Options with relative limits replaced by numbers.
-
-    Args:
-        options: stage options.
-        absolute: keep the absolute entries of a list of limits (``[1.0, "start+0.5"]`` -> 1.0), so
-            the next stage's absolute thresholds can steer a pick; otherwise (and for a lone relative
-            limit) a huge number, a constraint that never binds.
-    """
-    out = {}
-    for k, v in options.items():
-        if k in LIMIT_METRICS and isinstance(v, (str, list)):
-            nums = [float(x) for x in v if not isinstance(x, str)] if isinstance(v, list) and absolute else []
-            v = max(nums) if nums else 1e300
-        out[k] = v
-    return out
-
-
-def start_metrics(stage: StageConfig, design: Design) -> dict[str, F64]:
-    """The metrics of a stage's start design under that stage's problem (to resolve relative limits)."""
-    return dict(make_problem(stage.problem, **placeholder(stage.options)).evaluate_metrics(design))
-
-
-def resolved_spec(stage: StageConfig, start: Design, seed: int) -> StageSpec:
-    """A stage's spec with relative limits resolved against its start design.
-
-    A relative limit on a metric the start does not have (it does not assemble) falls back to
-    the problem's default (the paper's absolute threshold).
-    """
-    opts = dict(stage.options)
-    relative = [k for k, v in opts.items() if isinstance(v, (str, list)) and k in LIMIT_METRICS]
-    if relative:
-        metrics = start_metrics(stage, start)
-        defaults = inspect.signature(problem_registry._FACTORIES[stage.problem]).parameters
-        for k in relative:
-            if not np.isfinite(metrics[LIMIT_METRICS[k]]).all():
-                opts[k] = defaults[k].default
-        opts = resolve_limits(opts, metrics)
-    return stage.spec(seed, opts)
-
-
-def next_feasible(result: StageResult, nxt: ProblemSpec | None) -> NDArray[np.bool_]:
-    """``(pop,)`` members feasible here that also satisfy the next stage's constraints on shared metrics."""
-    ok = result.feasible.copy()
-    if nxt is None:
-        return ok
-    for c in nxt.constraints:
-        if c.metric in result.metrics:
-            with np.errstate(invalid="ignore"):
-                ok &= np.nan_to_num(c.value(result.metrics[c.metric]), nan=np.inf) <= 0.0
-    return ok
-
-
-def where_mask(result: StageResult, where: tuple[Constraint, ...]) -> NDArray[np.bool_]:
-    """``(pop,)`` members whose metrics meet every limit (a NaN metric never does)."""
-    ok = np.ones(result.pop, dtype=bool)
-    for c in where:
-        with np.errstate(invalid="ignore"):
-            ok &= np.nan_to_num(c.value(result.metrics[c.metric]), nan=np.inf) <= 0.0
-    return ok
-
-
-def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None = None,
-           where: tuple[Constraint, ...] = ()) -> int:
-    """A pick rule applied to the members in ``mask`` (all when None or when no member is in it).
-
-    ``where`` (a stage's ``pick_where``) narrows the candidates first: the rule applies to the
-    feasible members that meet it and are in ``mask``, else to those that meet it, else it is
-    ignored. With no feasible member at all, the least-violation member among those that
-    assemble (``violation == 0``: their metrics are defined, so the next stage can start from them).
-    """
-    if not isinstance(rule, (int, np.integer)) and not result.feasible.any() and "violation" in result.metrics:
-        built = np.flatnonzero(result.metrics["violation"] == 0.0)
-        if built.size:
-            return int(built[np.argmin(result.cv[built])])
-    if where and not isinstance(rule, (int, np.integer)):
-        meets = where_mask(result, where) & result.feasible
-        if meets.any():
-            both = meets if mask is None else meets & mask
-            mask = both if both.any() else meets
-    if isinstance(rule, (int, np.integer)) or mask is None or not mask.any() or mask.all():
-        return result.choose(rule)
-    idx = np.flatnonzero(mask)
-    F, cv = result.F[idx], result.cv[idx]
-    if isinstance(rule, str) and rule.startswith("best:"):
-        name = rule[5:]
-        if name in result.objectives:
-            j = decision.best_per_objective(F, cv)[result.objectives.index(name)]
-            return int(idx[j])
-        best = best_metric(result.metrics[name], mask & result.feasible) if name in result.metrics else None
-        return best if best is not None else result.choose(rule)
-    sl = decision.shortlist(F, cv)
-    k = int(rule.split(":", 1)[1]) if isinstance(rule, str) and ":" in rule else 0
-    return int(idx[sl.knees[min(k, len(sl.knees) - 1)]]) if sl.knees else result.choose(rule)
-
-
-def _run_stage(config: DesignConfig, pipe: Pipeline, k: int, pick: int | None, seed: int,
-               callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> StageResult:
-    """Run stage k of ``pipe`` from member ``pick`` of stage k-1 with its automatic pick; record and return it.
-
-    A cancelled stage is recorded without a pick.
-    """
-    stage_cfg = config.stages[k]
-    start, _ = pipe.parent(k, pick)
-    spec = resolved_spec(stage_cfg, start, seed)
-    res = pipe.stage(k, pick, spec=spec, callback=callback).run(cancel=cancel)
-    if res.status not in ("complete", "stopped"):
-        pipe.record(k, res)
-        return res
-    nxt = None
-    if k + 1 < len(config.stages):
-        # The next stage's absolute thresholds steer the pick (relative ones hold for every candidate).
-        s = config.stages[k + 1]
-        nxt = make_problem(s.problem, **placeholder(s.options, absolute=True))
-    mask = next_feasible(res, nxt)
-    if res.status == "stopped" and spec.stop_below is not None:
-        # The stage stopped because members met its thresholds: pick among those.
-        met = res.feasible & (res.F <= np.asarray(spec.stop_below)).all(axis=1)
-        mask = mask & met if (mask & met).any() else met
-    res = res.with_pick(choose(res, stage_cfg.pick, mask, stage_cfg.pick_where))
-    pipe.record(k, res)
-    return res
-
-
-class _Chain:
-    """A chain of a multi-start block being run: its own pipeline and what it picked so far."""
-
-    def __init__(self, config: DesignConfig, pipe: Pipeline, first: int, last: int, j: int) -> None:
-        self.config, self.j = config, j
-        self.pipe = Pipeline(pipe.stages, pipe.start, pipe.results[:first])  # shares the stages before the block
-        self.seeds = tuple(config.seed + k + SEED_STRIDE * j for k in range(first, last + 1))
-        self.first, self.last = first, last
-        self.picks: list[int | None] = []
-        self.metrics: list[dict[str, float]] = []
-        self.params: list[dict[str, float]] = []
-        self.time = 0.0
-        self.status = "running"
-        self.feasible = False
-
-    def run(self, upto: int, pick: int | None, callback: Callable[[Progress], None] | None,
-            cancel: threading.Event | None) -> bool:
-        """Run the chain's next stages up to stage ``upto``; False if one was cancelled."""
-        if self.picks:
-            pick = self.picks[-1]
-        tagged = None if callback is None else _tag(callback, self.j)
-        for k in range(self.first + len(self.picks), upto + 1):
-            res = _run_stage(self.config, self.pipe, k, pick, self.seeds[k - self.first], tagged, cancel)
-            self.time += float(res.timings["total"])
-            pick = res.picked
-            self.picks.append(pick)
-            if pick is None:
-                self.metrics.append({})
-                self.params.append({})
-                self.status = "cancelled"
-                return False
-            self.metrics.append({n: float(v[pick]) for n, v in res.metrics.items()})
-            self.params.append(res.named(pick))
-            self.feasible = bool(res.feasible[pick])
-        if upto == self.last:
-            self.status = "complete"
-        return True
-
-    def reached(self, upto: int) -> bool:
-        """Whether the chain has a pick at stage ``upto``."""
-        return len(self.picks) == upto - self.first + 1 and self.picks[-1] is not None
-
-    def record(self) -> Chain:
-        # A chain still running when the run stopped counts as cancelled.
-        status = "cancelled" if self.status == "running" else self.status
-        return Chain(self.j, self.seeds, status, tuple(self.picks), tuple(self.metrics), tuple(self.params),
-                     self.feasible and status == "complete", self.time)
-
-
-def _tag(callback: Callable[[Progress], None], j: int) -> Callable[[Progress], None]:
-    return lambda p: callback(replace(p, chain=j))
-
-
-def _chain_job(job: tuple[_Chain, int, int | None], callback: Callable[[Progress], None] | None,
-               cancel: Any) -> _Chain:
-    """Run one chain up to a stage (in a worker process, or here); the chain as it then is."""
-    chain, upto, pick = job
-    if cancel is None or not cancel.is_set():  # a chain not started before the cancel stays unrecorded
-        chain.run(upto, pick, callback, cancel)
-    return chain
-
-
-def _run_chains(chains: list[_Chain], upto: int, pick: int | None, workers: int,
-                callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> list[_Chain]:
-    if resolve_workers(workers, len(chains)) > 1 and start_method() == "fork":
-        _compile_here(chains[0], upto, pick)
-    return run_jobs(_chain_job, [(c, upto, pick) for c in chains], workers, callback, cancel)
-
-
-def _compile_here(chain: _Chain, upto: int, pick: int | None) -> None:
-    """Evaluate (and repair) the chain's start design under each of its stages' problems here, so
-    that forked workers inherit every numba kernel the chains use (on a cold cache each worker
-    would otherwise compile them all itself)."""
-    start, _ = chain.pipe.parent(chain.first + len(chain.picks), pick if not chain.picks else chain.picks[-1])
-    for stage in chain.config.stages[chain.first + len(chain.picks) : upto + 1]:
-        spec = stage.problem_spec()
-        spec.evaluate_metrics(start)
-        if spec.repair is not None:
-            spec.repair(start)
-
-
-def _run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None, starts: Starts,
-               callback: Callable[[Progress], None] | None,
-               cancel: threading.Event | None) -> tuple[MultiStart, Pipeline, bool]:
-    """A multi-start block from stage ``first``: its record, the pipeline to go on with, and
-    whether it completed (else that pipeline is the first cancelled chain's).
-
-    The chains run in ``config.workers`` processes. After a cancel, the record holds the chains
-    that had started (the cancelled ones with their partial picks).
-    """
-    names = [s.name for s in config.stages]
-    last = names.index(starts.until, first)
-    upto = last if starts.screen is None else names.index(starts.screen.after, first)
-    chains = [_Chain(config, pipe, first, last, j) for j in range(starts.n)]
-
-    def stopped(run: list[_Chain], k: int) -> tuple[MultiStart, Pipeline, bool] | None:
-        # Unless every chain of this round reached stage k: the first cancelled one is chosen.
-        short = sorted((c.status != "cancelled", c.j) for c in run if not c.reached(k))
-        if not short:
-            return None
-        c = next(x for x in run if x.j == short[0][1])
-        records = tuple(x.record() for x in chains if x.picks)
-        return MultiStart(starts, tuple(names[first : last + 1]), first, last, records, c.j), c.pipe, False
-
-    chains = _run_chains(chains, upto, pick, config.workers, callback, cancel)
-    if (out := stopped(chains, upto)) is not None:
-        return out
-    going = chains
-    if starts.screen is not None:
-        order = rank_chains([c.metrics[-1] for c in chains], [c.feasible for c in chains], starts.screen.by)
-        kept = set(order[: starts.screen.keep])
-        going = [c for c in chains if c.j in kept]
-        for c in chains:
-            if c.j not in kept:
-                c.status = "dropped"
-        going = _run_chains(going, last, None, config.workers, callback, cancel)
-        chains = [next((g for g in going if g.j == c.j), c) for c in chains]
-        if (out := stopped(going, last)) is not None:
-            return out
-    won = going[select_chain([c.metrics[-1] for c in going], [c.feasible for c in going], starts.select,
-                             starts.where)]
-    record = MultiStart(starts, tuple(names[first : last + 1]), first, last, tuple(c.record() for c in chains), won.j)
-    return record, won.pipe, True
-
-
 def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None = None,
                cancel: threading.Event | None = None) -> DesignRun:
     """Run a configuration headless.
@@ -480,13 +150,13 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
     while k < len(config.stages):
         starts = config.stages[k].starts
         if starts is None:
-            res = _run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
+            res = run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
             if res.picked is None:
                 return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
                                  multistart=tuple(blocks), workers=used)
             pick, k = res.picked, k + 1
             continue
-        block, pipe, done = _run_block(config, pipe, k, pick, starts, callback, cancel)
+        block, pipe, done = run_block(config, pipe, k, pick, starts, callback, cancel)
         blocks.append(block)
         if not done:
             return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
