@@ -4,6 +4,6 @@ from __future__ import annotations
 
 import sys
 
-from studio.app import main
+from studio.serve import main
 
 sys.exit(main())

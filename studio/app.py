@@ -10,10 +10,7 @@ package), so the studio works offline. Ctrl-C stops it.
 
 from __future__ import annotations
 
-import argparse
 import json
-import os
-import sys
 import threading
 import time
 from pathlib import Path
@@ -22,11 +19,12 @@ from typing import Literal
 import numpy as np
 import viser
 
-from core.kinematics.memory import keep_freed_memory
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
 from studio.exports import design_json, figure_html, slug, trajectories_csv
+from studio.frames import DEFAULT_ASPECT, FPS
 from studio.geometry import frame_index, inset_positions
+from studio.inset import Animator, CandidateInset, InsetMarker
 from studio.panels.bench import BenchPanel
 from studio.panels.files import FilesPanel
 from studio.panels.history import HistoryPanel
@@ -38,9 +36,11 @@ from studio.panels.playback import PlaybackPanel
 from studio.panels.stages import StagesPanel
 from studio.panels.target import TargetPanel
 from studio.panels.walking import WalkingPanel
-from studio.scene import DEFAULT_ASPECT, FPS, Animator, CandidateInset, InsetMarker, MechanismScene
+from studio.runner import Runner
+from studio.scene import MechanismScene
+from studio.session_file import save_session
 from studio.state import DesignView, Session
-from studio.study import Runner, StudyView, study_view
+from studio.study_view import StudyView, study_view
 
 BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
@@ -401,60 +401,3 @@ class Studio:
         self.stages.close()
         self.server.stop()
 
-
-def save_session(session: Session, path: Path) -> None:
-    """Write a session as JSON via a temporary file and an atomic rename."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(session.to_dict(), indent=2) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
-
-
-def load_session(path: Path) -> Session:
-    """A session from a JSON file; ValueError naming the problem."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc})") from None
-    try:
-        return Session.from_dict(data)
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
-
-
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="clm-studio", description="Design studio for closed-chain legged mechanisms.")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
-    p.add_argument("--session", type=Path, metavar="FILE",
-                   help="session JSON to open if it exists, and to save to after every change")
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Run the studio until Ctrl-C; returns the exit status."""
-    args = _parser().parse_args(argv)
-    keep_freed_memory()
-    try:
-        if args.session is not None and args.session.exists():
-            session = load_session(args.session)
-        else:
-            session = Session.default()
-        if args.session is not None:
-            save_session(session, args.session)  # fail now, not on the first autosave
-        studio = Studio(session, args.host, args.port, session_path=args.session)
-    except (OSError, ValueError) as exc:
-        print(f"clm-studio: error: {exc}", file=sys.stderr)
-        return 2
-    print(f"CLM Studio: {studio.url}  (Ctrl-C to stop)", flush=True)
-    try:
-        threading.Event().wait()
-    except KeyboardInterrupt:
-        pass
-    finally:
-        studio.close()
-    print("CLM Studio stopped.", flush=True)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -11,8 +11,8 @@ from typing import Literal, Protocol
 import viser
 
 from studio.chains import ChainStage
+from studio.runner import Runner
 from studio.state import Session
-from studio.study import Runner
 
 
 class StudioContext(Protocol):

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from core.kinematics import mechanisms, presets
 from core.kinematics.model import Ground
 from studio.figures import make_bench_figure
+from studio.frames import build_frames
 from studio.geometry import (
     EDGE_CRANK,
     EDGE_GROUND,
@@ -26,7 +27,6 @@ from studio.geometry import (
     link_segments,
     to_scene,
 )
-from studio.scene import build_frames
 from studio.state import Session, build_view
 
 

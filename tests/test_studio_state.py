@@ -366,7 +366,7 @@ def test_feature_labels_name_every_feature_point_once_merging_coincident_ones(se
 
 
 def test_clm_studio_refuses_a_malformed_session_file_with_one_line(tmp_path, capsys) -> None:
-    from studio.app import main
+    from studio.serve import main
 
     bad = tmp_path / "s.json"
     bad.write_text('{"format": "clm-studio-session", "version": 1, "design": {"mechanism": "x"}}')
@@ -379,7 +379,8 @@ def test_clm_studio_refuses_a_malformed_session_file_with_one_line(tmp_path, cap
 
 
 def test_the_studio_autosaves_its_session_after_every_change(tmp_path) -> None:
-    from studio.app import Studio, load_session
+    from studio.app import Studio
+    from studio.session_file import load_session
 
     path = tmp_path / "session.json"
     studio = Studio(Session.default(), host="127.0.0.1", port=0, session_path=path)

@@ -13,8 +13,10 @@ from core.kinematics import presets
 from core.optimize.box import SUBTASK_STEPS, periodic_mask
 from core.optimize.result import StageResult
 from studio.chains import RunSettings, chain_for, find, stage_spec
+from studio.runner import Runner
 from studio.state import Session
-from studio.study import Runner, Study, study_view
+from studio.study import Study
+from studio.study_view import study_view
 from studio.target import TargetSpec
 
 X3 = presets.get("stephenson1/X3")
@@ -279,6 +281,7 @@ def test_restore_takes_over_a_loaded_session_but_not_while_a_stage_runs(session:
 
 def test_the_studio_saves_the_session_after_every_generation_and_every_pick(tmp_path, monkeypatch) -> None:
     import studio.app as app
+    from studio.session_file import load_session
 
     path = tmp_path / "session.json"
     saved: list[dict] = []
@@ -300,13 +303,13 @@ def test_the_studio_saves_the_session_after_every_generation_and_every_pick(tmp_
         generations = [s["study"]["pipeline"]["results"][0]["generation"] for s in saved
                        if s["study"]["pipeline"] and s["study"]["pipeline"]["results"][0]]
         assert set(range(1, 16)) <= set(generations)  # every generation reached the disk
-        r = app.load_session(path).study.result("subtask2")
+        r = load_session(path).study.result("subtask2")
         assert r.status == "complete" and r.generation == 15
         member = next(i for i in range(r.pop) if i != r.picked)
         saved.clear()
         studio.pick("subtask2", member, None)
         assert saved and saved[-1]["study"]["shown"]["subtask2"] == member
-        back = app.load_session(path)
+        back = load_session(path)
         assert back.study.shown_member("subtask2") == member
         np.testing.assert_array_equal(back.view.design.params[0], r.X[member])
     finally:

@@ -13,7 +13,8 @@ import viser
 
 from studio.candidates import history_rows
 from studio.panels._inputs import set_value
-from studio.study import StudyView, status_text
+from studio.study import status_text
+from studio.study_view import StudyView
 from studio.tables import history_html
 
 if TYPE_CHECKING:

@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING
 import plotly.graph_objects as go
 
 from studio.figures import make_pareto_figure
-from studio.study import StudyView, status_text
+from studio.study import status_text
+from studio.study_view import StudyView
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio

@@ -24,7 +24,7 @@ from studio.candidates import (
     start_design,
 )
 from studio.panels._inputs import set_value
-from studio.study import StudyView
+from studio.study_view import StudyView
 from studio.tables import compare_html
 
 if TYPE_CHECKING:

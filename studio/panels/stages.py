@@ -17,7 +17,7 @@ from core.optimize.algorithms import ALGORITHMS
 from core.optimize.problem import problem_names
 from studio.chains import MAX_GEN, MAX_POP, RunSettings, find
 from studio.panels._inputs import ValidatedNumbers, set_value
-from studio.study import StudyView
+from studio.study_view import StudyView
 from studio.tables import box_html
 
 if TYPE_CHECKING:

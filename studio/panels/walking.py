@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
+from studio.frames import walk_text
 from studio.panels._inputs import ValidatedNumbers, set_value
-from studio.scene import walk_text
 from studio.state import DesignView
 
 if TYPE_CHECKING:

@@ -1,0 +1,234 @@
+"""What the scene draws, as arrays: the linkage and its paths per animation frame, and the walking view.
+
+Pure functions of a DesignView (no viser): ``build_frames`` and ``build_walk_scene`` are tested without a browser.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.kinematics.model import Ground
+from studio import palette
+from studio.geometry import (
+    EDGE_CRANK,
+    EDGE_GROUND,
+    SCENE_SCALE,
+    Composition,
+    Layout,
+    closed_polyline,
+    compose,
+    hold_last_valid,
+    layout,
+    link_edges,
+    link_segments,
+    to_scene,
+)
+from studio.state import DesignView
+from studio.walking import WalkFrames
+
+F32 = NDArray[np.float32]
+U8 = NDArray[np.uint8]
+
+FOV = math.radians(40.0)  # the camera's vertical field of view
+DEFAULT_ASPECT = 1.3
+FPS = 40.0
+# Lines and markers sit slightly above the grid so they never z-fight with it.
+Z_LINES, Z_MARKERS = 0.0005, 0.001
+
+
+@dataclass(frozen=True)
+class SceneFrames:
+    """Scene-ready geometry of one design (metres, float32).
+
+    Attributes:
+        links: ``(n_samples, n_edges, 2, 3)`` link segments per crank sample.
+        link_colors: ``(n_edges, 2, 3)`` uint8 colour per segment end.
+        joints: ``(n_samples, n_moving, 3)`` moving joints per sample.
+        pivots: ``(n_ground, 3)`` ground pivots.
+        pivot_names: names of the ground pivots.
+        foot: ``(n_samples, 1, 3)`` tracked point, design frame.
+        leg_foot: ``(n_samples, 1, 3)`` tracked point, leg frame (leg-view local coordinates).
+        path, target: ``(m, 2, 3)`` design-frame path and target segments.
+        leg_path, leg_target: ``(m, 2, 3)`` leg-frame path and target segments (leg-view local).
+        leg_path_colors: ``(m, 2, 3)`` uint8: stance and swing in two colours (one colour without
+            feature points).
+        leg_axes: ``(k, 2, 3)`` leg-view frame: a border and the ground line y_g = y(t1).
+        features: ``(n_features, 3)`` feature-point markers (leg-view local).
+        feature_names: their labels (``t1``, ``t6=t7=t8``).
+        layout: where the views sit (mm).
+        marker: marker size (m), scaled with the drawing.
+        composition: where the walking view and the candidates inset sit (mm).
+        walk: the walking view's scene geometry, or None without a walking trajectory.
+    """
+
+    links: F32
+    link_colors: U8
+    joints: F32
+    pivots: F32
+    pivot_names: tuple[str, ...]
+    foot: F32
+    leg_foot: F32
+    path: F32
+    target: F32
+    leg_path: F32
+    leg_target: F32
+    leg_path_colors: U8
+    leg_axes: F32
+    features: F32
+    feature_names: tuple[str, ...]
+    layout: Layout
+    marker: float
+    composition: Composition
+    walk: WalkScene | None = None
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.links.shape[0])
+
+
+@dataclass(frozen=True)
+class WalkScene:
+    """Scene-ready walking view (walk-local coordinates, metres; the /walk frame carries the offset).
+
+    Attributes:
+        body: ``(n_samples, 1 + n_legs, 2, 3)`` trunk and hip-to-foot legs per crank sample.
+        body_colors: ``(1 + n_legs, 2, 3)`` uint8.
+        feet: ``(n_samples, n_legs, 3)`` feet per crank sample; feet_colors ``(n_legs, 3)``.
+        trails: ``(m, 2, 3)`` the feet's paths over one stride; trail_colors ``(m, 2, 3)``.
+        ground: ``(1, 2, 3)`` the ground line; obstacle ``(4, 2, 3)`` the obstacle's outline.
+        hit: a foot path enters the obstacle where it stands.
+        text: h_m, h_bar, psi2, psi4 of the design.
+        title_at, text_at: label positions (walk-local, m).
+    """
+
+    body: F32
+    body_colors: U8
+    feet: F32
+    feet_colors: U8
+    trails: F32
+    trail_colors: U8
+    ground: F32
+    obstacle: F32
+    hit: bool
+    text: str
+    title_at: tuple[float, float, float]
+    text_at: tuple[float, float, float]
+
+
+def walk_text(view: DesignView) -> str:
+    """The walking metrics shown beside the walking view."""
+    ev, (a, b) = view.evaluation, view.walk.obstacle
+    return (f"hₘ {float(ev.h_m[0]):.1f} mm · h̄ {float(ev.h_bar[0]):.1f} mm · "
+            f"ψ₂({a:g}, {b:g}) {100.0 * float(ev.psi2[0]):.1f} % · ψ₄({a:g}, {b:g}) {100.0 * float(ev.psi4[0]):.1f} %")
+
+
+def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
+    """Scene geometry of a walking view (pure)."""
+    n_legs = wf.feet.shape[1]
+    leg_rgb = np.array([palette.LEGS[j % len(palette.LEGS)] for j in range(n_legs)])
+    body = np.concatenate([wf.trunk[:, None], wf.legs], axis=1)
+    body_colors = np.repeat(vertex_colours(np.concatenate([[palette.TRUNK], leg_rgb]))[:, None, :], 2, axis=1)
+    seg = np.stack([wf.trails[:, :-1], wf.trails[:, 1:]], axis=2)  # (n_legs, m - 1, 2, 2)
+    trail_colors = np.repeat(np.repeat(vertex_colours(leg_rgb)[:, None, None, :], seg.shape[1], 1), 2, 2)
+    x0, y0, x1, y1 = wf.bounds
+    pad = 0.04 * (x1 - x0)
+    ground = np.array([[[x0 - pad, wf.ground], [x1 + pad, wf.ground]]])
+    r = wf.obstacle
+    outline = np.stack([r, np.roll(r, -1, axis=0)], axis=1)
+    return WalkScene(
+        body=_lift(to_scene(body), Z_LINES),
+        body_colors=body_colors,
+        feet=_lift(to_scene(wf.feet), Z_MARKERS),
+        feet_colors=vertex_colours(leg_rgb),
+        trails=_lift(to_scene(seg.reshape(-1, 2, 2)), 0.5 * Z_LINES),
+        trail_colors=trail_colors.reshape(-1, 2, 3),
+        ground=to_scene(ground),
+        obstacle=_lift(to_scene(outline), Z_LINES),
+        hit=wf.hit,
+        text=walk_text(view),
+        title_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.16 * (y1 - y0)) * SCENE_SCALE, 0.0),
+        text_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.02 * (y1 - y0)) * SCENE_SCALE, 0.0),
+    )
+
+
+def _lift(p: F32, z: float) -> F32:
+    out = p.copy()
+    out[..., 2] = z
+    return out
+
+
+def vertex_colours(rgb: NDArray[np.integer]) -> U8:
+    """sRGB colours (0-255) for per-vertex colour arrays.
+
+    viser converts a node's single colour from sRGB but passes per-vertex colours through as
+    linear values, which then display lighter; converting here makes both look the same.
+    """
+    c = np.asarray(rgb, dtype=np.float64) / 255.0
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return np.round(lin * 255.0).astype(np.uint8)
+
+
+def build_frames(view: DesignView) -> SceneFrames:
+    """Precompute everything the scene draws for a design view (pure; no server)."""
+    mech = view.design.mechanism
+    sol = view.solution
+    assert sol.joints is not None, "the studio solves with joints=True"
+    joints = sol.joints[0]
+    edges = link_edges(mech)
+    colours = vertex_colours(np.array([palette.LINK, palette.CRANK, palette.GROUND]))
+    kind_colour = np.where(edges.kinds[:, None] == EDGE_GROUND, 2, np.where(edges.kinds[:, None] == EDGE_CRANK, 1, 0))
+    link_colors = np.repeat(colours[kind_colour[:, 0]][:, None, :], 2, axis=1)
+    is_ground = np.array([isinstance(s, Ground) for s in mech.steps])
+    point, leg = sol.point[0], sol.leg[0]
+    lay = layout(np.concatenate([joints.reshape(-1, 2), view.target_design]), np.concatenate([leg, view.target_leg]))
+    g = lay.leg
+    pad = 0.06 * max(g[2] - g[0], g[3] - g[1])
+    x0, y0, x1, y1 = g[0] - pad, g[1] - pad, g[2] + pad, g[3] + pad
+    border = np.array([[[x0, y0], [x1, y0]], [[x1, y0], [x1, y1]], [[x1, y1], [x0, y1]], [[x0, y1], [x0, y0]]])
+    # Ground line at the landing height y_g = y(t1) (spec §5); the x axis without feature points.
+    y_g = view.features[0][1][1] if view.features else 0.0
+    axis = np.array([[[x0, y_g], [x1, y_g]]]) if y0 < y_g < y1 else np.zeros((0, 2, 2))
+    # Stance and swing colours per segment i -> i + 1, keeping only segments with finite ends.
+    seg = np.stack([leg, np.roll(leg, -1, axis=0)], axis=1)
+    keep = np.isfinite(seg).all(axis=(1, 2))
+    stance = view.stance if view.stance is not None else np.ones(len(leg), dtype=bool)
+    seg_colour = vertex_colours(np.where(stance[:, None], np.array(palette.STANCE), np.array(palette.SWING)))
+    if view.stance is None:
+        seg_colour[:] = vertex_colours(np.array(palette.PATH))
+    feats = np.array([xy for _, xy in view.features], dtype=np.float64).reshape(-1, 2)
+    extent = max(lay.scene[2] - lay.scene[0], lay.scene[3] - lay.scene[1])
+    # viser needs finite arrays: where the mechanism does not assemble, hold its last assembled
+    # pose; if it never assembles, collapse everything onto the first ground pivot.
+    hold = hold_last_valid(sol.valid[0])
+    if hold is None:
+        pivot = np.nan_to_num(joints[0, int(np.argmax(is_ground))])
+        pose = np.broadcast_to(pivot, joints.shape).copy()
+        foot, leg_foot = pose[:, 0], np.broadcast_to(view.design.output.apply(pivot), leg.shape)
+    else:
+        pose, foot, leg_foot = joints[hold], point[hold], leg[hold]
+    wf = view.walking
+    return SceneFrames(
+        links=_lift(to_scene(link_segments(pose, edges.pairs)), Z_LINES),
+        link_colors=link_colors,
+        joints=_lift(to_scene(pose[:, ~is_ground]), Z_MARKERS),
+        pivots=_lift(to_scene(pose[0, is_ground]), Z_MARKERS),
+        pivot_names=tuple(n for n, gnd in zip(mech.joint_names, is_ground, strict=True) if gnd),
+        foot=_lift(to_scene(foot[:, None, :]), 2 * Z_MARKERS),
+        leg_foot=_lift(to_scene(leg_foot[:, None, :]), 2 * Z_MARKERS),
+        path=_lift(to_scene(closed_polyline(point)), Z_LINES),
+        target=_lift(to_scene(closed_polyline(view.target_design)), Z_LINES),
+        leg_path=_lift(to_scene(seg[keep]), Z_LINES),
+        leg_target=_lift(to_scene(closed_polyline(view.target_leg)), Z_LINES),
+        leg_path_colors=np.repeat(seg_colour[keep][:, None, :], 2, axis=1),
+        leg_axes=to_scene(np.concatenate([border, axis])),
+        features=_lift(to_scene(feats), Z_MARKERS),
+        feature_names=tuple(name for name, _ in view.features),
+        layout=lay,
+        marker=0.01 * extent * SCENE_SCALE,
+        composition=compose(lay, None if wf is None else wf.bounds),
+        walk=None if wf is None else build_walk_scene(wf, view),
+    )

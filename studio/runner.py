@@ -1,0 +1,108 @@
+"""Runs a stage on a worker thread: one generation at a time, recorded into the study, cancellable."""
+
+from __future__ import annotations
+
+import threading
+import traceback
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+from core.optimize.result import encode
+from core.optimize.stage import Progress
+from studio.study import RunPlan, RunStatus, Study, status_text
+
+
+class Runner:
+    """Runs one stage at a time in a worker thread.
+
+    Args:
+        lock: the session lock guarding ``study``.
+        study: returns the current study (it may be replaced by a session load between runs).
+        on_generation: called in the worker after every generation (already recorded).
+        on_finish: called in the worker when the run ends (recorded, status updated).
+    """
+
+    def __init__(self, lock: threading.RLock, study: Callable[[], Study],
+                 on_generation: Callable[[Progress], None], on_finish: Callable[[], None]) -> None:
+        self._lock = lock
+        self._study = study
+        self._on_generation = on_generation
+        self._on_finish = on_finish
+        self._cancel = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    @property
+    def busy(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def start(self, plan_fn: Callable[[Study], RunPlan]) -> RunPlan:
+        """Plan and start a run under the lock; ValueError if one is running or the plan fails."""
+        with self._lock:
+            study = self._study()
+            if study.status.running or self.busy:
+                raise ValueError("a stage is already running; wait for it or press Stop")
+            plan = plan_fn(study)
+            study.begin(plan)
+            self._cancel = threading.Event()
+            self._thread = threading.Thread(target=self._work, args=(study, plan, self._cancel),
+                                            name=f"clm-studio-{plan.stage.name}", daemon=True)
+            self._thread.start()
+            return plan
+
+    def stop(self) -> bool:
+        """Ask the run to stop after the current generation; False if nothing runs."""
+        with self._lock:
+            study = self._study()
+            if not study.status.running:
+                return False
+            self._cancel.set()
+            study.status = replace(study.status, state="stopping", message="stopping after this generation")
+            study.touch()
+            return True
+
+    def join(self, timeout: float | None = None) -> None:
+        t = self._thread
+        if t is not None:
+            t.join(timeout)
+
+    def _work(self, study: Study, plan: RunPlan, cancel: threading.Event) -> None:
+        pipe, k = plan.pipeline, plan.index
+        message, ok = "", True
+        try:
+            stage = pipe.stage(k, pick=plan.pick, spec=plan.spec)
+            stage.setup()
+            while stage.has_next() and not cancel.is_set():
+                progress = stage.next()
+                result = stage.result()
+                with self._lock:
+                    pipe.record(k, result)
+                    study.live = progress
+                    study.status = replace(study.status, generation=progress.generation, elapsed=progress.elapsed,
+                                           message=f"generation {progress.generation}/{progress.n_gen}")
+                    study.touch()
+                self._on_generation(progress)
+            if cancel.is_set():
+                stage.cancel()
+            result = stage.result()
+            if result.status in ("complete", "stopped") and result.pop > 0:
+                result = result.with_pick(plan.spec.pick)
+            with self._lock:
+                pipe.record(k, result)
+            message = status_text(result)
+        except Exception as exc:  # noqa: BLE001 - a failing problem must not kill the studio
+            ok = False
+            message = f"failed: {exc}"
+            traceback.print_exc()
+        finally:
+            with self._lock:
+                study.live = None
+                study.status = RunStatus("idle", plan.stage.name, study.status.generation, plan.spec.n_gen, message, ok,
+                                         study.status.elapsed)
+                study.touch()
+            self._on_finish()
+
+
+def progress_dict(p: Progress) -> dict[str, Any]:
+    """A Progress as plain data (tests, debugging)."""
+    return encode({"stage": p.stage, "generation": p.generation, "n_gen": p.n_gen, "F": p.F, "cv": p.cv})

@@ -1,0 +1,93 @@
+"""What the study panels show, as one immutable snapshot built under the session lock."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from core.kinematics.design import Design
+from core.optimize.box import Box, global_box, search_box
+from core.optimize.result import StageResult
+from core.optimize.stage import StageSpec
+from studio.chains import ChainStage, RunSettings
+from studio.study import RunStatus, Study
+from studio.target import TargetSpec
+
+
+@dataclass(frozen=True)
+class StudyView:
+    """An immutable snapshot of the study for the panels (taken under the lock, drawn without it).
+
+    Attributes:
+        key: changes whenever the study changes (identity and version).
+        chain: the stages offered for the editor's mechanism.
+        names: the pipeline's stage names; results: their results (None: not run).
+        specs: the pipeline's stage specs by name (problem labels, constraints).
+        status: the run status.
+        viewing: stage shown in the Pareto and Pick panels; shown: its member shown.
+        next_stage: the stage the Run button launches; from_pick: from the previous pick (else the editor).
+        settings: run settings of ``next_stage``.
+        box: the search box ``next_stage`` would get, or None; box_note: what it is built around.
+        branches: labels of the kept branches.
+    """
+
+    key: tuple[int, int]
+    chain: tuple[ChainStage, ...]
+    names: tuple[str, ...]
+    results: tuple[StageResult | None, ...]
+    specs: dict[str, StageSpec]
+    status: RunStatus
+    viewing: str | None
+    shown: int | None
+    next_stage: str | None
+    from_pick: bool
+    settings: RunSettings | None
+    box: Box | None
+    box_note: str
+    branches: tuple[str, ...]
+
+    def result(self, name: str | None) -> StageResult | None:
+        if name is None or name not in self.names:
+            return None
+        return self.results[self.names.index(name)]
+
+
+def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], target: TargetSpec) -> StudyView:
+    """Snapshot the study (call under the session lock)."""
+    pipe = study.pipeline
+    names = study.stage_names()
+    nxt = study.next_stage if study.next_stage in {c.name for c in chain} else (chain[0].name if chain else None)
+    stage = next((c for c in chain if c.name == nxt), None)
+    box, note = None, ""
+    if stage is not None:
+        if study.from_pick:
+            box = study.next_box(stage.name, target)
+            prev = study.parent_result(stage.name)
+            if box is not None and prev is not None:
+                i = prev.picked if prev.picked is not None else prev.shortlist.first
+                note = f"around {prev.name}'s pick #{i}"
+            else:
+                note = "no previous pick in this pipeline: run the previous stage, or start from the editor's design"
+        else:
+            center = editor.params[0]
+            box = (global_box(editor.mechanism, center) if stage.s is None
+                   else search_box(editor.mechanism, center, stage.s, stage.d))
+            note = "global bounds" if stage.s is None else "around the design in the editor"
+            if stage.s is not None:
+                note += f" (±max({100 * stage.s:g} %, {stage.d:g} mm))"
+    viewing = study.viewing if study.viewing in names else (names[0] if names else None)
+    return StudyView(
+        key=(id(study), study.version),
+        chain=chain,
+        names=names,
+        results=tuple(pipe.results) if pipe is not None else (),
+        specs={s.name: s for s in pipe.stages} if pipe is not None else {},
+        status=study.status,
+        viewing=viewing,
+        shown=study.shown_member(viewing),
+        next_stage=nxt,
+        from_pick=study.from_pick,
+        settings=None if stage is None else study.settings_for(stage),
+        box=box,
+        box_note=note,
+        branches=tuple(b.label for b in study.branches),
+    )
