@@ -1,0 +1,4 @@
+"""CLM Studio's headless library, one package per layer (imports point down only):
+cli -> study -> formats -> optimize -> analysis -> kinematics. Never imports viser, plotly or ``studio``.
+See docs/architecture.md.
+"""

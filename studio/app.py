@@ -19,6 +19,7 @@ from typing import Literal
 import numpy as np
 import viser
 
+from core.formats.session import parse_json
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
 from studio.exports import design_json, figure_html, slug, trajectories_csv
@@ -370,11 +371,7 @@ class Studio:
     def load_session_bytes(self, name: str, content: bytes, client: viser.ClientHandle | None) -> bool:
         """Replace the session by an uploaded one; a malformed file is refused, naming the problem."""
         try:
-            try:
-                data = json.loads(content.decode("utf-8-sig"))
-            except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-                raise ValueError(f"not JSON ({exc})") from None
-            other = Session.from_dict(data)
+            other = Session.from_dict(parse_json(content))
             self.session.restore(other)
         except ValueError as exc:
             if client is not None:

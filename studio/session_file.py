@@ -6,6 +6,7 @@ import json
 import os
 from pathlib import Path
 
+from core.formats.session import MAX_SESSION_BYTES, parse_json
 from studio.state import Session
 
 
@@ -19,10 +20,10 @@ def save_session(session: Session, path: Path) -> None:
 def load_session(path: Path) -> Session:
     """A session from a JSON file; ValueError naming the problem."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON ({exc})") from None
-    try:
-        return Session.from_dict(data)
+        if not path.is_file():
+            raise ValueError("not a regular file")
+        if path.stat().st_size > MAX_SESSION_BYTES:
+            raise ValueError(f"a session is at most {MAX_SESSION_BYTES // 2**20} MB")
+        return Session.from_dict(parse_json(path.read_bytes()))
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None

@@ -17,11 +17,13 @@ import threading
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
 from core.analysis.evaluate import Evaluation
 from core.formats.design import check_params, design_from_dict, design_to_dict
+from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
 from core.kinematics.design import Design
 from core.kinematics.params import Param
@@ -33,9 +35,7 @@ from studio.walking import WalkFrames, WalkSpec, build_walk
 
 F64 = NDArray[np.float64]
 
-SESSION_FORMAT = "clm-studio-session"
 SESSION_VERSION = 2
-READS_VERSIONS = (1, 2)  # version 1: no walk, no study
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0
@@ -351,38 +351,33 @@ class Session:
 
     @classmethod
     def from_dict(cls, data: object) -> Session:
-        """A session from :meth:`to_dict` data (or a version-1 file); ValueError naming the first problem."""
-        if not isinstance(data, dict):
-            raise ValueError(f"a session must be a JSON object, got {type(data).__name__}")
-        if data.get("format") != SESSION_FORMAT:
-            raise ValueError(f"not a studio session (format {data.get('format')!r}, expected {SESSION_FORMAT!r})")
-        if data.get("version") not in READS_VERSIONS:
-            raise ValueError(
-                f"unsupported session version {data.get('version')!r} (this studio reads "
-                f"{', '.join(str(v) for v in READS_VERSIONS)})"
-            )
-        for key in ("design", "target"):
-            if key not in data:
-                raise ValueError(f"session has no {key!r}")
-        design = design_from_dict(data["design"])
-        preset = data.get("preset")
+        """A session from :meth:`to_dict` data (or a version-1 file); ValueError naming the first problem.
+
+        Never any other exception: whatever a hand-edited or hostile file holds, it is refused with one
+        message (``core.formats.session`` checks the shell first; the parts are checked by their decoders).
+        """
+        f = check_session(data)
+        try:
+            return cls._from_checked(f)
+        except ValueError:
+            raise
+        except (TypeError, AttributeError, KeyError, IndexError, OverflowError, RecursionError) as exc:
+            raise ValueError(f"malformed session ({type(exc).__name__}: {exc})") from None
+
+    @classmethod
+    def _from_checked(cls, f: SessionFile) -> Session:
+        design = design_from_dict(f.design)
+        preset = f.preset
         if preset is not None and (preset not in presets.PRESETS or presets.get(preset).mechanism != design.mechanism):
             preset = None
-        target = TargetSpec.from_dict(data["target"])
-        walk = WalkSpec.from_dict(data.get("walk", {}))
+        target = TargetSpec.from_dict(f.target)
+        walk = WalkSpec.from_dict(f.walk)
         view = build_view(design, preset, target, walk=walk)
-        pb = data.get("playback", {})
-        if not isinstance(pb, dict):
-            raise ValueError(f"playback must be an object, got {pb!r}")
-        playing, speed, angle = pb.get("playing", True), pb.get("speed", 1.0), pb.get("angle", 0.0)
-        if not isinstance(playing, bool):
-            raise ValueError(f"playback playing must be true or false, got {playing!r}")
-        for key, v in (("speed", speed), ("angle", angle)):
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise ValueError(f"playback {key} must be a finite number, got {v!r}")
-        session = cls(view, study=Study.from_dict(data.get("study"), target))
-        session.set_speed(float(speed))
-        session.playback = Playback(playing, float(speed), float(angle) % (2.0 * math.pi))
+        pb = f.playback
+        study = None if f.study is None else msgspec.to_builtins(f.study)
+        session = cls(view, study=Study.from_dict(study, target))
+        session.set_speed(float(pb.speed))
+        session.playback = Playback(pb.playing, float(pb.speed), float(pb.angle) % (2.0 * math.pi))
         return session
 
     def restore(self, other: Session) -> None:

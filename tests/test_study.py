@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 
 from core.cli import main
+from core.formats.study import load_study, parse_seeds
 from core.study.report import write_report
 from core.study.runner import run_study
-from core.study.spec import load_study, parse_seeds
 from core.study.store import Store
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -189,10 +189,10 @@ def test_the_same_study_runs_on_a_real_dask_scheduler_and_worker(reference_run: 
     (('seeds = "1..3"', 'seeds = []'), "seeds: no seeds"),
     (('seeds = "1..3"', 'seeds = "1..99999999999"'), "seeds: seeds must be <="),
     (('stages = ["subtask2"]', 'stages = ["subtask9"]'), "cases[0].stages[0]: no stage 'subtask9'"),
-    (("budget = 100", "budget = -5"), "cases[0].budget: expected int >= 1"),
-    (("budget = 100", 'budget = "lots"'), "cases[0].budget: expected int, got str"),
+    (("budget = 100", "budget = -5"), "cases[0].budget: must be >= 1, got -5"),
+    (("budget = 100", 'budget = "lots"'), "cases[0].budget: expected an integer, got a string"),
     (('start = "stephenson1/X1"', 'start = "stephenson1/X9"'), "cases[0].start: unknown preset"),
-    (("pop_size = 20\n[[algorithms]]", "pop_size = 20\ncolour = 1\n[[algorithms]]"), "algorithms[0]: "),
+    (("pop_size = 20\n[[algorithms]]", "pop_size = 20\ncolour = 1\n[[algorithms]]"), "algorithms[0].colour: unknown key"),
     (('name = "tiny"', 'name = "tiny"\nreference = "moead"'), "reference: 'moead' is not one of"),
     ((f'config = "{CONFIG}"', 'config = "missing.toml"'), "cases[0].config: no such config file"),
     (('name = "spea2"', 'name = "nsga2"'), "algorithms[1].name: 'nsga2' is listed twice"),

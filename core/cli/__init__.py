@@ -1,4 +1,4 @@
-"""The headless command line: ``clm <command> ...``.
+"""The headless command line: ``clm <command> ...`` (the top layer: it may import all of ``core``).
 
 Each command is a module ``core/cli/<name>.py`` with ``register(sub)`` (adds its
 subparser and ``set_defaults(func=run)``) and ``run(args) -> int``. Input errors

@@ -63,8 +63,8 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--workers must be between 1 and {MAX_WORKERS}, got {args.workers}")
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets up a local cluster; a --scheduler's cluster has its own workers")
+    from core.formats.study import load_study
     from core.study.runner import run_study
-    from core.study.spec import load_study
 
     study = load_study(args.args[0])
     out = _check_out(args.out)

@@ -16,11 +16,15 @@ import msgspec
 
 from core.formats.config_file import ConfigFile
 from core.formats.design import DesignFile
+from core.formats.session import SessionFile
+from core.formats.study import StudyFile
 
 DEFAULT_DIR = Path(__file__).resolve().parents[2] / "assets" / "schemas"
 FORMATS: dict[str, tuple[Any, str]] = {
     "design-config": (ConfigFile, "A CLM Studio design-run configuration (clm design CONFIG.toml)"),
     "design": (DesignFile, "A CLM Studio design (clm simulate --design FILE.json)"),
+    "session": (SessionFile, "A CLM Studio session (clm-studio --session FILE.json)"),
+    "study": (StudyFile, "A CLM Studio study (clm study STUDY.toml)"),
 }
 
 

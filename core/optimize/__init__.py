@@ -1,4 +1,8 @@
-"""Hierarchical optimization on pymoo: problems over search boxes, stages, pipelines, results.
+"""Optimization: problems over search boxes, stages, pipelines, multi-start chains, baselines, knee points.
+
+Evolution runs on arrays (``evolve``) behind pymoo's Algorithm API; a design run is ``run.run_design``.
+May import ``core.analysis`` and ``core.kinematics``; never ``core.formats``, ``core.study`` or ``core.cli``.
+
 
 - ``box``: a stage's search box (spec §6).
 - ``problem``: metrics -> pymoo objectives/constraints; the problem registry.

@@ -15,8 +15,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
 
+from core.formats.study import Study
 from core.study.cell import run_cell
-from core.study.spec import Study
 from core.study.store import Store
 
 

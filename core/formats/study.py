@@ -32,10 +32,10 @@ from typing import Annotated, Any
 
 import msgspec
 
+from core.formats.typed import MAX_SEED, decode
 from core.kinematics import presets
 from core.optimize.algorithms import ALGORITHMS
 
-MAX_SEED = 2**32 - 1
 MAX_RUNS = 100_000
 
 Name = Annotated[str, msgspec.Meta(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\-]+$")]
@@ -64,6 +64,8 @@ class CaseEntry(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
 
 
 class StudyFile(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    """A study: algorithms x cases (design configs and their stages) x seeds, with a budget (docs/studies.md)."""
+
     algorithms: Annotated[list[AlgorithmEntry], msgspec.Meta(min_length=1)]
     cases: Annotated[list[CaseEntry], msgspec.Meta(min_length=1)]
     seeds: str | list[Annotated[int, msgspec.Meta(ge=0, le=MAX_SEED)]]
@@ -92,22 +94,6 @@ class Study(msgspec.Struct, frozen=True):
 
 def cell_key(algorithm: str, case: str, seed: int) -> str:
     return f"{case}/{algorithm}/{seed}"
-
-
-_PATH = re.compile(r"`\$((?:\.[A-Za-z_0-9]+|\[\d+\])*)`")
-
-
-def _message(err: msgspec.ValidationError) -> str:
-    """msgspec's "Expected `int` >= 1 - at `$.cases[0].budget`" as "cases[0].budget: expected an int >= 1"."""
-    text = str(err)
-    m = _PATH.search(text)
-    path = m.group(1).lstrip(".") if m else ""
-    body = text.split(" - at ")[0]
-    body = body.replace("`", "")
-    body = body[:1].lower() + body[1:]
-    if not path and body.startswith("object "):
-        return f"study: {body.removeprefix('object ')}"
-    return f"{path or 'study'}: {body}"
 
 
 def parse_seeds(v: str | list[int], key: str = "seeds") -> tuple[int, ...]:
@@ -161,10 +147,7 @@ def _check_case(i: int, case: CaseEntry, config: Path) -> None:
 
 def parse_study(data: dict[str, Any], base: str | Path = ".", path: str = "") -> Study:
     """Check a study given as a dict (the parsed TOML) and resolve its seeds and config paths."""
-    try:
-        f = msgspec.convert(data, StudyFile)
-    except msgspec.ValidationError as e:
-        raise ValueError(_message(e)) from None
+    f = decode(data, StudyFile)
     seeds = parse_seeds(f.seeds)
     _unique([a.name for a in f.algorithms], "algorithms")
     _unique([c.name for c in f.cases], "cases")
