@@ -22,8 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from core.formats.study import parse_study  # noqa: E402
 from core.study.runner import client_for  # noqa: E402
-from core.study.spec import parse_study  # noqa: E402
 from core.study.store import Store  # noqa: E402
 
 CONFIG = ROOT / "assets" / "configs" / "stephenson1_cycloid.toml"

@@ -22,6 +22,7 @@ marks the run under the lock, so a double-clicked Run starts one run.
 from __future__ import annotations
 
 import json
+import re
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,7 +33,7 @@ from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, stage_spec
-from studio.target import TargetSpec, curve_file
+from studio.target import CURVE_DIR, TargetSpec, curve_file
 
 RUN_STATES = ("idle", "running", "stopping")
 
@@ -314,7 +315,8 @@ class Study:
             if not isinstance(b, dict) or not isinstance(b.get("pipeline"), dict):
                 raise ValueError(f"branch {j + 1} must be an object with a pipeline")
             _pipeline_from(b["pipeline"], target, f"branch {j + 1}")  # check it loads
-            branches.append(Branch(str(b.get("label", f"branch {j + 1}")), _retarget(b["pipeline"], target)))
+            branches.append(Branch(str(b.get("label", f"branch {j + 1}")), _retarget(b["pipeline"], target,
+                                                                                     f"branch {j + 1}")))
         shown = data.get("shown") or {}
         if not isinstance(shown, dict) or not all(isinstance(v, int) and not isinstance(v, bool)
                                                   for v in shown.values()):
@@ -332,17 +334,40 @@ class Study:
                      from_pick=bool(data.get("from_pick", False)), settings=settings)
 
 
-def _retarget(data: dict[str, Any], target: TargetSpec) -> dict[str, Any]:
-    """Point stage targets naming a curve file like the session's curve at its local copy."""
-    if target.curve is None:
-        return data
-    local = curve_file(target.curve)
+_STORED_CURVE = re.compile(r"target-[0-9a-f]{20}\.csv")
+
+
+def stage_target(value: object, target: TargetSpec, where: str) -> object:
+    """A stage's target option from a session, made safe to open: a built-in target (``cycloid...``) as it is,
+    a curve as the studio's own content-addressed copy; anything else (any other path) is refused.
+
+    A session never names a file to open: an uploaded curve travels inside the session as points (the
+    session's target) and stages refer to it by its content hash, which resolves only inside the studio's
+    target store (``CURVE_DIR``), never to a path the file chose.
+    """
+    if not isinstance(value, str) or value.split(":", 1)[0] == "cycloid":
+        return value  # non-strings are refused by the problem's own decoder
+    name = value.replace("\\", "/").rsplit("/", 1)[-1]
+    if not _STORED_CURVE.fullmatch(name):
+        raise ValueError(f"{where}: its target names a file ({value!r}); a session carries its curve as points "
+                         f"and never opens a path")
+    if target.curve is not None and curve_file(target.curve).name == name:
+        return str(curve_file(target.curve))
+    stored = CURVE_DIR / name
+    if stored.is_file():
+        return str(stored)
+    raise ValueError(f"{where}: its target curve ({name}) is neither this session's curve nor in this studio's "
+                     f"target store; upload that curve first")
+
+
+def _retarget(data: dict[str, Any], target: TargetSpec, what: str = "pipeline") -> dict[str, Any]:
+    """A copy of pipeline data whose stage targets are safe to open (:func:`stage_target`)."""
     out = json.loads(json.dumps(data))
-    for s in out.get("stages", []):
-        opts = s.get("problem", {}).get("options", {})
-        t = opts.get("target")
-        if isinstance(t, str) and t.rsplit("/", 1)[-1] == local.name:
-            opts["target"] = str(local)
+    stages = out.get("stages", [])
+    for i, s in enumerate(stages if isinstance(stages, list) else []):
+        opts = s.get("problem", {}).get("options", {}) if isinstance(s, dict) else {}
+        if isinstance(opts, dict) and "target" in opts:
+            opts["target"] = stage_target(opts["target"], target, f"{what} stage {i + 1}")
     return out
 
 
@@ -352,7 +377,7 @@ def _pipeline_from(data: object, target: TargetSpec, what: str) -> Pipeline | No
     if not isinstance(data, dict):
         raise ValueError(f"{what} must be an object, got {type(data).__name__}")
     try:
-        return Pipeline.from_dict(_retarget(data, target))
+        return Pipeline.from_dict(_retarget(data, target, what))
     except (KeyError, TypeError, IndexError) as exc:
         raise ValueError(f"{what} is malformed ({type(exc).__name__}: {exc})") from None
     except ValueError as exc:

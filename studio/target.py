@@ -13,7 +13,7 @@ import csv
 import hashlib
 import io
 import math
-import tempfile
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,7 +26,8 @@ from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cyc
 F64 = NDArray[np.float64]
 
 # Where uploaded curves are written for the optimization problems (content-addressed, shared).
-CURVE_DIR = Path(tempfile.gettempdir()) / "clm-studio" / "targets"
+# In the user's own cache folder, not the shared temporary one: a session resolves stage curves only here.
+CURVE_DIR = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "clm-studio" / "targets"
 MAX_CURVE_BYTES = 2_000_000
 
 

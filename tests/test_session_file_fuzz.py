@@ -117,3 +117,49 @@ def test_deep_nesting_and_oversized_files_are_refused(tmp_path: Path):
         load_session(big)
     with pytest.raises(ValueError, match="not a regular file"):
         load_session(tmp_path)
+
+
+def with_stage_target(data: dict[str, Any], value: str, branch: bool = False) -> dict[str, Any]:
+    d = copy.deepcopy(data)
+    pipe = d["study"]["branches"][0]["pipeline"] if branch else d["study"]["pipeline"]
+    pipe["stages"][0]["problem"]["options"]["target"] = value
+    return d
+
+
+@pytest.mark.parametrize("branch", [False, True])
+def test_a_session_never_makes_the_studio_open_a_path(real_session, tmp_path, monkeypatch, branch):
+    sentinel = tmp_path / "secret.csv"
+    sentinel.write_text("x,y\n0,0\n100,0\n100,50\n0,50\n")
+    opened: list[str] = []
+    real_open, real_os_open = open, os.open
+
+    def spy_open(file, *args, **kwargs):
+        opened.append(str(file))
+        return real_open(file, *args, **kwargs)
+
+    def spy_os_open(path, *args, **kwargs):
+        opened.append(str(path))
+        return real_os_open(path, *args, **kwargs)
+
+    monkeypatch.setattr("builtins.open", spy_open)
+    monkeypatch.setattr(os, "open", spy_os_open)
+    for value in (str(sentinel), "../../etc/passwd", "/dev/zero", "/etc/shadow",
+                  str(tmp_path / "target-0123456789abcdef0123.csv")):
+        with pytest.raises(ValueError, match="target"):
+            Session.from_dict(with_stage_target(real_session, value, branch))
+    assert not [p for p in opened if "secret" in p or "passwd" in p or "zero" in p or "shadow" in p]
+
+
+def test_cli_curves_must_be_regular_files_of_bounded_size(tmp_path: Path):
+    from core.analysis.targets import load_curve
+
+    fifo = tmp_path / "curve.csv"
+    os.mkfifo(fifo)
+    for p in (fifo, Path("/dev/zero"), tmp_path):
+        with pytest.raises(ValueError, match="not a regular file"):
+            load_curve(p)  # refused at once: a FIFO would otherwise block, /dev/zero never end
+    big = tmp_path / "big.csv"
+    with big.open("wb") as f:
+        f.truncate(11 * 2**20)
+    with pytest.raises(ValueError, match="MB"):
+        load_curve(big)

@@ -9,6 +9,8 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -177,14 +179,42 @@ def _numeric(text: str) -> bool:
     return True
 
 
+MAX_CURVE_FILE_BYTES = 10 * 2**20
+
+
+def read_user_file(path: str | Path, max_bytes: int = MAX_CURVE_FILE_BYTES, what: str = "curve") -> str:
+    """The text of a file a user named: a regular file (no FIFO, device or directory) of at most ``max_bytes``,
+    checked before reading a byte; ValueError naming the file otherwise."""
+    p = Path(path)
+    try:
+        if not stat.S_ISREG(os.stat(p).st_mode):
+            raise ValueError(f"cannot read {what} {str(p)!r}: not a regular file")
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        try:
+            st = os.fstat(fd)  # the file opened, not the one stat'ed (it may have been swapped)
+            if not stat.S_ISREG(st.st_mode):
+                raise ValueError(f"cannot read {what} {str(p)!r}: not a regular file")
+            if st.st_size > max_bytes:
+                raise ValueError(f"cannot read {what} {str(p)!r}: {st.st_size / 2**20:.1f} MB is more than the "
+                                 f"{max_bytes / 2**20:.0f} MB a {what} file may have")
+            with os.fdopen(os.dup(fd), "rb") as f:
+                data = f.read(max_bytes + 1)
+        finally:
+            os.close(fd)
+    except OSError as e:
+        raise ValueError(f"cannot read {what} {str(p)!r}: {e.strerror}") from None
+    if len(data) > max_bytes:
+        raise ValueError(f"cannot read {what} {str(p)!r}: more than {max_bytes / 2**20:.0f} MB")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise ValueError(f"cannot read {what} {str(p)!r}: not UTF-8 text") from None
+
+
 def load_curve(path: str | Path) -> Target:
     """Read a closed curve from a CSV file (see ``curve_from_rows``); ValueError if unreadable."""
     p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as e:
-        raise ValueError(f"cannot read curve {str(p)!r}: {e.strerror}") from None
-    return curve_from_rows(list(csv.reader(io.StringIO(text))), p.name)
+    return curve_from_rows(list(csv.reader(io.StringIO(read_user_file(p)))), p.name)
 
 
 def parse_target(spec: str | None) -> Target:
