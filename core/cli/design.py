@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import signal
 import sys
 import threading
@@ -23,6 +24,10 @@ import numpy as np
 
 from core.cli import CLIError
 from core.formats.config import load_config
+from core.formats.files import atomic_write, check_out_dir
+from core.formats.typed import MAX_SEED
+from core.optimize.baselines import DP_METHODS
+from core.optimize.design_config import DesignConfig
 from core.optimize.multistart import MultiStart, where_name
 from core.optimize.result import StageResult, dumps
 from core.optimize.run import DesignRun, run_design
@@ -39,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "print a summary table and write result.json and one CSV per stage into --out.",
     )
     p.add_argument("config", type=Path, help="configuration file (TOML)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory (created if missing)")
+    p.add_argument("--out", dest="out_text", required=True, metavar="DIR", help="output directory (created if missing)")
     p.add_argument("--seed", type=int, default=None, metavar="N", help="override the configuration's seed")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes for a multi-start block's chains (default: the configuration's 'workers', "
@@ -105,28 +110,36 @@ def stage_rows(res: StageResult) -> tuple[list[str], list[list[Any]]]:
     return header, rows
 
 
+def _csv(rows: list[list[Any]]) -> str:
+    buf = io.StringIO()
+    csv.writer(buf).writerows(rows)
+    return buf.getvalue()
+
+
+def output_names(config: DesignConfig) -> list[str]:
+    """The files ``write_outputs`` writes for a configuration."""
+    if config.method in DP_METHODS:
+        return ["result.json", f"{config.method}.csv"]
+    return ["result.json", *(f"{k}_{s.name}.csv" for k, s in enumerate(config.stages))]
+
+
 def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
-    """result.json and the per-stage CSVs; returns the files written."""
+    """result.json and the per-stage CSVs, each written atomically; returns the files written."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "result.json"]
-    (out / "result.json").write_text(dumps(run_.to_dict()), encoding="utf-8")
     for res in run_.results:
         path = out / f"{res.index}_{res.name}.csv"
         header, rows = stage_rows(res)
-        with path.open("w", newline="", encoding="utf-8") as f:
-            w = csv.writer(f)
-            w.writerow(header)
-            w.writerows([[_cell(v) for v in r] for r in rows])
+        atomic_write(path, _csv([header, *[[_cell(v) for v in r] for r in rows]]))
         written.append(path)
     if run_.baseline is not None:
         b = run_.baseline.to_dict()
         path = out / f"{run_.baseline.method}.csv"
-        with path.open("w", newline="", encoding="utf-8") as f:
-            w = csv.writer(f)
-            keys = list(b["params"]) + list(b["metrics"]) + ["dp", "time"]
-            w.writerow(keys)
-            w.writerow([_cell(v) for v in [*b["params"].values(), *b["metrics"].values(), b["dp"], b["time"]]])
+        keys = list(b["params"]) + list(b["metrics"]) + ["dp", "time"]
+        atomic_write(path, _csv([keys, [_cell(v) for v in [*b["params"].values(), *b["metrics"].values(), b["dp"],
+                                                               b["time"]]]]))
         written.append(path)
+    atomic_write(out / "result.json", dumps(run_.to_dict()))  # last: it names the CSVs' run
     return written
 
 
@@ -193,17 +206,17 @@ def chains_table(block: MultiStart, show: list[str]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    args.out = Path(args.out_text)
     config = load_config(args.config)
     if args.seed is not None:
-        if args.seed < 0:
-            raise CLIError(f"--seed must be >= 0, got {args.seed}")
+        if not 0 <= args.seed <= MAX_SEED:
+            raise CLIError(f"--seed must be between 0 and {MAX_SEED}, got {args.seed}")
         config = replace(config, seed=args.seed)
     if args.workers is not None:
         if args.workers < 1:
             raise CLIError(f"--workers must be >= 1, got {args.workers}")
         config = replace(config, workers=args.workers)
-    if args.out.exists() and not args.out.is_dir():
-        raise CLIError(f"--out {str(args.out)!r} exists and is not a directory")
+    check_out_dir(args.out_text, output_names(config))
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)
     cancel = threading.Event()

@@ -7,11 +7,11 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
 from core.cli import CLIError
+from core.formats.files import check_out_dir
 
 MAX_WORKERS = 256
 
@@ -35,17 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _check_out(out: str | None) -> Path:
-    if out is None or not out.strip():
+    if out is None:
         raise CLIError("--out is required: the study directory")
-    d = Path(out)
-    if d.exists() and not d.is_dir():
-        raise CLIError(f"--out {out}: exists and is not a directory")
-    probe = d
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-        raise CLIError(f"--out {out}: cannot write there")
-    return d
+    return check_out_dir(out, ["study.sqlite", "report.md", "report.html"])
 
 
 def run(args: argparse.Namespace) -> int:

@@ -59,8 +59,38 @@ def start_method() -> str:
     return "spawn"
 
 
-def _init(q: Any, stop: Any) -> None:
+PR_SET_PDEATHSIG = 1
+PARENT_POLL = 1.0  # s between checks that the parent still lives (where prctl is missing)
+
+
+def die_with_parent(parent: int) -> None:
+    """Make this worker process end when ``parent`` does (killed, crashed): no orphan holding memory.
+
+    Linux sends SIGTERM through ``prctl(PR_SET_PDEATHSIG)``; a daemon thread also polls the parent pid
+    (any platform, and the moment between fork and prctl).
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+
+    def watch() -> None:
+        while True:
+            if os.getppid() != parent:
+                os._exit(1)
+            threading.Event().wait(PARENT_POLL)
+
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+def _init(q: Any, stop: Any, parent: int) -> None:
     global _QUEUE, _STOP
+    die_with_parent(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     keep_freed_memory()  # a spawned worker starts with glibc's defaults
     _QUEUE, _STOP = q, stop
@@ -109,7 +139,7 @@ def run(fn: Job, jobs: Sequence[Any], workers: int | None = None, callback: Call
         return [fn(job, callback, cancel) for job in jobs]
     ctx = mp.get_context(start_method())
     q, stop = ctx.Queue(), ctx.Event()
-    pool = ProcessPoolExecutor(n, mp_context=ctx, initializer=_init, initargs=(q, stop))
+    pool = ProcessPoolExecutor(n, mp_context=ctx, initializer=_init, initargs=(q, stop, os.getpid()))
     try:
         futures = [pool.submit(_call, fn, i, job, callback is not None) for i, job in enumerate(jobs)]
         done = 0

@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from core.formats.files import atomic_write
 from core.study.stats import HIGHER_IS_BETTER, run_values, summary, verdict
-from core.study.store import Store, atomic_write
+from core.study.store import Store
 
 FRONT_METRICS = ("hv", "igd_plus", "feasible_ratio")
 PICK_ORDER = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")

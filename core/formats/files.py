@@ -1,0 +1,46 @@
+"""Writing result files safely: atomically (a kill mid-write never leaves half a file or loses the previous
+one), and into an output folder checked writable before any work starts."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+
+
+def atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder, fsync, then rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, 0o644)
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def check_out_dir(out: str | Path, files: Iterable[str] = ()) -> Path:
+    """The output folder, created and proven writable (a probe file is written and removed); ValueError
+    naming the problem: an empty name, a file in the way, no permission, or one of ``files`` being a folder."""
+    if str(out).strip() == "":
+        raise ValueError("--out is empty; name the output folder")
+    d = Path(out)
+    if d.exists() and not d.is_dir():
+        raise ValueError(f"--out {str(d)!r} exists and is not a folder")
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=d, prefix=".clm-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ValueError(f"--out {str(d)!r}: cannot write there ({e.strerror})") from None
+    for name in files:
+        if (d / name).is_dir():
+            raise ValueError(f"--out {str(d)!r}: {name} is a folder; it would be overwritten by a file")
+    return d
