@@ -14,6 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from core.analysis.targets import read_user_file
 from core.cli import CLIError
 from core.cli.design import table
 from core.optimize.result import decode_float
@@ -40,24 +41,33 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+MAX_RESULT_BYTES = 512 * 2**20
+
+
 def load_rows(path: Path) -> list[dict[str, Any]]:
     """The summary rows of one saved run (see ``DesignRun.rows``)."""
     f = path / "result.json" if path.is_dir() else path
+    if not f.exists():
+        raise CLIError(f"{str(f)!r} not found (expected a 'clm design --out' directory)")
+    text = read_user_file(f, MAX_RESULT_BYTES, "result file")
     try:
-        data = json.loads(f.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise CLIError(f"{str(f)!r} not found (expected a 'clm design --out' directory)") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise CLIError(f"cannot read {str(f)!r}: {e}") from None
+        data = json.loads(text)
     except json.JSONDecodeError as e:
         raise CLIError(f"{f}: not valid JSON: {e.msg} at line {e.lineno}") from None
+    except RecursionError:
+        raise CLIError(f"{f}: not a 'clm design' result: nested too deep") from None
     if not isinstance(data, dict) or data.get("format") != "clm-design":
         raise CLIError(f"{f}: not a 'clm design' result")
     rows = data.get("rows") or []
+    if not isinstance(rows, list) or not all(isinstance(r, dict) and isinstance(r.get("label"), str) for r in rows):
+        raise CLIError(f"{f}: 'rows' must be a list of objects with a label")
     if not rows:
         return [{"label": f"{data.get('name', f.parent.name)}: no result ({data.get('status')})", "time": float("nan")}]
     numeric = {"time", "mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4", "violation", "dp"}
-    return [{k: (decode_float(v) if k in numeric else v) for k, v in r.items()} for r in rows]
+    try:
+        return [{k: (decode_float(v) if k in numeric else v) for k, v in r.items()} for r in rows]
+    except (ValueError, TypeError) as e:
+        raise CLIError(f"{f}: a row holds a value that is not a number ({e})") from None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -64,8 +64,8 @@ def _check(args: argparse.Namespace) -> None:
     a, b = args.obstacle
     if not (math.isfinite(a) and math.isfinite(b) and a >= 0 and b >= 0):
         raise CLIError(f"--obstacle needs two non-negative sizes in mm, got {a} {b}")
-    if not math.isfinite(args.trunk):
-        raise CLIError(f"--trunk must be a finite length in mm, got {args.trunk}")
+    if not (math.isfinite(args.trunk) and args.trunk > 0):
+        raise CLIError(f"--trunk must be a positive length in mm (the quadruped's hip distance), got {args.trunk}")
 
 
 def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from core.analysis.targets import read_user_file
 from core.cli import CLIError, dumps
 from core.formats.design import check_design, design_from_dict
 from core.kinematics import presets
@@ -18,6 +19,7 @@ from core.kinematics.solver import Solution
 
 # Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
 MAX_SAMPLES = 100_000
+MAX_DESIGN_BYTES = 1_000_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,16 +48,15 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
     if args.preset is not None:
         return check_design(presets.get(args.preset).design()), args.preset
     path: Path = args.design
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CLIError(f"design file {str(path)!r} not found") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise CLIError(f"cannot read design file {str(path)!r}: {e}") from None
+    if not path.exists():
+        raise CLIError(f"design file {str(path)!r} not found")
+    text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError as e:
         raise CLIError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+    except RecursionError:
+        raise CLIError(f"{path}: not a design: nested too deep") from None
     try:
         return design_from_dict(data), None
     except ValueError as e:

@@ -1,0 +1,125 @@
+"""Every malformed command line, file or config ends in exactly one stderr line ``clm: error: ...`` and exit 2."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from core.cli import main
+
+S1 = "stephenson1/X3"
+GOOD_CFG = """
+mechanism = "stephenson1"
+n_samples = 72
+[algorithm]
+name = "nsga2"
+pop_size = 8
+[[stages]]
+name = "subtask1"
+n_gen = 1
+"""
+
+
+def files(tmp: Path) -> dict[str, str]:
+    """Named hostile inputs, written once per test."""
+    deep = "[" * 50_000 + "]" * 50_000
+    made = {
+        "deep.json": deep,
+        "deep2.json": '{"mechanism": "stephenson1", "params": ' + "[" * 5000 + "]" * 5000 + "}",
+        "list.json": "[1, 2, 3]",
+        "text.json": "hello",
+        "binary.json": "\udcff",
+        "empty.json": "",
+        "nan.json": json.dumps({"mechanism": "stephenson1", "params": [float("nan")] * 16}),
+        "bad.toml": "mechanism = [\n",
+        "deep.toml": "a = " + "[" * 3000 + "]" * 3000 + "\n",
+        "good.toml": GOOD_CFG,
+        "rows.json": json.dumps({"format": "clm-design", "rows": {"a": 1}}),
+        "rows2.json": json.dumps({"format": "clm-design", "rows": [{"label": "x", "mse": "lots"}]}),
+        "other.json": json.dumps({"format": "something"}),
+        "curve_bad.csv": "x,y\n1,2\n",
+        "curve_text.csv": "hello world\n",
+        "study_bad.toml": "seeds = '1..0'\n",
+    }
+    out = {}
+    for name, text in made.items():
+        p = tmp / name
+        if name == "binary.json":
+            p.write_bytes(b"\xff\xfe\x00garbage")
+        else:
+            p.write_text(text)
+        out[name] = str(p)
+    fifo = tmp / "fifo.csv"
+    os.mkfifo(fifo)
+    out["fifo"] = str(fifo)
+    (tmp / "dir").mkdir()
+    out["dir"] = str(tmp / "dir")
+    out["missing"] = str(tmp / "missing.json")
+    out["tmp"] = str(tmp)
+    return out
+
+
+CASES: list[list[str]] = [
+    # simulate
+    ["simulate"], ["simulate", "--preset", "nope"], ["simulate", "--preset", S1, "--samples", "0"],
+    ["simulate", "--preset", S1, "--samples", "-360"], ["simulate", "--preset", S1, "--samples", "1e9"],
+    ["simulate", "--preset", S1, "--samples", "abc"], ["simulate", "--preset", S1, "--backend", "gpu"],
+    ["simulate", "--design", "{missing}"], ["simulate", "--design", "{dir}"], ["simulate", "--design", "{fifo}"],
+    ["simulate", "--design", "/dev/zero"], ["simulate", "--design", "{deep.json}"],
+    ["simulate", "--design", "{deep2.json}"], ["simulate", "--design", "{list.json}"],
+    ["simulate", "--design", "{text.json}"], ["simulate", "--design", "{binary.json}"],
+    ["simulate", "--design", "{empty.json}"], ["simulate", "--design", "{nan.json}"],
+    ["simulate", "--preset", S1, "--design", "{list.json}"],
+    # evaluate
+    ["evaluate"], ["evaluate", "--preset", "nope"], ["evaluate", "--preset", S1, "--samples", "0"],
+    ["evaluate", "--preset", S1, "--samples", "1"], ["evaluate", "--preset", S1, "--samples", "-4"],
+    ["evaluate", "--preset", S1, "--period", "nan"], ["evaluate", "--preset", S1, "--period", "-2"],
+    ["evaluate", "--preset", S1, "--period", "inf"], ["evaluate", "--preset", S1, "--obstacle", "nan", "25"],
+    ["evaluate", "--preset", S1, "--obstacle", "-1", "25"], ["evaluate", "--preset", S1, "--target", "cycloid:L=-3"],
+    ["evaluate", "--preset", S1, "--target", "cycloid:Q=3"], ["evaluate", "--preset", S1, "--target", "{fifo}"],
+    ["evaluate", "--preset", S1, "--target", "/dev/zero"], ["evaluate", "--preset", S1, "--target", "{missing}"],
+    ["evaluate", "--curve", "{fifo}"], ["evaluate", "--curve", "{dir}"], ["evaluate", "--curve", "{curve_bad.csv}"],
+    ["evaluate", "--curve", "{curve_text.csv}"], ["evaluate", "--design", "{deep.json}"],
+    ["evaluate", "--preset", S1, "--trunk", "-5"],
+    # presets
+    ["presets", "show", "nope"], ["presets", "frobnicate"],
+    # design
+    ["design"], ["design", "{missing}", "--out", "{tmp}/o"], ["design", "{bad.toml}", "--out", "{tmp}/o"],
+    ["design", "{deep.toml}", "--out", "{tmp}/o"], ["design", "{dir}", "--out", "{tmp}/o"],
+    ["design", "{fifo}", "--out", "{tmp}/o"], ["design", "{good.toml}"], ["design", "{good.toml}", "--out", ""],
+    ["design", "{good.toml}", "--out", "{list.json}/o"], ["design", "{good.toml}", "--out", "/proc/nope"],
+    ["design", "{good.toml}", "--out", "{tmp}/o", "--seed", "-1"],
+    ["design", "{good.toml}", "--out", "{tmp}/o", "--seed", str(10**30)],
+    ["design", "{good.toml}", "--out", "{tmp}/o", "--workers", "0"],
+    ["design", "{good.toml}", "--out", "{tmp}/o", "--workers", "many"],
+    # compare
+    ["compare"], ["compare", "{missing}"], ["compare", "{rows.json}"], ["compare", "{rows2.json}"],
+    ["compare", "{other.json}"], ["compare", "{deep.json}"], ["compare", "{fifo}"], ["compare", "{binary.json}"],
+    # study and moea
+    ["study", "{study_bad.toml}", "--out", "{tmp}/s"], ["study", "{missing}", "--out", "{tmp}/s"],
+    ["study", "report", "{tmp}"], ["moea", "--problem", "mw99"], ["moea", "--problem", "mw1", "--evals", "0"],
+    # anything else
+    ["fly"], ["--nonsense"],
+]
+
+
+def test_there_are_at_least_sixty_cases():
+    assert len(CASES) >= 60
+
+
+@pytest.mark.parametrize("argv", CASES, ids=[" ".join(c)[:60] for c in CASES])
+def test_malformed_invocation_is_one_line_and_exit_2(argv, tmp_path, capsys):
+    f = files(tmp_path)
+    args = []
+    for a in argv:
+        for k, v in f.items():
+            a = a.replace("{" + k + "}", v)
+        args.append(a)
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2, (args, err)
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("clm: error: "), err
