@@ -24,6 +24,7 @@ from core.analysis.gait import BIPED, DEFAULT_TRUNK, quadruped, walking_trajecto
 from core.analysis.shape import mse as shape_mse
 from core.analysis.shape import mse_phase_optimal
 from core.analysis.targets import Target, cycloid_target
+from core.kinematics import checks
 from core.kinematics.design import Design
 
 F64 = NDArray[np.float64]
@@ -149,8 +150,17 @@ def evaluate(
     With numba and without ``phase_optimal`` (the optimizer's path), one fused kernel solves and
     analyses each design while its rows are in cache (``metrics_numba.run_designs``).
     """
+    n_samples = checks.samples(n_samples, minimum=8, even=True)
+    backend = checks.backend(backend)  # type: ignore[assignment]
+    period = checks.real(period, "period", positive=True)
+    obstacle = (checks.real(obstacle[0], "obstacle length", nonnegative=True),
+                checks.real(obstacle[1], "obstacle height", nonnegative=True))
+    trunk = checks.real(trunk, "trunk", positive=True)
+    if not isinstance(design, Design):
+        raise TypeError(f"design must be a Design, got {type(design).__name__}")
     use_numba = _numba_ready(backend)
-    if use_numba and not phase_optimal:
+    # An empty population takes the kernel's path on either backend: both then return the same empty arrays.
+    if (use_numba and not phase_optimal) or design.pop == 0:
         return _evaluate_fused(design, n_samples, target, period, obstacle, trunk)
     sol = design.solve(n_samples, joints=False, backend="numba" if use_numba else "numpy")
     return evaluate_paths(

@@ -50,7 +50,7 @@ def stance_fluctuation(path: F64, fp: FeaturePoints) -> F64:
         path: ``(pop, n_samples, 2)`` leg-frame path (mm).
         fp: its feature points.
     """
-    y = np.nan_to_num(np.asarray(path, dtype=np.float64).reshape(fp.valid.shape[0], -1, 2)[..., 1])
+    y = np.nan_to_num(np.asarray(path, dtype=np.float64).reshape(fp.valid.shape[0], fp.n_samples, 2)[..., 1])
     q1 = np.where(fp.valid, fp.index[:, 0], 0.0)
     ends = fp.points[:, :2, 1]
     hi = np.maximum(_window_extreme(y, q1, fp.n_samples / 2.0, True), ends.max(1))

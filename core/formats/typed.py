@@ -14,10 +14,11 @@ from typing import Any, TypeVar
 import msgspec
 from msgspec import inspect as mi
 
+from core.kinematics.checks import MAX_SAMPLES  # noqa: F401  (the formats' cap is the API's)
+
 T = TypeVar("T")
 MAX_DEPTH = 32
 MAX_SEED = 2**32 - 1
-MAX_SAMPLES = 100_000  # joints alone take n_samples * n_joints * 32 bytes per design
 
 _KINDS = {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false", "array": "an array",
           "object": "a table", "null": "nothing"}

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from core.kinematics.checks import real_array
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.kinematics.solver import Solution, solve
 
@@ -23,7 +24,7 @@ class Design:
     output: OutputStage = field(default=IDENTITY)
 
     def __post_init__(self) -> None:
-        p = np.atleast_2d(np.array(self.params, dtype=np.float64))
+        p = np.atleast_2d(real_array(self.params, f"{self.mechanism.name} params"))
         if p.ndim != 2 or p.shape[1] != self.mechanism.n_params:
             raise ValueError(
                 f"{self.mechanism.name} takes {self.mechanism.n_params} parameters "

@@ -90,6 +90,17 @@ class OutputStage:
     oy: float = 0.0
     mirror: bool = False
 
+    def __post_init__(self) -> None:
+        from core.kinematics.checks import real
+
+        for key, unit in (("k", "ratio"), ("ox", "mm"), ("oy", "mm")):
+            object.__setattr__(self, key, real(getattr(self, key), f"output {key} ({unit})"))
+        if self.k == 0.0:
+            raise ValueError("output k (ratio) must be non-zero")
+        if not isinstance(self.mirror, bool | np.bool_):
+            raise TypeError(f"output mirror must be true or false, got {self.mirror!r}")
+        object.__setattr__(self, "mirror", bool(self.mirror))
+
     @property
     def ratios(self) -> tuple[float, float]:
         """``(kx, ky)``: the per-axis factors of the map (kx = -k when mirrored)."""

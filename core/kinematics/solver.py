@@ -19,6 +19,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from core.kinematics import checks
 from core.kinematics import reference as solver_numpy
 from core.kinematics.model import CRANK, DYAD, GROUND, IDENTITY, Mechanism, OutputStage, Program
 
@@ -130,6 +131,25 @@ class Prepared(NamedTuple):
     bad: NDArray[np.bool_]
 
 
+# A parameter of kind "length" below this is no link (mm): its shortfall is part of the violation.
+MIN_LENGTH = 1e-6
+# Parameters beyond this magnitude (mm or rad) make a design's violation infinite, as non-finite ones do.
+MAX_ABS_PARAM = 1e6
+
+
+def length_shortfall(mechanism: Mechanism, params: F64) -> F64:
+    """``(pop,)`` how far the lengths (parameters of kind ``length``) fall below ``MIN_LENGTH`` (mm), summed.
+
+    The dyad lengths are also judged by assembly; the others (cranks, ground links, attachments) would
+    otherwise solve to a mirrored, "feasible" linkage with a negative length.
+    """
+    cols = [j for j, p in enumerate(mechanism.params) if p.kind == "length"]
+    if not cols:
+        return np.zeros(params.shape[0])
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.maximum(0.0, MIN_LENGTH - params[:, cols]).sum(axis=1), dtype=np.float64)
+
+
 def prepare(mechanism: Mechanism, params: F64) -> Prepared:
     """Check and compile a population: operand values ``(pop, n_steps, 3)`` (non-finite rows NaN),
     the mechanism's derive violation ``(pop,)`` and the rows with non-finite parameters ``(pop,)``."""
@@ -141,7 +161,10 @@ def prepare(mechanism: Mechanism, params: F64) -> Prepared:
     vals = np.ascontiguousarray(prog.operands(internal))
     # Non-finite operands (bad input, or a coupling that has no solution) poison the whole row.
     vals[~np.isfinite(vals).all(axis=(1, 2))] = np.nan
-    bad = np.asarray(~np.isfinite(params).all(axis=1), dtype=np.bool_)
+    # Beyond a kilometre the floating-point geometry is noise (products overflow near 1e150): out of domain.
+    with np.errstate(invalid="ignore"):
+        bad = np.asarray(~(np.abs(params) <= MAX_ABS_PARAM).all(axis=1), dtype=np.bool_)
+    derive_viol = np.asarray(derive_viol, dtype=np.float64) + length_shortfall(mechanism, params)
     return Prepared(prog, vals, derive_viol, bad)
 
 
@@ -189,7 +212,9 @@ def solve(
         derivatives: also return d/dtheta (djoints, dpoint, dleg; else None).
         backend: ``numpy`` reference, ``numba`` kernel, or ``auto`` (numba).
     """
-    prep = prepare(mechanism, params)
+    n_samples = checks.samples(n_samples)
+    backend = checks.backend(backend)  # type: ignore[assignment]
+    prep = prepare(mechanism, checks.real_array(params))
     prog, vals = prep.program, prep.vals
     theta = sample_angles(n_samples)
     if backend == "numpy":

@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from pymoo.core.problem import Problem
 from pymoo.core.repair import Repair
 
+from core.kinematics import checks
 from core.kinematics.design import Design
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.optimize.box import Box
@@ -277,5 +278,9 @@ def make_problem(name: str, **options: Any) -> ProblemSpec:
             raise ValueError(f"unknown option {key!r} for problem {name!r}; known: {known}")
     bound = sig.bind(**options)
     bound.apply_defaults()
+    if "n_samples" in bound.arguments:
+        checks.samples(bound.arguments["n_samples"], minimum=8, even=True)
+    if "backend" in bound.arguments:
+        checks.backend(bound.arguments["backend"])
     spec = factory(**bound.arguments)
     return replace(spec, name=name, options=dict(bound.arguments))
