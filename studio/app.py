@@ -52,6 +52,15 @@ STUDY_PUSH_PERIOD = 0.25
 DOUBLE_CLICK = 1.0
 
 
+def url_for(host: str, port: int) -> str:
+    """The address to open: ``localhost`` for loopback, IPv6 hosts in brackets (``http://[::]:8097``)."""
+    if host in ("127.0.0.1", "localhost"):
+        host = "localhost"
+    elif ":" in host and not host.startswith("["):
+        host = f"[{host}]"
+    return f"http://{host}:{port}"
+
+
 class Studio:
     """The running studio: one viser server, one shared :class:`Session`, scene, panels, animator, runner.
 
@@ -111,9 +120,7 @@ class Studio:
 
     @property
     def url(self) -> str:
-        host = self.server.get_host()
-        shown = "localhost" if host in ("127.0.0.1", "localhost") else host
-        return f"http://{shown}:{self.server.get_port()}"
+        return url_for(self.server.get_host(), self.server.get_port())
 
     def chain(self) -> tuple[ChainStage, ...]:
         """The stages offered for the editor's mechanism."""

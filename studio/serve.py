@@ -9,6 +9,7 @@ Opens on the paper's Stephenson-I X3 design, animating, against the compound-cyc
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import sys
 import threading
 from pathlib import Path
@@ -17,6 +18,25 @@ from core.kinematics.memory import keep_freed_memory
 from studio.app import Studio
 from studio.session_file import load_session, save_session
 from studio.state import Session
+
+
+def is_loopback(host: str) -> bool:
+    """True for this machine only: localhost, 127.0.0.0/8, ::1."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def exposure_warning(host: str, port: int) -> str | None:
+    """The warning printed when the studio listens beyond this machine (None on loopback)."""
+    if is_loopback(host):
+        return None
+    return (f"clm-studio: warning: listening on {host} port {port}: anyone who can reach this machine can drive "
+            f"the studio and read and overwrite its session; there is no authentication. For a colleague, keep "
+            f"the default --host 127.0.0.1 and share it through an SSH tunnel (ssh -L {port}:127.0.0.1:{port} ...).")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -43,6 +63,9 @@ def main(argv: list[str] | None = None) -> int:
     except (OSError, ValueError) as exc:
         print(f"clm-studio: error: {exc}", file=sys.stderr)
         return 2
+    warning = exposure_warning(args.host, studio.server.get_port())
+    if warning is not None:
+        print(warning, file=sys.stderr, flush=True)
     print(f"CLM Studio: {studio.url}  (Ctrl-C to stop)", flush=True)
     try:
         threading.Event().wait()
