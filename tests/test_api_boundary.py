@@ -1,0 +1,86 @@
+"""The public API refuses odd calls naming the argument; odd designs get a violation, the same on both backends."""
+
+from __future__ import annotations
+
+import decimal
+import warnings
+
+import numpy as np
+import pytest
+
+from core.analysis.evaluate import evaluate
+from core.kinematics.design import Design
+from core.kinematics.model import OutputStage
+from core.kinematics.presets import get
+from core.kinematics.solver import solve
+from core.optimize.problem import make_problem
+
+X3 = get("stephenson1/X3").design()
+M = X3.mechanism
+NAN = float("nan")
+
+REFUSED = [
+    (lambda: solve(M, X3.params, 0), ValueError, "n_samples must be between 1"),
+    (lambda: solve(M, X3.params, -360), ValueError, "n_samples must be between 1"),
+    (lambda: solve(M, X3.params, True), TypeError, "n_samples must be an integer"),
+    (lambda: solve(M, X3.params, 72, backend="bogus"), ValueError, "backend must be one of"),
+    (lambda: evaluate(X3, 0), ValueError, "n_samples must be between 8"),
+    (lambda: evaluate(X3, 1), ValueError, "n_samples must be between 8"),
+    (lambda: evaluate(X3, -4), ValueError, "n_samples must be between 8"),
+    (lambda: evaluate(X3, 73), ValueError, "n_samples must be even"),
+    (lambda: evaluate(X3, 72, period=NAN), ValueError, "period must be finite"),
+    (lambda: evaluate(X3, 72, period=-2.0), ValueError, "period must be > 0"),
+    (lambda: evaluate(X3, 72, period=float("inf")), ValueError, "period must be finite"),
+    (lambda: evaluate(X3, 72, obstacle=(NAN, 25.0)), ValueError, "obstacle length must be finite"),
+    (lambda: evaluate(X3, 72, obstacle=(25.0, -1.0)), ValueError, "obstacle height must be >= 0"),
+    (lambda: evaluate(X3, 72, trunk=0.0), ValueError, "trunk must be > 0"),
+    (lambda: evaluate(X3, 72, backend="gpu"), ValueError, "backend must be one of"),
+    (lambda: make_problem("subtask1", n_samples=1), ValueError, "n_samples must be between 8"),
+    (lambda: OutputStage(k=NAN), ValueError, "output k"),
+    (lambda: OutputStage(k=0.0), ValueError, "output k"),
+    (lambda: OutputStage(mirror="yes"), TypeError, "mirror must be true or false"),
+    (lambda: Design(M, np.array([[str(v) for v in X3.params[0]]])), TypeError, "real numbers"),
+    (lambda: Design(M, X3.params.astype(bool)), TypeError, "real numbers"),
+    (lambda: Design(M, [[decimal.Decimal(1)] * 16]), TypeError, "real numbers"),
+    (lambda: Design(M, X3.params.astype(complex)), TypeError, "real numbers"),
+    (lambda: Design(M, X3.params.astype("datetime64[s]")), TypeError, "real numbers"),
+    (lambda: solve(M, np.array(["a"] * 16), 72), TypeError, "real numbers"),
+]
+
+
+@pytest.mark.parametrize(("call", "error", "message"), REFUSED, ids=[r[2] + str(i) for i, r in enumerate(REFUSED)])
+def test_odd_calls_are_refused_naming_the_argument(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def both(params: np.ndarray, n: int = 72):
+    d = Design(M, params, X3.output)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return [evaluate(d, n, backend=b) for b in ("numpy", "numba")]
+
+
+@pytest.mark.parametrize(("name", "value"), [("r4", -128.33), ("r12", -115.54), ("r1", 0.0), ("r5", -51.2),
+                                             ("r7", -99.62)])
+def test_a_non_positive_length_is_infeasible_on_both_backends(name, value):
+    for e in both(X3.replace(**{name: value}).params):
+        assert e.violation[0] >= abs(value) > 0 or (value == 0 and e.violation[0] > 0)
+    assert all(s.violation[0] > 0 for s in (solve(M, X3.replace(**{name: value}).params, 72, backend=b)
+                                             for b in ("numpy", "numba")))
+
+
+def test_a_negative_offset_stays_a_valid_design():
+    a, b = both(X3.replace(r6=-4.21).params)
+    assert a.violation[0] == b.violation[0] == 0.0
+
+
+@pytest.mark.parametrize("value", [1e300, -1e300, 1e7])
+def test_astronomic_parameters_are_infinitely_infeasible_on_both_backends(value):
+    a, b = both(X3.replace(x_a=value).params)
+    assert a.violation[0] == b.violation[0] == np.inf and not a.feasible[0] and not b.feasible[0]
+
+
+def test_an_empty_population_gives_the_same_empty_result():
+    a, b = both(np.zeros((0, M.n_params)))
+    assert a.violation.shape == b.violation.shape == (0,) and a.mse.shape == b.mse.shape == (0,)
