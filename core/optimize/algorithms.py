@@ -70,6 +70,7 @@ class AlgorithmInfo:
     options: tuple[str, ...]
     build: Build
     defaults: Mapping[str, Any] = field(default_factory=dict)
+    evals_per_generation: float = 1.0  # function evaluations per generation, in units of the population size
 
 
 def reference_directions(n_obj: int, n_max: int, n_partitions: int | None = None) -> NDArray[np.float64]:
@@ -170,6 +171,12 @@ def _array_nsga2(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any
                  mutation_eta=float(o["mutation_eta"]), eliminate_duplicates=bool(o.get("eliminate_duplicates", True)))
 
 
+def _imtcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.imtcmo import IMTCMO
+
+    return IMTCMO(pop_size=spec.pop_size, seed=seed)
+
+
 def _de(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from pymoo.algorithms.moo.gde3 import GDE3
     from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
@@ -204,6 +211,7 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
                            {**_SBX30, "sbx_one_child": True}),
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
+    "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
 }
 
 

@@ -31,7 +31,7 @@ PROBLEMS = (*(f"mw{i}" for i in range(1, 15)), *(f"ctp{i}" for i in range(1, 9))
 MAX_EVALS = 10**8
 
 
-def test_problem(name: str) -> Problem:
+def problem_by_name(name: str) -> Problem:
     """A pymoo test problem by name (``mw1``…``mw14``, ``ctp1``…``ctp8``, ``dascmop1``…``dascmop9`` at
     difficulty 8, ``zdt1``…``zdt3``); ValueError naming the known ones otherwise."""
     from pymoo.problems import get_problem
@@ -49,7 +49,7 @@ def reference_front(name: str) -> F64 | None:
         if f.is_file():
             return np.loadtxt(f, ndmin=2)
     if key.startswith("zdt"):
-        return np.asarray(test_problem(key).pareto_front(), dtype=np.float64)
+        return np.asarray(problem_by_name(key).pareto_front(), dtype=np.float64)
     return None
 
 
@@ -93,7 +93,7 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
         raise ValueError(f"--evals must be between 1 and {MAX_EVALS}, got {evals}")
     if not 0 <= seed <= 2**32 - 1:
         raise ValueError(f"--seed must be between 0 and {2**32 - 1}, got {seed}")
-    p = test_problem(problem)
+    p = problem_by_name(problem)
     alg = make_algorithm(AlgorithmSpec(algorithm, pop, options or {}), p.n_obj, seed)
     t = time.perf_counter()
     res = minimize(p, alg, ("n_eval", evals), seed=seed)

@@ -17,18 +17,15 @@ from typing import Any
 import numpy as np
 
 from core.formats.config import parse_config
+from core.optimize.algorithms import ALGORITHMS
 from core.optimize.decision import pareto_front
 from core.optimize.result import dumps
 from core.optimize.run import run_design
 
 PICK_METRICS = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
-# Function evaluations per generation of an algorithm, in units of the population size.
-EVALS_PER_GENERATION: dict[str, float] = {}
-
-
 def n_gen_for(algorithm: str, pop_size: int, budget: int) -> int:
     """Generations that spend ``budget`` function evaluations (at least 1; the first population counts)."""
-    per = EVALS_PER_GENERATION.get(algorithm, 1.0) * pop_size
+    per = ALGORITHMS[algorithm].evals_per_generation * pop_size
     return max(1, math.ceil(budget / per))
 
 

@@ -148,6 +148,16 @@ class ArrayAlgorithm(Algorithm):
         self.evaluator.n_eval += n
         return Arrays(X, F, G, cv)
 
+    def budget(self, per_generation: int, initial: int) -> int:
+        """The evaluations this run may spend: the ``n_eval`` termination's, or generations x ``per_generation``
+        plus the ``initial`` population(s) for an ``n_gen`` one (schedules such as an epsilon need it)."""
+        t = self.termination
+        if getattr(t, "n_max_evals", None) is not None:
+            return int(t.n_max_evals)
+        if getattr(t, "n_max_gen", None) is not None:
+            return int(initial + (int(t.n_max_gen) - 1) * per_generation)
+        return int(initial + 100 * per_generation)
+
     def log(self, **values: float) -> None:
         """Append this generation's trace row (generation and evaluations added)."""
         self.trace.append({"gen": float(self.n_iter or 0), "n_eval": float(self.evaluator.n_eval), **values})

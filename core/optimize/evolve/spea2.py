@@ -111,15 +111,18 @@ def truncate(F: F64, keep: int) -> B:
     return _truncate(np.ascontiguousarray(distances(F)), int(keep))
 
 
-def select(F: F64, n: int, cv: F64 | None = None) -> tuple[NDArray[np.int64], F64, B]:
+def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> tuple[NDArray[np.int64], F64, B]:
     """SPEA2 environmental selection of n members (spec §1.3).
+
+    ``fit_F`` (optional) is the space the fitness is computed in when it differs from the truncation's
+    (IMTCMO: fitness on [f, CV], truncation on f).
 
     Returns:
         order: ``(n,)`` survivor indices sorted by ascending fitness (stable);
         fit: ``(n,)`` their fitness;
         mask: ``(len(F),)`` survivor mask over the input pool.
     """
-    fit = fitness(F, cv)
+    fit = fitness(F if fit_F is None else fit_F, cv)
     marked = fit < 1.0
     if marked.sum() < n:
         chosen = np.argsort(fit, kind="stable")[:n]

@@ -1,0 +1,66 @@
+"""IMTCMO (spec §5): its epsilon schedule, auxiliary selection, evaluation accounting, determinism, and
+feasibility on the constrained test problems."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pymoo.optimize import minimize
+
+from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+from core.optimize.evolve.imtcmo import IMTCMO, aux_select, epsilon_schedule
+from core.optimize.moea import problem_by_name
+
+
+def test_epsilon_falls_to_e_minus_6_at_half_the_budget():
+    var0, cp = epsilon_schedule(40.0)
+    assert var0 * (1 - 0.5) ** cp == pytest.approx(math.exp(-6.0))
+    assert var0 * (1 - 0.0) ** cp == 40.0
+    assert epsilon_schedule(0.0) == (1.0, pytest.approx((-0.0 - 6.0) / math.log(0.5)))  # VAR0 = 0 reads as 1
+    assert epsilon_schedule(1e-4) == (1e-4, 0.0)  # below e^-6: constant, not growing (documented)
+
+
+def test_aux_selection_ranks_epsilon_feasible_members_first():
+    F = np.array([[1.0, 1.0], [0.0, 0.0], [2.0, 2.0], [0.5, 0.5]])
+    cv = np.array([0.0, 5.0, 0.1, 3.0])
+    order, fit, n_feas = aux_select(F, cv, 3, var=0.2)
+    assert n_feas == 2
+    assert order[:2].tolist() == [0, 2]  # (1,1,cv 0) dominates (2,2,cv .1) in [f, CV]
+    assert order[2] == 3  # then the smaller violation among the rest
+    assert np.all(np.diff(fit) >= 0)
+    order, _, n_feas = aux_select(F, cv, 2, var=-1.0)  # nothing epsilon-feasible: SPEA2 under CDP
+    assert n_feas == 0 and order.tolist() == [0, 2]
+
+
+def run(name: str, evals: int, seed: int = 1, pop: int = 40):
+    p = problem_by_name(name)
+    alg = make_algorithm(AlgorithmSpec("imtcmo", pop), p.n_obj, seed)
+    return minimize(p, alg, ("n_eval", evals), seed=seed, copy_algorithm=False), alg
+
+
+def test_two_n_evaluations_initially_and_per_generation_and_a_falling_epsilon():
+    res, alg = run("mw3", 2000)
+    evals = [row["n_eval"] for row in alg.trace]
+    assert evals[0] == 80 and set(np.diff(evals)) == {80.0}
+    eps = [row["eps"] for row in alg.trace]
+    assert all(b <= a for a, b in zip(eps, eps[1:], strict=False)) and eps[-1] < eps[0]
+    assert alg.trace[-1]["X"] == pytest.approx((len(evals) - 1) * 40 / 2000)  # X += N / maxFE: ends near 0.5
+
+
+def test_same_seed_same_population():
+    a, _ = run("ctp2", 1200, seed=7)
+    b, _ = run("ctp2", 1200, seed=7)
+    assert np.array_equal(a.pop.get("X"), b.pop.get("X"))
+
+
+def test_an_odd_or_tiny_population_is_refused():
+    with pytest.raises(ValueError, match="even population of at least 12"):
+        IMTCMO(pop_size=11)
+
+
+@pytest.mark.parametrize("name", ["mw1", "mw3", "mw11", "ctp2"])
+def test_reaches_a_feasible_population_at_20000_evaluations(name):
+    res, _ = run(name, 20000, pop=100)
+    assert (res.pop.get("CV")[:, 0] <= 0).mean() > 0.5
