@@ -177,6 +177,12 @@ def _imtcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) ->
     return IMTCMO(pop_size=spec.pop_size, seed=seed)
 
 
+def _moead_cmt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.moead_cmt import MOEADCMT
+
+    return MOEADCMT(pop_size=spec.pop_size, seed=seed)
+
+
 def _de(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from pymoo.algorithms.moo.gde3 import GDE3
     from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
@@ -212,6 +218,7 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
                            {**_SBX30, "sbx_one_child": True}),
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
     "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
+    "moead_cmt": AlgorithmInfo("MOEA/D-CMT", (), _moead_cmt),
 }
 
 

@@ -1,0 +1,141 @@
+"""MOEA/D-CMT (Chu, Ming, Gong, IEEE TEVC 29(3), 2025) on arrays, as the spec (§7) describes PlatEMO's code.
+
+Two MOEA/D tasks share one set of weight vectors and compete for each generation's N children:
+task 1 (Tchebycheff with a soft, logistic comparison of objective improvement and normalised violation,
+whose sharpness follows P1's feasible ratio) reproduces by DE, task 2 (unconstrained PBI, theta 5) by
+SBX; every child updates both populations at once (sequential replacement, one evaluation per child).
+The task is drawn by roulette: equal odds for the first 30 % of the budget, then in proportion to each
+task's cumulative reward (the share of its children that enter a SPEA2-CDP archive of size N), with a
+floor. The output is the archive. N evaluations per generation, 2N initially.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.optimize.evolve import spea2
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.variation import de_rand_1, ga
+from core.optimize.evolve.weights import das_dennis, neighbours
+
+F64 = NDArray[np.float64]
+DELTA, NR, RMP, LEARN, P_MIN, S_OBJ, THETA = 0.9, 2, 0.2, 0.3, 0.1, 0.3, 5.0
+
+
+def logistic(x: F64, sigma: float) -> F64:
+    """L(x; sigma) = 1 / (1 + e^(-x / sigma)); 0.5 where x == 0, a step where sigma == 0 (spec §7 pitfall 1)."""
+    x = np.asarray(x, dtype=np.float64)
+    if sigma <= 0:
+        return np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))
+    with np.errstate(over="ignore"):
+        return np.where(x == 0, 0.5, 1.0 / (1.0 + np.exp(-x / sigma)))
+
+
+def task_probabilities(rwd: F64, fe: int, max_fe: int) -> F64:
+    if fe <= LEARN * max_fe or rwd.sum() <= 0:
+        return np.array([0.5, 0.5])
+    p = P_MIN / 2 + (1 - P_MIN) * rwd / rwd.sum()
+    return p / p.sum()
+
+
+class MOEADCMT(ArrayAlgorithm):
+    """MOEA/D-CMT; the effective population is the number of Das-Dennis vectors (<= pop_size; all of it for
+    one objective)."""
+
+    def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
+        p = self.problem
+        # One objective: N equal subproblems (the lattice would give one); DE needs two neighbours at least.
+        self.W = das_dennis(self.pop_size, p.n_obj) if p.n_obj > 1 else np.ones((self.pop_size, 1))
+        n = len(self.W)
+        T = max(2, int(np.ceil(n / 10)))
+        self.B = neighbours(self.W, T) if p.n_obj > 1 else (np.arange(n)[:, None] + np.arange(T)[None, :]) % n
+        self.xl, self.xu = np.asarray(p.xl, dtype=np.float64), np.asarray(p.xu, dtype=np.float64)
+        X1 = self.initial_X()[:n]
+        if len(X1) < n:
+            X1 = np.vstack([X1, self.random_state.uniform(self.xl, self.xu, size=(n - len(X1), p.n_var))])
+        self.P1 = self.evaluate(X1)
+        self.P2 = self.evaluate(self.repaired(self.random_state.uniform(self.xl, self.xu, size=(n, p.n_var))))
+        self.P1 = Arrays(*(np.array(v) for v in (self.P1.X, self.P1.F, self.P1.G, self.P1.cv)))
+        self.P2 = Arrays(*(np.array(v) for v in (self.P2.X, self.P2.F, self.P2.G, self.P2.cv)))
+        self.z1, self.z2 = self.P1.F.min(axis=0), self.P2.F.min(axis=0)
+        self.cmin = float(self.P1.cv.min())
+        self.rwd = np.zeros(2)
+        self.max_fe = self.budget(n, 2 * n)
+        self.arrays = self.P1.take(np.arange(n))  # the archive: a copy (P1 is updated in place)
+        self.log(task=0.0, p1=0.5, feasible_ratio_P1=float((self.P1.cv <= 0).mean()))
+
+    def _child(self, k: int, i: int, pool: NDArray[np.int64]) -> F64:
+        rng = self.random_state
+        if k == 0:
+            src = self.P1 if rng.random() < RMP else self.P2
+            return de_rand_1(self.P1.X[i:i + 1], src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng)
+        src = self.P2 if rng.random() < RMP else self.P1
+        return ga(src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng, half=True)
+
+    def _update_task1(self, y: Arrays, pool: NDArray[np.int64], s_cv: float) -> int:
+        P, W = self.P1, self.W[pool]
+        self.z1 = np.minimum(self.z1, y.F[0])
+        self.cmin = min(self.cmin, float(y.cv[0]))
+        cmax = float(max(P.cv.max(), y.cv[0]))
+        g_old = (np.abs(P.F[pool] - self.z1) / W).max(axis=1)
+        g_new = (np.abs(y.F[0] - self.z1) / W).max(axis=1)
+        cv_old, cv_new = P.cv[pool].copy(), np.full(len(pool), y.cv[0])
+        if cmax > self.cmin:
+            cv_old = np.where(cv_old > 0, (cv_old - self.cmin) / (cmax - self.cmin), cv_old)
+            cv_new = np.where(cv_new > 0, (cv_new - self.cmin) / (cmax - self.cmin), cv_new)
+        a = logistic(g_old - g_new, S_OBJ) * np.fmax(logistic(cv_old - cv_new, s_cv), 1e-4)
+        b = logistic(g_new - g_old, S_OBJ) * np.fmax(logistic(cv_new - cv_old, s_cv), 1e-4)
+        winners = pool[a >= b][:NR]
+        self._replace(P, winners, y)
+        return len(winners)
+
+    def _update_task2(self, y: Arrays, pool: NDArray[np.int64]) -> int:
+        P, W = self.P2, self.W[pool]
+        self.z2 = np.minimum(self.z2, y.F[0])
+        norm_w = np.linalg.norm(W, axis=1)
+
+        def pbi(F: F64) -> F64:
+            d = F - self.z2
+            nd = np.linalg.norm(d, axis=-1)
+            d1 = (d * W).sum(axis=-1) / norm_w
+            with np.errstate(invalid="ignore", divide="ignore"):
+                cos = np.where(nd > 0, d1 / nd, 1.0)
+            return d1 + THETA * nd * np.sqrt(np.maximum(0.0, 1 - cos**2))
+
+        winners = pool[pbi(P.F[pool]) >= pbi(np.broadcast_to(y.F[0], (len(pool), y.F.shape[1])))]
+        self._replace(P, winners, y)
+        return len(winners)
+
+    @staticmethod
+    def _replace(P: Arrays, idx: NDArray[np.int64], y: Arrays) -> None:
+        P.X[idx], P.F[idx], P.G[idx], P.cv[idx] = y.X[0], y.F[0], y.G[0], y.cv[0]
+
+    def _advance(self, infills: Any = None, **kwargs: Any) -> None:
+        rng, n = self.random_state, len(self.W)
+        fr = float((self.P1.cv <= 0).mean())
+        s_cv = 10.0 * fr
+        prob = task_probabilities(self.rwd, int(self.evaluator.n_eval), self.max_fe)
+        k = int(rng.random() >= prob[0])
+        kids, rep1, rep2 = [], 0, 0
+        for i in range(n):
+            pool = rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n)
+            y = self.evaluate(self.repaired(self._child(k, i, pool)))
+            kids.append(y)
+            rep1 += self._update_task1(y, pool, s_cv)
+            rep2 += self._update_task2(y, pool)
+        Q = Arrays.concat(*kids)
+        archive = self.arrays
+        assert archive is not None
+        size = len(archive)
+        pool_a = Arrays.concat(archive, Q)
+        order, _, mask = spea2.select(pool_a.F, n, pool_a.cv)
+        from_q = int(mask[size:].sum())
+        if size >= n:
+            self.rwd[k] += from_q / n
+        self.arrays = pool_a.take(order)
+        self.log(task=float(k + 1), p1=float(prob[0]), rwd1=float(self.rwd[0]), rwd2=float(self.rwd[1]),
+                 from_children=float(from_q), feasible_ratio_P1=fr, sigma_cv=s_cv, replaced_task1=float(rep1),
+                 replaced_task2=float(rep2), feasible_ratio_archive=float((self.arrays.cv <= 0).mean()))
