@@ -49,6 +49,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes for a multi-start block's chains (default: the configuration's 'workers', "
                    "else every core); the results do not depend on it")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run a multi-start block's chains on this Dask scheduler (tcp://host:8786) instead of local "
+                   "processes; the results are the same")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
 
@@ -216,6 +219,10 @@ def run(args: argparse.Namespace) -> int:
         if args.workers < 1:
             raise CLIError(f"--workers must be >= 1, got {args.workers}")
         config = replace(config, workers=args.workers)
+    if args.scheduler is not None:
+        if not args.scheduler.strip():
+            raise CLIError("--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786")
+        config = replace(config, scheduler=args.scheduler)
     check_out_dir(args.out_text, output_names(config))
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)

@@ -86,6 +86,7 @@ class DesignConfig:
     source: Mapping[str, Any] = field(default_factory=dict)
     path: str | None = None
     workers: int = 0
+    scheduler: str | None = None  # a Dask scheduler address: multi-start chains run on that cluster
 
 
 # ---------------------------------------------------------------------------------------

@@ -198,10 +198,11 @@ def _chain_job(job: tuple[_Chain, int, int | None], callback: Callable[[Progress
 
 
 def _run_chains(chains: list[_Chain], upto: int, pick: int | None, workers: int,
-                callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> list[_Chain]:
-    if resolve_workers(workers, len(chains)) > 1 and start_method() == "fork":
+                callback: Callable[[Progress], None] | None, cancel: threading.Event | None,
+                scheduler: str | None = None) -> list[_Chain]:
+    if not scheduler and resolve_workers(workers, len(chains)) > 1 and start_method() == "fork":
         _compile_here(chains[0], upto, pick)
-    return run_jobs(_chain_job, [(c, upto, pick) for c in chains], workers, callback, cancel)
+    return run_jobs(_chain_job, [(c, upto, pick) for c in chains], workers, callback, cancel, scheduler)
 
 
 def _compile_here(chain: _Chain, upto: int, pick: int | None) -> None:
@@ -239,7 +240,7 @@ def run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None
         records = tuple(x.record() for x in chains if x.picks)
         return MultiStart(starts, tuple(names[first : last + 1]), first, last, records, c.j), c.pipe, False
 
-    chains = _run_chains(chains, upto, pick, config.workers, callback, cancel)
+    chains = _run_chains(chains, upto, pick, config.workers, callback, cancel, config.scheduler)
     if (out := stopped(chains, upto)) is not None:
         return out
     going = chains
@@ -250,7 +251,7 @@ def run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None
         for c in chains:
             if c.j not in kept:
                 c.status = "dropped"
-        going = _run_chains(going, last, None, config.workers, callback, cancel)
+        going = _run_chains(going, last, None, config.workers, callback, cancel, config.scheduler)
         chains = [next((g for g in going if g.j == c.j), c) for c in chains]
         if (out := stopped(going, last)) is not None:
             return out

@@ -116,8 +116,48 @@ class _Done:
 _DONE = _Done()
 
 
+class _ClusterFlag:
+    """The cancel flag of a job on a Dask cluster: a named distributed Event, looked up where the job runs."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def is_set(self) -> bool:
+        from distributed import Event
+
+        return bool(Event(self.name).is_set())
+
+
+def _cluster_call(fn: Job, job: Any, flag: str) -> Any:
+    return fn(job, None, _ClusterFlag(flag))
+
+
+def run_on_cluster(fn: Job, jobs: Sequence[Any], scheduler: str, cancel: threading.Event | None = None) -> list[Any]:
+    """``[fn(job, None, cancel) for job in jobs]`` as tasks on the Dask scheduler at ``scheduler``.
+
+    The jobs see the caller's ``cancel`` through a distributed Event (one scheduler round trip per check);
+    their progress is not forwarded (a cluster's workers report when each job ends).
+    """
+    import uuid
+
+    from distributed import Client, Event
+
+    with Client(scheduler, timeout="20s") as client:
+        name = f"clm-cancel-{uuid.uuid4().hex}"
+        event = Event(name, client=client)
+        futures = client.map(_cluster_call, [fn] * len(jobs), list(jobs), [name] * len(jobs), pure=False)
+        try:
+            while not all(f.done() for f in futures):
+                if cancel is not None and cancel.is_set():
+                    event.set()
+                threading.Event().wait(0.05)
+            return list(client.gather(futures))
+        finally:
+            event.set()
+
+
 def run(fn: Job, jobs: Sequence[Any], workers: int | None = None, callback: Callable[[Any], None] | None = None,
-        cancel: threading.Event | None = None) -> list[Any]:
+        cancel: threading.Event | None = None, scheduler: str | None = None) -> list[Any]:
     """``[fn(job, callback, cancel) for job in jobs]``, in up to ``workers`` processes.
 
     Args:
@@ -133,7 +173,11 @@ def run(fn: Job, jobs: Sequence[Any], workers: int | None = None, callback: Call
 
     Raises:
         The first exception a job raised (the others are told to stop).
+
+    With ``scheduler`` (a Dask scheduler address) the jobs run on that cluster instead (``run_on_cluster``).
     """
+    if scheduler:
+        return run_on_cluster(fn, jobs, scheduler, cancel)
     n = resolve(workers, len(jobs))
     if n == 1:
         return [fn(job, callback, cancel) for job in jobs]

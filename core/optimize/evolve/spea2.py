@@ -33,8 +33,8 @@ def dominance(F: F64, cv: F64 | None = None) -> B:
 def distances(F: F64) -> F64:
     """``(n, n)`` Euclidean distances between members, +inf on the diagonal."""
     F = np.asarray(F, dtype=np.float64)
-    diff = F[:, None, :] - F[None, :, :]
-    with np.errstate(invalid="ignore", over="ignore"):
+    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf (penalised members): NaN, then +inf below
+        diff = F[:, None, :] - F[None, :, :]
         D = np.sqrt((diff * diff).sum(axis=2))
     D = np.where(np.isnan(D), np.inf, D)
     np.fill_diagonal(D, np.inf)
