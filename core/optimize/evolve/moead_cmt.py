@@ -30,7 +30,7 @@ def logistic(x: F64, sigma: float) -> F64:
     x = np.asarray(x, dtype=np.float64)
     if sigma <= 0:
         return np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))
-    with np.errstate(over="ignore"):
+    with np.errstate(over="ignore", invalid="ignore"):
         return np.where(x == 0, 0.5, 1.0 / (1.0 + np.exp(-x / sigma)))
 
 
@@ -86,8 +86,9 @@ class MOEADCMT(ArrayAlgorithm):
         if cmax > self.cmin:
             cv_old = np.where(cv_old > 0, (cv_old - self.cmin) / (cmax - self.cmin), cv_old)
             cv_new = np.where(cv_new > 0, (cv_new - self.cmin) / (cmax - self.cmin), cv_new)
-        a = logistic(g_old - g_new, S_OBJ) * np.fmax(logistic(cv_old - cv_new, s_cv), 1e-4)
-        b = logistic(g_new - g_old, S_OBJ) * np.fmax(logistic(cv_new - cv_old, s_cv), 1e-4)
+        with np.errstate(invalid="ignore"):  # inf - inf for penalised members: NaN, which never wins below
+            a = logistic(g_old - g_new, S_OBJ) * np.fmax(logistic(cv_old - cv_new, s_cv), 1e-4)
+            b = logistic(g_new - g_old, S_OBJ) * np.fmax(logistic(cv_new - cv_old, s_cv), 1e-4)
         winners = pool[a >= b][:NR]
         self._replace(P, winners, y)
         return len(winners)
