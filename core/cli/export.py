@@ -1,0 +1,51 @@
+"""``clm export``: a design as drawings for fabrication (DXF with one layer per link, and SVG)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from core.cli import CLIError
+from core.formats.drawing import drawing, svg, write_dxf
+from core.formats.files import atomic_write
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "export",
+        help="write a design as DXF (one layer per link, pivot holes, dimensions) and SVG",
+        description="Draw a design (a preset or a design JSON file) at one crank angle for fabrication: DXF with "
+        "one layer per link, pivot holes at joint centres, ground pivots marked and link lengths dimensioned in "
+        "mm; SVG with the linkage and its foot path.",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
+    src.add_argument("--design", type=Path, metavar="FILE", help="a design JSON file")
+    p.add_argument("--dxf", type=Path, metavar="OUT", help="DXF file to write")
+    p.add_argument("--svg", type=Path, metavar="OUT", help="SVG file to write")
+    p.add_argument("--angle", type=float, default=0.0, help="crank angle in degrees from the crank phase (default 0)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from core.cli.simulate import load_design
+
+    if args.dxf is None and args.svg is None:
+        raise CLIError("nothing to write: give --dxf and/or --svg")
+    if not math.isfinite(args.angle):
+        raise CLIError(f"--angle must be a finite number of degrees, got {args.angle}")
+    design, _ = load_design(args)
+    d = drawing(design, math.radians(args.angle))
+    for out in (args.dxf, args.svg):
+        if out is not None and out.is_dir():
+            raise CLIError(f"{out} is a folder")
+    if args.dxf is not None:
+        tmp = args.dxf.with_name(args.dxf.name + ".tmp")
+        write_dxf(d, tmp)
+        tmp.replace(args.dxf)
+        print(f"wrote {args.dxf} ({len(d.links)} links, {len(d.ground)} ground pivots)")
+    if args.svg is not None:
+        atomic_write(args.svg, svg(d))
+        print(f"wrote {args.svg}")
+    return 0

@@ -1,0 +1,122 @@
+"""Drawings for fabrication: a design at one crank angle as DXF (one layer per link, pivot holes, ground marks,
+link lengths dimensioned in mm) and as SVG (the linkage and the foot path).
+
+Coordinates are the design frame in mm, y up (SVG flips y for the screen).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from core.kinematics.design import Design
+from core.kinematics.model import Ground
+
+F64 = NDArray[np.float64]
+HOLE_RADIUS = 2.5  # mm: pivot holes drawn at joint centres
+N_SAMPLES = 360
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """One design at one crank angle: joints ``(n_joints, 2)`` mm, the moving links (point names), the ground
+    pivots, and the tracked point's path ``(n_samples, 2)`` mm."""
+
+    mechanism: str
+    names: tuple[str, ...]
+    joints: F64
+    links: tuple[tuple[str, ...], ...]
+    ground: tuple[str, ...]
+    path: F64
+    angle: float
+
+    def point(self, name: str) -> F64:
+        return self.joints[self.names.index(name)]
+
+    def edges(self) -> list[tuple[str, str, float]]:
+        """Every pair of points of every moving link, with its length (mm)."""
+        out = []
+        for body in self.links:
+            for a, b in combinations(body, 2):
+                out.append((a, b, float(np.linalg.norm(self.point(a) - self.point(b)))))
+        return out
+
+
+def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
+    """The drawing of member ``member`` at crank angle ``angle`` (rad, from the design's crank phase g);
+    ValueError if it does not assemble there."""
+    m = design.mechanism
+    sol = design.solve(N_SAMPLES, joints=True, derivatives=False)
+    i = int(round((angle % (2 * math.pi)) / (2 * math.pi) * N_SAMPLES)) % N_SAMPLES
+    assert sol.joints is not None
+    joints = np.asarray(sol.joints[member, i], dtype=np.float64)
+    if not np.isfinite(joints).all() or sol.violation[member] > 0:
+        raise ValueError(f"the design does not assemble (violation {sol.violation[member]:.3g} mm): nothing to draw")
+    ground = tuple(s.name for s in m.steps if isinstance(s, Ground))
+    links = tuple(b for b in m.bodies() if not set(b) <= set(ground))
+    return Drawing(m.name, tuple(m.joint_names), joints, links, ground, np.asarray(sol.point[member]), float(angle))
+
+
+def write_dxf(d: Drawing, path: str | Path) -> None:
+    """DXF R2010: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned dimensions), ``GROUND``
+    (pivot holes and cross marks), ``PATH`` (the foot path)."""
+    import ezdxf
+
+    doc = ezdxf.new("R2010", setup=True)
+    doc.units = ezdxf.units.MM
+    msp = doc.modelspace()
+    doc.layers.add("GROUND", color=8)
+    doc.layers.add("PATH", color=5)
+    for k, body in enumerate(d.links):
+        layer = "LINK_" + "-".join(body)
+        doc.layers.add(layer, color=1 + k % 6)
+        for a, b in combinations(body, 2):
+            pa, pb = d.point(a), d.point(b)
+            msp.add_line(tuple(pa), tuple(pb), dxfattribs={"layer": layer})
+            dim = msp.add_aligned_dim(p1=tuple(pa), p2=tuple(pb), distance=6.0, dxfattribs={"layer": layer},
+                                      override={"dimdec": 2, "dimtxt": 3.0})
+            dim.render()
+        for name in body:
+            msp.add_circle(tuple(d.point(name)), HOLE_RADIUS, dxfattribs={"layer": layer})
+    for name in d.ground:
+        x, y = d.point(name)
+        msp.add_circle((x, y), HOLE_RADIUS * 1.6, dxfattribs={"layer": "GROUND"})
+        for dx, dy in ((1, 0), (0, 1)):
+            s = 2.5 * HOLE_RADIUS
+            msp.add_line((x - s * dx, y - s * dy), (x + s * dx, y + s * dy), dxfattribs={"layer": "GROUND"})
+    finite = d.path[np.isfinite(d.path).all(axis=1)]
+    if len(finite) > 1:
+        msp.add_lwpolyline([tuple(p) for p in finite], close=True, dxfattribs={"layer": "PATH"})
+    doc.saveas(str(path))
+
+
+def svg(d: Drawing, margin: float = 20.0) -> str:
+    """The linkage at its angle and the foot path as an SVG document (mm, y up)."""
+    pts = np.vstack([d.joints, d.path[np.isfinite(d.path).all(axis=1)]])
+    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
+    w, h = hi - lo
+
+    def xy(p: F64) -> tuple[float, float]:
+        return float(p[0] - lo[0]), float(hi[1] - p[1])
+
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w:.2f}mm" height="{h:.2f}mm" '
+           f'viewBox="0 0 {w:.3f} {h:.3f}">',
+           f"<title>{d.mechanism} at crank angle {math.degrees(d.angle):.1f} deg</title>"]
+    path = " ".join(f"{x:.3f},{y:.3f}" for x, y in (xy(p) for p in d.path if np.isfinite(p).all()))
+    out.append(f'<polygon points="{path}" fill="none" stroke="#1f77b4" stroke-width="0.6"/>')
+    for a, b, _ in d.edges():
+        (x1, y1), (x2, y2) = xy(d.point(a)), xy(d.point(b))
+        out.append(f'<line x1="{x1:.3f}" y1="{y1:.3f}" x2="{x2:.3f}" y2="{y2:.3f}" stroke="#333" '
+                   f'stroke-width="1.2" stroke-linecap="round"/>')
+    for name, p in zip(d.names, d.joints, strict=True):
+        x, y = xy(p)
+        fill = "#888" if name in d.ground else "#fff"
+        out.append(f'<circle cx="{x:.3f}" cy="{y:.3f}" r="{HOLE_RADIUS}" fill="{fill}" stroke="#333" '
+                   f'stroke-width="0.5"><title>{name}</title></circle>')
+    out.append("</svg>")
+    return "\n".join(out) + "\n"

@@ -1,0 +1,65 @@
+"""clm export: DXF read back with ezdxf gives every link length of the design to 1e-6 mm; SVG draws it."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+import ezdxf
+import numpy as np
+import pytest
+
+from core.cli import main
+from core.formats.drawing import drawing
+from core.kinematics.model import Dyad
+from core.kinematics.presets import get
+
+PRESETS = ["stephenson1/X3", "jansen", "klann", "fourbar/chebyshev", "watt1/paper"]
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_dxf_round_trip_keeps_every_link_length(name, tmp_path):
+    design = get(name).design()
+    out = tmp_path / "d.dxf"
+    assert main(["export", "--preset", name, "--dxf", str(out), "--angle", "40"]) == 0
+    doc = ezdxf.readfile(out)
+    msp = doc.modelspace()
+    lines = [e for e in msp.query("LINE") if e.dxf.layer.startswith("LINK_")]
+    d = drawing(design, math.radians(40))
+    edges = d.edges()
+    assert len(lines) == len(edges)
+    drawn = sorted(math.dist((e.dxf.start.x, e.dxf.start.y), (e.dxf.end.x, e.dxf.end.y)) for e in lines)
+    np.testing.assert_allclose(drawn, sorted(length for *_, length in edges), atol=1e-6)
+    # Each dyad's two lengths are the design's parameters.
+    named = design.named()
+    by_pair = {frozenset((a, b)): length for a, b, length in edges}
+    for step in design.mechanism.steps:
+        if isinstance(step, Dyad):
+            for end, op in ((step.p, step.l1), (step.q, step.l2)):
+                if isinstance(op, str) and frozenset((end, step.name)) in by_pair:
+                    assert by_pair[frozenset((end, step.name))] == pytest.approx(abs(named[op]), abs=1e-6)
+    layers = {layer.dxf.name for layer in doc.layers}
+    assert {"GROUND", "PATH"} <= layers and sum(n.startswith("LINK_") for n in layers) == len(d.links)
+    holes = list(msp.query("CIRCLE"))
+    assert len(holes) >= sum(len(b) for b in d.links) + len(d.ground)
+    assert len(list(msp.query("DIMENSION"))) == len(edges)
+
+
+def test_svg_is_a_drawing_of_the_linkage_and_its_path(tmp_path):
+    out = tmp_path / "d.svg"
+    assert main(["export", "--preset", "stephenson1/X3", "--svg", str(out)]) == 0
+    root = ET.parse(out).getroot()
+    ns = "{http://www.w3.org/2000/svg}"
+    d = drawing(get("stephenson1/X3").design())
+    assert len(root.findall(f"{ns}line")) == len(d.edges())
+    assert len(root.findall(f"{ns}circle")) == len(d.names)
+    assert root.find(f"{ns}polygon") is not None
+
+
+def test_export_refuses_what_it_cannot_draw(tmp_path, capsys):
+    assert main(["export", "--preset", "stephenson1/X3"]) == 2
+    design = tmp_path / "bad.json"
+    design.write_text('{"mechanism": "stephenson1", "params": ' + str([1.0] * 16) + "}")
+    assert main(["export", "--design", str(design), "--svg", str(tmp_path / "x.svg")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "does not assemble" in err[1]
