@@ -22,7 +22,7 @@ import viser
 from core.formats.session import parse_json
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
-from studio.exports import design_json, figure_html, slug, trajectories_csv
+from studio.exports import design_json, drawing_export, figure_html, slug, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS
 from studio.geometry import frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
@@ -358,6 +358,9 @@ class Studio:
     def design_file(self) -> tuple[str, bytes]:
         view = self.session.view
         return f"{slug(view.preset or view.design.mechanism.name)}-design.json", design_json(view)
+
+    def drawing_file(self, kind: str) -> tuple[str, bytes]:
+        return drawing_export(self.session.view, self.session.playback.angle, kind)
 
     def trajectories_file(self) -> tuple[str, bytes]:
         view = self.session.view

@@ -10,6 +10,8 @@ import io
 import json
 import math
 import re
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import plotly.graph_objects as go
@@ -73,3 +75,18 @@ def parse_trajectories_csv(data: bytes) -> dict[str, np.ndarray]:
     rows = [[float(c) if c else math.nan for c in line.split(",")] for line in lines[1:]]
     arr = np.array(rows, dtype=np.float64)
     return {h: arr[:, k] for k, h in enumerate(head)}
+
+
+def drawing_export(view: DesignView, angle: float, kind: str) -> tuple[str, bytes]:
+    """The shown design at the shown crank angle as a fabrication drawing: ``dxf`` (one layer per link, pivot
+    holes, dimensions) or ``svg``; ValueError if it does not assemble there (the panel says so)."""
+    from core.formats.drawing import drawing, svg, write_dxf
+
+    d = drawing(view.design, angle)
+    name = f"{slug(view.preset or view.design.mechanism.name)}-drawing.{kind}"
+    if kind == "svg":
+        return name, svg(d).encode()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "drawing.dxf"
+        write_dxf(d, path)
+        return name, path.read_bytes()

@@ -63,3 +63,18 @@ def test_export_refuses_what_it_cannot_draw(tmp_path, capsys):
     assert main(["export", "--design", str(design), "--svg", str(tmp_path / "x.svg")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "does not assemble" in err[1]
+
+
+def test_the_studio_exports_the_shown_design_as_dxf_and_svg(tmp_path):
+    from studio.exports import drawing_export
+    from studio.state import Session
+
+    view = Session.default().view
+    name, content = drawing_export(view, 0.5, "dxf")
+    assert name.endswith("-drawing.dxf")
+    (tmp_path / name).write_bytes(content)
+    doc = ezdxf.readfile(tmp_path / name)
+    d = drawing(view.design, 0.5)
+    assert len([e for e in doc.modelspace().query("LINE") if e.dxf.layer.startswith("LINK_")]) == len(d.edges())
+    name, content = drawing_export(view, 0.5, "svg")
+    assert name.endswith(".svg") and content.startswith(b"<svg")

@@ -29,6 +29,11 @@ class FilesPanel:
                                               hint="a session JSON saved by the studio (the current one is replaced)")
             self.design = gui.add_button("Design (JSON)", icon=viser.Icon.FILE_DOWNLOAD,
                                          hint="the current design; clm simulate --design reads it")
+            self.dxf = gui.add_button("Drawing (DXF)", icon=viser.Icon.FILE_DOWNLOAD,
+                                      hint="the design at the shown crank angle: one layer per link, pivot holes, "
+                                      "dimensions in mm")
+            self.svg = gui.add_button("Drawing (SVG)", icon=viser.Icon.FILE_DOWNLOAD,
+                                      hint="the design at the shown crank angle and its foot path")
             self.csv = gui.add_button("Trajectories (CSV)", icon=viser.Icon.FILE_DOWNLOAD,
                                       hint="design-frame path, bench trajectory, stance, target per crank sample")
             self.pareto = gui.add_button("Pareto chart (HTML)", icon=viser.Icon.FILE_DOWNLOAD,
@@ -37,6 +42,8 @@ class FilesPanel:
                                         hint="one crank revolution of the scene, self-contained (works offline)")
         self.download.on_click(self._send(self.studio.session_file))
         self.design.on_click(self._send(self.studio.design_file))
+        self.dxf.on_click(self._send(lambda: self.studio.drawing_file("dxf")))
+        self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg")))
         self.csv.on_click(self._send(self.studio.trajectories_file))
         self.pareto.on_click(self._send(self.studio.pareto_file))
         self.scene.on_click(self._send(self.studio.scene_file))
