@@ -48,7 +48,7 @@ def best_metric(values: list[dict[str, float]], wanted: str) -> str | None:
 def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str, str], reference: str,
                 best: str) -> dict[str, Any]:
     """Everything the report shows for one case, as plain data."""
-    rows = [r for r in store.rows() if r["case"] == case]
+    rows = [r for r in store.rows() if r["case"] == case and r["algorithm"] in algorithms]
     pairs = run_values(rows)
     for _, v in pairs:
         if "dh6" in v and "dh4" in v:
