@@ -84,3 +84,20 @@ def test_astronomic_parameters_are_infinitely_infeasible_on_both_backends(value)
 def test_an_empty_population_gives_the_same_empty_result():
     a, b = both(np.zeros((0, M.n_params)))
     assert a.violation.shape == b.violation.shape == (0,) and a.mse.shape == b.mse.shape == (0,)
+
+
+def test_stage_specs_and_pipelines_check_their_arguments():
+    from core.optimize.pipeline import Pipeline
+    from core.optimize.stage import StageSpec
+
+    prob = make_problem("subtask2", n_samples=72)
+    for kw, message in (({"n_gen": 0}, "n_gen"), ({"seed": -1}, "seed"), ({"seed": 2**40}, "seed"),
+                        ({"s": 0.0}, "box s"), ({"d": NAN}, "box d"), ({"stop_below": (1.0, NAN)}, "stop_below")):
+        with pytest.raises(ValueError, match=message):
+            StageSpec("s", prob, **kw)
+    with pytest.raises(TypeError, match="ProblemSpec"):
+        StageSpec("s", "subtask2")
+    with pytest.raises(TypeError, match="StageSpecs"):
+        Pipeline(["subtask2"], X3)
+    with pytest.raises(TypeError, match="Design"):
+        Pipeline([StageSpec("s", prob)], X3.params)

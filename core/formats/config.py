@@ -1,24 +1,8 @@
-"""A design configuration (TOML): parse and validate it strictly, then run it (``clm design``).
+"""A design configuration (TOML), decoded through the Structs of ``config_file`` and checked across keys.
 
-The format is documented in docs/optimization.md; examples are in assets/configs/. In short::
-
-    name = "..."                       # label for tables
-    method = "hierarchical"            # or "single_level", "dp_sqp", "dp_ga", "dp_ga_sqp"
-    mechanism = "stephenson1"          # and/or preset = "stephenson1/X0" (the start design)
-    output = {k = -1.0, ox = 150.0, oy = 0.0}
-    seed = 1                           # stage k runs with seed + k
-    n_samples = 360
-    backend = "auto"
-    [target]   curve = "cycloid", L = 300.0, H = 100.0, T = 2.0   (or curve = "path.csv")
-    [rtclm]    h6 = 50.0, h4 = 220.0
-    [bounds]   r1 = [30.0, 200.0]      # narrower global bounds
-    [algorithm] name = "nsga2", pop_size = 200, options = {...}
-    [[stages]] name, problem, box, n_gen, pick, pick_where, starts, stop_below, fixed, seed_start, options,
-               algorithm
-    [baseline] n_points, pop_size, n_gen, maxiter
-
-Every error is a ``ValueError`` whose message starts with the offending key
-(``stages[2].options.f1_max: ...``). Running a configuration is ``core.optimize.run``.
+The format: docs/optimization.md, assets/configs/, assets/schemas/design-config.schema.json. Every error is a
+``ValueError`` whose message starts with the offending key (``stages[2].options.f1_max: ...``). Running a
+configuration is ``core.optimize.run``.
 """
 
 from __future__ import annotations

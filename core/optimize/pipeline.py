@@ -48,10 +48,15 @@ class Pipeline:
     """
 
     def __init__(self, stages: Sequence[StageSpec], start: Design, results: Sequence[StageResult | None] = ()) -> None:
+        if not isinstance(start, Design):
+            raise TypeError(f"a pipeline starts from a Design, got {type(start).__name__}")
         if start.pop != 1:
             raise ValueError(f"a pipeline starts from one design, got pop = {start.pop}")
         if not stages:
             raise ValueError("a pipeline needs at least one stage")
+        bad = [type(s).__name__ for s in stages if not isinstance(s, StageSpec)]
+        if bad:
+            raise TypeError(f"a pipeline's stages must be StageSpecs, got {bad[0]}")
         if len(results) > len(stages):
             raise ValueError(f"{len(results)} results for {len(stages)} stages")
         self.stages: list[StageSpec] = list(stages)

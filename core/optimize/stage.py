@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pymoo.core.algorithm import Algorithm
 
+from core.kinematics import checks
 from core.kinematics.design import Design
 from core.optimize import decision
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm, validate
@@ -78,12 +79,18 @@ class StageSpec:
     pick: PickRule = "knee"
 
     def __post_init__(self) -> None:
+        where = f"stage {self.name!r}"
+        if not isinstance(self.problem, ProblemSpec):
+            raise TypeError(f"{where}: problem must be a ProblemSpec, got {type(self.problem).__name__}")
         object.__setattr__(self, "fixed", tuple(self.fixed))
-        object.__setattr__(self, "d", float(self.d))
+        object.__setattr__(self, "d", checks.real(self.d, f"{where}: box d (mm)", nonnegative=True))
         if self.s is not None:
-            object.__setattr__(self, "s", float(self.s))
+            object.__setattr__(self, "s", checks.real(self.s, f"{where}: box s", positive=True))
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed <= 2**32 - 1:
+            raise ValueError(f"{where}: seed must be an integer in [0, 2**32 - 1], got {self.seed!r}")
         if self.stop_below is not None:
-            object.__setattr__(self, "stop_below", tuple(float(v) for v in self.stop_below))
+            limits = tuple(checks.real(v, f"{where}: stop_below") for v in self.stop_below)
+            object.__setattr__(self, "stop_below", limits)
             if len(self.stop_below) != self.problem.n_obj:
                 raise ValueError(f"stage {self.name!r}: stop_below needs {self.problem.n_obj} values")
         if not isinstance(self.n_gen, int) or isinstance(self.n_gen, bool) or self.n_gen < 1:
