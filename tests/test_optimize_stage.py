@@ -210,3 +210,14 @@ def test_bulk_constraint_violation_is_pymoos_own(algorithm: str) -> None:
             assert "_CV" in ind.evaluated
         assert ind.CV.shape == (1,)
         assert ind.CV[0] == calc_cv(G=ind.G, config=ind.config)
+
+
+@pytest.mark.parametrize("algorithm", ["nsga2", "imtcmo"])
+def test_the_stage_result_keeps_the_algorithms_trace_through_json(algorithm: str) -> None:
+    res = Stage(replace(spec("subtask2", n_gen=3), algorithm=AlgorithmSpec(algorithm, 12)), X0).run()
+    assert len(res.trace) == 3 and [row["gen"] for row in res.trace] == [1.0, 2.0, 3.0]
+    assert all(0.0 <= row.get("feasible_ratio", row.get("feasible_ratio_P1", 0.0)) <= 1.0 for row in res.trace)
+    if algorithm == "imtcmo":
+        assert all("eps" in row for row in res.trace)
+    back = StageResult.from_json(res.to_json())
+    assert back.trace == res.trace

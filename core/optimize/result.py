@@ -138,6 +138,8 @@ class StageResult:
         picked: the member chosen for the next stage, if any.
         parent_pick: the member of the previous stage's result this stage started from
             (None for a first stage or a hand-made start).
+        trace: the algorithm's per-generation log (array-based algorithms: evaluations, feasible ratios,
+            and what drives it, such as IMTCMO's epsilon or MOEA/D-CMT's task probabilities).
     """
 
     name: str
@@ -163,6 +165,7 @@ class StageResult:
     versions: Mapping[str, str] = field(default_factory=versions)
     picked: int | None = None
     parent_pick: int | None = None
+    trace: tuple[Mapping[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         n = self.mechanism.n_params
@@ -297,6 +300,7 @@ class StageResult:
             "picked": self.picked,
             "pick": None if self.picked is None else self.named(self.picked),
             "parent_pick": self.parent_pick,
+            "trace": [dict(row) for row in self.trace],
         }
 
     @classmethod
@@ -344,6 +348,7 @@ class StageResult:
             versions=dict(d["versions"]),
             picked=None if d["picked"] is None else int(d["picked"]),
             parent_pick=None if d.get("parent_pick") is None else int(d["parent_pick"]),
+            trace=tuple({str(k): decode_float(v) for k, v in row.items()} for row in d.get("trace", [])),
         )
 
     def to_json(self, indent: int | None = 1) -> str:

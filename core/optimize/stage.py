@@ -353,6 +353,7 @@ class Stage:
                      else 0.0, "metrics": t_metrics},
             versions=versions(),
             parent_pick=self.parent_pick,
+            trace=tuple(dict(row) for row in getattr(self.algorithm, "trace", ())),
         )
         return self._cached
 
