@@ -5,7 +5,7 @@ Tests call them directly; the panels hand the result to ``GuiPlotlyHandle.figure
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import plotly.graph_objects as go
@@ -228,4 +228,29 @@ def make_pareto_figure(
             rng = _axis_range(coords[:, k], coords[feasible, k])
             fig.update_layout({axis: {"title": {"text": titles[k]}, "showgrid": True, "gridcolor": "#e5e5e5",
                                       "zeroline": False, **({"range": rng} if rng else {})}})
+    return fig
+
+
+TRACE_RATIOS = {"feasible_ratio": "feasible", "feasible_ratio_P1": "feasible (main)",
+                "feasible_ratio_P2": "feasible (auxiliary)", "feasible_ratio_archive": "feasible (archive)",
+                "p1": "P(task 1)"}
+
+
+def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> go.Figure | None:
+    """Feasible ratios (and task probabilities) over evaluations, and the epsilon level on a log axis
+    when the algorithm has one; None for an empty trace."""
+    if not trace:
+        return None
+    x = [row.get("n_eval", i) for i, row in enumerate(trace)]
+    fig = go.Figure()
+    for key, name in TRACE_RATIOS.items():
+        if any(key in row for row in trace):
+            fig.add_scatter(x=x, y=[row.get(key) for row in trace], mode="lines", name=name)
+    if any("eps" in row for row in trace):
+        eps = [max(row["eps"], 1e-12) if "eps" in row else None for row in trace]
+        fig.add_scatter(x=x, y=eps, mode="lines", name="epsilon", yaxis="y2", line={"dash": "dot"})
+        fig.update_layout(yaxis2={"title": {"text": "epsilon"}, "type": "log", "overlaying": "y", "side": "right"})
+    fig.update_layout(title={"text": title, "font": {"size": 12}}, height=220, margin={"l": 45, "r": 45, "t": 30,
+                      "b": 35}, xaxis={"title": {"text": "evaluations"}}, yaxis={"range": [0, 1.02]},
+                      legend={"orientation": "h", "y": -0.35, "font": {"size": 10}})
     return fig

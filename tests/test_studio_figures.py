@@ -203,3 +203,17 @@ def test_bench_figure_labels_feature_points_and_marks_the_foot() -> None:
     by_name = {t.name: t for t in fig.data}
     assert list(by_name["feature points"].text) == ["t1", "t2"]
     assert (by_name["foot"].x[0], by_name["foot"].y[0]) == (1.0, 1.0)
+
+
+def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
+    from studio.figures import make_trace_figure
+
+    assert make_trace_figure([]) is None
+    trace = [{"gen": 1.0, "n_eval": 40.0, "eps": 3.0, "feasible_ratio_P1": 0.0, "feasible_ratio_P2": 0.1},
+             {"gen": 2.0, "n_eval": 80.0, "eps": 0.5, "feasible_ratio_P1": 0.4, "feasible_ratio_P2": 0.6}]
+    fig = make_trace_figure(trace, "imtcmo trace")
+    names = [d.name for d in fig.data]
+    assert names == ["feasible (main)", "feasible (auxiliary)", "epsilon"]
+    assert fig.layout.yaxis2.type == "log" and list(fig.data[0].x) == [40.0, 80.0]
+    nsga = make_trace_figure([{"gen": 1.0, "n_eval": 20.0, "feasible_ratio": 0.5}])
+    assert [d.name for d in nsga.data] == ["feasible"] and "yaxis2" not in nsga.layout.to_plotly_json()

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import plotly.graph_objects as go
 
-from studio.figures import make_pareto_figure
+from studio.figures import make_pareto_figure, make_trace_figure
 from studio.study import status_text
 from studio.study_view import StudyView
 
@@ -61,6 +61,8 @@ class ParetoPanel:
             self.caption = gui.add_markdown("No stage has run yet.")
             # viser 1.1.1 draws the chart ``width * aspect`` tall.
             self.plot = gui.add_plotly(go.Figure(), aspect=0.85, config=CONFIG, visible=False)
+            # The algorithm's own log: feasible ratios (and epsilon, task odds) over evaluations.
+            self.trace = gui.add_plotly(go.Figure(), aspect=0.5, config=CONFIG, visible=False)
 
     def show(self, sv: StudyView) -> None:
         r = sv.result(sv.viewing)
@@ -81,6 +83,11 @@ class ParetoPanel:
             return
         self.plot.figure = fig
         self.plot.visible = True
+        tfig = None if r is None else make_trace_figure(r.trace, f"{r.settings.get('algorithm', {}).get('name', '')} "
+                                                                 f"trace")
+        if tfig is not None:
+            self.trace.figure = tfig
+        self.trace.visible = tfig is not None
         n = len(r.objectives) if r is not None else 0
         what = ("objective against violation" if n == 1 else "2-D" if n == 2 else
                 "3-D (first three objectives)" if n >= 3 else "")
