@@ -27,6 +27,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from core.kinematics.design import Design
 from core.optimize.box import Box
 from core.optimize.pipeline import Pipeline
@@ -88,13 +90,21 @@ class RunPlan:
 
 
 def status_text(r: StageResult) -> str:
+    """The stage's state in words; a population with no feasible member says so and names what its least
+    violating member misses (``complete — no feasible member: h_s 8.72 > 6.5``)."""
     if r.status == "running":
-        return f"interrupted at generation {r.generation}/{r.n_gen}"
-    if r.status == "cancelled":
-        return f"stopped at generation {r.generation}/{r.n_gen}"
-    if r.status == "stopped":
-        return f"target reached at generation {r.generation}"
-    return r.status
+        text = f"interrupted at generation {r.generation}/{r.n_gen}"
+    elif r.status == "cancelled":
+        text = f"stopped at generation {r.generation}/{r.n_gen}"
+    elif r.status == "stopped":
+        text = f"target reached at generation {r.generation}"
+    else:
+        text = r.status
+    if r.pop and not r.feasible.any():
+        i = int(np.argmin(np.where(np.isnan(r.cv), np.inf, r.cv)))
+        unmet = "; ".join(r.unmet(i))
+        text += " — no feasible member" + (f": {unmet}" if unmet else "")
+    return text
 
 
 @dataclass

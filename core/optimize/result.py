@@ -198,6 +198,25 @@ class StageResult:
         """The feasible non-dominated members."""
         return self.shortlist.front
 
+    def unmet(self, i: int) -> list[str]:
+        """Member i's unmet constraints in words, with its values: ``h_s 8.72 > 6.5``, ``does not assemble``."""
+        out = []
+        for j, name in enumerate(self.constraints):
+            if not self.G[i, j] > 0:
+                continue
+            op = "<=" if "<=" in name else ">=" if ">=" in name else None
+            if op is None:
+                out.append(f"{name} violated by {self.G[i, j]:.3g}")
+                continue
+            metric, bound = name.split(op, 1)
+            if metric in ("violation", "violation_mm"):
+                out.append("does not assemble")
+                continue
+            v = self.metrics.get(metric)
+            shown = f"{float(v[i]):.3g}" if v is not None else "?"
+            out.append(f"{metric} {shown} {'>' if op == '<=' else '<'} {float(bound):.3g}")
+        return out
+
     def named(self, i: int) -> dict[str, float]:
         """Member i's parameters by name."""
         return {n: float(v) for n, v in zip(self.mechanism.param_names, self.X[i], strict=True)}
