@@ -212,6 +212,12 @@ class Session:
         """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design."""
         if keep_assembly and self.view.assembles and not view.assembles:
             raise ValueError(assembly_reason(view))
+        old, new = self.view.design.mechanism, view.design.mechanism
+        pipe = self.study.pipeline
+        if new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name:
+            if self.study.status.running:
+                raise ValueError("a stage is running; stop it before switching the mechanism")
+            self.study.start_over(f"before switching to {new.title}")
         self.view = view
         self.version += 1
         return view

@@ -198,6 +198,17 @@ class Study:
         label = f"{len(self.branches) + 1}: {done} ({why}, {time.strftime('%H:%M:%S')})"
         self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None))))
 
+    def start_over(self, why: str) -> None:
+        """A new topology in the editor: keep the current pipeline as a branch and start afresh (the first
+        stage, from the editor's design; no chart, no candidates)."""
+        self.keep_branch(why)
+        self.pipeline = None
+        self.viewing = None
+        self.shown = {}
+        self.next_stage = None
+        self.from_pick = False
+        self.touch()
+
     def show(self, name: str, member: int) -> StageResult:
         """Show member ``member`` of stage ``name`` (no commitment; the pipeline is unchanged)."""
         r = self.result(name)

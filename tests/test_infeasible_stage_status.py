@@ -29,3 +29,35 @@ def test_a_stage_with_feasible_members_just_says_complete():
     res = Stage(StageSpec("subtask3", prob, s=0.05, d=5.0, algorithm=AlgorithmSpec("nsga2", 12), n_gen=2,
                           seed=1), X2).run()
     assert res.feasible.any() and status_text(res) == "complete"
+
+
+def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch():
+    import threading
+
+    from studio.chains import RunSettings, chain_for, find
+    from studio.runner import Runner
+    from studio.state import Session
+    from studio.study_view import study_view
+
+    s = Session.default()
+    s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
+    done = threading.Event()
+    runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
+    chain = chain_for(s.view.design.mechanism)
+    stage = find(chain, "subtask1")
+    view = s.view
+    runner.start(lambda st: st.plan(stage, s.study.settings_for(stage), view.design, view.target, False, chain))
+    assert done.wait(60)
+    runner.join(10)
+    s.study.next_stage, s.study.from_pick = "subtask2", True
+    assert s.study.pipeline is not None and not s.study.branches
+
+    s.select_mechanism("jansen")
+    assert s.view.design.mechanism.name == "jansen"
+    assert s.study.pipeline is None and s.study.next_stage is None and not s.study.from_pick
+    assert len(s.study.branches) == 1 and "subtask1" in s.study.branches[0].label
+    sv = study_view(s.study, s.view.design, chain_for(s.view.design.mechanism), s.view.target)
+    assert sv.result(sv.viewing) is None  # the chart and the candidates are empty
+    # Back to a Stephenson preset: the jansen study had no result, so nothing new is branched.
+    s.load_preset("stephenson1/X3")
+    assert len(s.study.branches) == 1
