@@ -342,8 +342,7 @@ class Studio:
 
     def restore_branch(self, j: int, client: viser.ClientHandle | None) -> None:
         try:
-            with self.session.lock:
-                self.session.study.restore_branch(j)
+            self.session.restore_branch(j)
         except ValueError as exc:
             if client is not None:
                 self.notify(client, "Branch not restored", str(exc))

@@ -386,6 +386,15 @@ class Session:
         session.playback = Playback(pb.playing, float(pb.speed), float(pb.angle) % (2.0 * math.pi))
         return session
 
+    def restore_branch(self, j: int) -> DesignView:
+        """Branch j becomes the current pipeline and its design the editor's (mechanism, parameters, output)."""
+        with self.lock:
+            self.study.restore_branch(j)
+            design = self.study.branch_design()
+            if design is None:
+                return self.view
+            return self._commit(self._rebuild(design, None))
+
     def restore(self, other: Session) -> None:
         """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""
         with self.lock:

@@ -263,9 +263,24 @@ class Study:
         del self.branches[j]
         self.keep_branch("left for a branch")
         self.pipeline = pipe
-        last = pipe.lineage[-1].name if pipe.lineage else None
-        self.viewing = last
+        last = pipe.lineage[-1] if pipe.lineage else None
+        self.viewing = None if last is None else last.name
+        if last is not None and last.picked is not None:
+            self.shown[last.name] = last.picked
         self.touch()
+
+    def branch_design(self) -> Design | None:
+        """The design a restored pipeline stands for: its last stage's passed-on (or shown) member, else its
+        start."""
+        pipe = self.pipeline
+        if pipe is None:
+            return None
+        if pipe.lineage:
+            r = pipe.lineage[-1]
+            i = r.picked if r.picked is not None else self.shown.get(r.name)
+            if i is not None and 0 <= i < r.pop:
+                return Design(r.mechanism, r.X[i:i + 1], r.output)
+        return pipe.start
 
     def plan(self, stage: ChainStage, settings: RunSettings, editor: Design, target: TargetSpec,
              from_pick: bool, chain: tuple[ChainStage, ...]) -> RunPlan:

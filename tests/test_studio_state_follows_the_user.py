@@ -1,4 +1,5 @@
-"""A stage that ends with no feasible member says so, naming what its least violating member misses."""
+"""The study follows what the user does: an infeasible stage says so, a topology switch starts a new pipeline, a
+restored branch brings its design back."""
 
 from __future__ import annotations
 
@@ -61,3 +62,36 @@ def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch(
     # Back to a Stephenson preset: the jansen study had no result, so nothing new is branched.
     s.load_preset("stephenson1/X3")
     assert len(s.study.branches) == 1
+
+
+def test_restoring_a_branch_restores_its_mechanism_and_design_with_the_pipeline():
+    import threading
+
+    import numpy as np
+
+    from studio.chains import RunSettings, chain_for, find
+    from studio.runner import Runner
+    from studio.state import Session
+
+    s = Session.default()
+    s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
+    done = threading.Event()
+    runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
+    chain = chain_for(s.view.design.mechanism)
+    stage = find(chain, "subtask1")
+    view = s.view
+    runner.start(lambda st: st.plan(stage, s.study.settings_for(stage), view.design, view.target, False, chain))
+    assert done.wait(60)
+    runner.join(10)
+    from dataclasses import replace
+
+    s.study.pipeline.record(0, replace(s.study.pipeline.lineage[-1], picked=3))  # member 3 passed on
+    member = 3
+    s.select_mechanism("jansen")
+    assert s.view.design.mechanism.name == "jansen"
+    s.restore_branch(0)
+    assert s.view.design.mechanism.name == "stephenson1"
+    restored = s.study.pipeline.lineage[-1]
+    assert restored.picked == member
+    np.testing.assert_allclose(s.view.design.params[0], restored.X[member])
+    assert s.study.viewing == restored.name
