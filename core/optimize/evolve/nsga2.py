@@ -13,24 +13,13 @@ from typing import Any
 import numpy as np
 
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.duplicates import fresh_rows
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.sorting import cdp_ranks, crowding
 from core.optimize.evolve.variation import polynomial_mutation, sbx_bounded
 
 F64 = np.ndarray
 MAX_REFILLS = 100
-
-
-def fresh_rows(C: F64, existing: F64) -> np.ndarray:
-    """``(n,)`` mask of the rows of C that equal no row of ``existing`` and no earlier row of C."""
-    seen = {row.tobytes() for row in np.ascontiguousarray(existing)}
-    keep = np.zeros(len(C), dtype=bool)
-    for i, row in enumerate(np.ascontiguousarray(C)):
-        b = row.tobytes()
-        if b not in seen:
-            seen.add(b)
-            keep[i] = True
-    return keep
 
 
 def rank_and_crowding(a: Arrays, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -43,6 +32,8 @@ def rank_and_crowding(a: Arrays, n: int) -> tuple[np.ndarray, np.ndarray, np.nda
 
 
 class NSGA2(ArrayAlgorithm):
+    """NSGA-II; the output population is the survivors, best first (front, then crowding)."""
+
     def __init__(self, pop_size: int = 100, crossover_prob: float = 0.9, crossover_eta: float = 15.0,
                  mutation_prob: float = 0.9, mutation_prob_var: float | None = None, mutation_eta: float = 20.0,
                  eliminate_duplicates: bool = True, **kwargs: Any) -> None:
@@ -63,7 +54,12 @@ class NSGA2(ArrayAlgorithm):
         self._survive(self.evaluate(self.initial_X()))
 
     def offspring(self) -> F64:
-        """``(pop_size, d)`` new members: mated, varied, repaired, and (by default) unlike any member so far."""
+        """``(pop_size, d)`` new members: mated, varied, repaired, and (by default) unlike any member so far.
+
+        Duplicates are dropped before the repair too, so the repair (the stage's placement, as costly as an
+        evaluation) runs on the pop_size members kept, not on the spares; and again after it, since a repair
+        can map two members onto one.
+        """
         a, rng, p = self.arrays, self.random_state, self.problem
         assert a is not None
         xl, xu = np.asarray(p.xl, dtype=np.float64), np.asarray(p.xu, dtype=np.float64)
@@ -71,18 +67,23 @@ class NSGA2(ArrayAlgorithm):
         out: list[F64] = []
         have = 0
         for _ in range(MAX_REFILLS):
-            k = (n - have + 1) // 2 + (n - have) // 20 + 1  # a few spare pairs: duplicates rarely need a refill
+            need = n - have
+            k = (need + 1) // 2 + need // 20 + 1  # a few spare pairs: duplicates rarely need a refill
             par = tournament((self.rank, -self.crowd), 2 * k, rng)
             c1, c2 = sbx_bounded(a.X[par[0::2]], a.X[par[1::2]], xl, xu, rng, self.crossover_prob,
                                  self.crossover_eta)
-            C = np.vstack([c1, c2])
-            mutate = rng.random(len(C)) < self.mutation_prob
-            C[mutate] = polynomial_mutation(C[mutate], xl, xu, rng, self.mutation_prob_var, self.mutation_eta)
-            C = self.repaired(C)
+            C = polynomial_mutation(np.vstack([c1, c2]), xl, xu, rng, self.mutation_prob_var, self.mutation_eta,
+                                    rows=rng.random(2 * k) < self.mutation_prob)
             if self.eliminate_duplicates:
-                C = C[fresh_rows(C, np.vstack([a.X, *out]) if out else a.X)]
-            out.append(C[: n - have])
-            have += len(out[-1])
+                seen = np.vstack([a.X, *out]) if out else a.X
+                C = C[fresh_rows(C, seen)][:need]
+                if self.repair is not None:
+                    C = self.repaired(C)
+                    C = C[fresh_rows(C, seen)]
+            else:
+                C = self.repaired(C[:need])
+            out.append(C)
+            have += len(C)
             if have >= n:
                 break
         return np.vstack(out)

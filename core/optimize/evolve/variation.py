@@ -1,10 +1,12 @@
-"""Variation operators over arrays (PlatEMO's variants, spec §1.5): SBX, polynomial mutation, DE/rand/1.
+"""Variation operators over arrays (PlatEMO's variants, spec §1.5): SBX, polynomial mutation, DE/rand/1,
+DE/current-to-pbest/1.
 
 Every operator clips to the bounds before mutation; mutation keeps members inside the bounds.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -31,49 +33,108 @@ def sbx(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, prob: floa
     return np.clip(c1, xl, xu), np.clip(c2, xl, xu)
 
 
+@numba.njit(cache=True)
+def _pow(x: float, y: float) -> float:  # pragma: no cover - compiled
+    """x ** y, by repeated multiplication when y is a small whole number (the usual η + 1): ~5x faster."""
+    if y == np.floor(y) and abs(y) <= 64.0:
+        k = int(abs(y))
+        r, b = 1.0, x
+        while k:
+            if k & 1:
+                r *= b
+            b *= b
+            k >>= 1
+        return r if y >= 0 else 1.0 / r
+    return x**y
+
+
+@numba.njit(cache=True)
+def _sbx_bounded(P1: F64, P2: F64, lo: F64, hi: F64, pair: F64, var: F64, u: F64, swap: F64, prob: float,
+                 eta: float, prob_var: float, prob_bin: float) -> tuple[F64, F64]:  # pragma: no cover - compiled
+    k, d = P1.shape
+    C1, C2 = P1.copy(), P2.copy()
+    e = 1.0 / (eta + 1.0)
+    for i in range(k):
+        if pair[i] >= prob:
+            continue
+        for j in range(d):
+            p1, p2 = P1[i, j], P2[i, j]
+            if var[i, j] >= prob_var or abs(p1 - p2) <= 1e-14 or lo[j] == hi[j]:
+                continue
+            y1, y2 = min(p1, p2), max(p1, p2)
+            delta = y2 - y1
+            r = u[i, j]
+            alpha = 2.0 - _pow(1.0 + 2.0 * (y1 - lo[j]) / delta, -(eta + 1.0))
+            bq = (r * alpha) ** e if r <= 1.0 / alpha else (1.0 / (2.0 - r * alpha)) ** e
+            c1 = 0.5 * ((y1 + y2) - bq * delta)
+            alpha = 2.0 - _pow(1.0 + 2.0 * (hi[j] - y2) / delta, -(eta + 1.0))
+            bq = (r * alpha) ** e if r <= 1.0 / alpha else (1.0 / (2.0 - r * alpha)) ** e
+            c2 = 0.5 * ((y1 + y2) + bq * delta)
+            # pymoo orders the children like their parents, then exchanges them when (rand < prob_bin) XOR
+            # (p1 > p2): the net effect is that the first child is the upper one with probability prob_bin.
+            if swap[i, j] < prob_bin:
+                c1, c2 = c2, c1
+            C1[i, j] = min(max(c1, lo[j]), hi[j])
+            C2[i, j] = min(max(c2, lo[j]), hi[j])
+    return C1, C2
+
+
 def sbx_bounded(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, prob: float = 0.9,
                 eta: float = 15.0, prob_var: float = 0.5, prob_bin: float = 0.5) -> tuple[F64, F64]:
-    """Deb's bounded SBX as pymoo's NSGA-II does it (``pymoo.operators.crossover.sbx.cross_sbx``): the spread
-    factor accounts for the distance to the bounds, so children near a bound are as likely as elsewhere.
+    """Deb's bounded SBX as pymoo's NSGA-II does it (``pymoo.operators.crossover.sbx.cross_sbx``, the same
+    distribution): the spread factor accounts for the distance to the bounds, so children near a bound are as
+    likely as elsewhere.
 
-    A pair crosses with probability ``prob``; a variable with ``prob_var``; children swap per variable with
-    ``prob_bin``.
+    A pair crosses with probability ``prob``; a variable with ``prob_var`` (not where the parents are within
+    1e-14 or the bounds are equal); children swap per variable with ``prob_bin``. Children are clipped.
     """
-    from pymoo.operators.crossover.sbx import cross_sbx
+    P1, P2 = np.ascontiguousarray(P1, dtype=np.float64), np.ascontiguousarray(P2, dtype=np.float64)
+    k, d = P1.shape
+    lo, hi = _bounds(xl, xu, d)
+    pair, var, u, swap = rng.random(k), rng.random((k, d)), rng.random((k, d)), rng.random((k, d))
+    return _sbx_bounded(P1, P2, np.ascontiguousarray(lo), np.ascontiguousarray(hi), pair, var, u, swap,
+                        float(prob), float(eta), float(prob_var), float(prob_bin))
 
-    k = len(P1)
-    X = np.stack([P1, P2]).astype(np.float64)
-    Q = X.copy()
-    do = rng.random(k) < prob
-    m = int(do.sum())
-    if m:
-        Q[:, do] = cross_sbx(X[:, do], np.asarray(xl, dtype=np.float64), np.asarray(xu, dtype=np.float64),
-                             np.full((m, 1), eta), np.full((m, 1), prob_var), np.full((m, 1), prob_bin),
-                             random_state=rng)
-    return Q[0], Q[1]
+
+def _bounds(xl: F64, xu: F64, d: int) -> tuple[F64, F64]:
+    return (np.broadcast_to(np.asarray(xl, dtype=np.float64), (d,)),
+            np.broadcast_to(np.asarray(xu, dtype=np.float64), (d,)))
+
+
+@numba.njit(cache=True)
+def _pm(X: F64, lo: F64, hi: F64, site: F64, u: F64, rows: NDArray[np.bool_], pm: float,
+        eta: float) -> None:  # pragma: no cover - compiled
+    n, d = X.shape
+    p = 1.0 / (eta + 1.0)
+    for i in range(n):
+        if not rows[i]:
+            continue
+        for j in range(d):
+            if site[i, j] >= pm:
+                continue
+            span = hi[j] - lo[j] if hi[j] > lo[j] else 1.0
+            x, r = X[i, j], u[i, j]
+            if r <= 0.5:
+                dq = (2.0 * r + (1.0 - 2.0 * r) * _pow(1.0 - (x - lo[j]) / span, eta + 1.0)) ** p - 1.0
+            else:
+                dq = 1.0 - (2.0 * (1.0 - r) + 2.0 * (r - 0.5) * _pow(1.0 - (hi[j] - x) / span, eta + 1.0)) ** p
+            X[i, j] = min(max(x + dq * span, lo[j]), hi[j])
 
 
 def polynomial_mutation(X: F64, xl: F64, xu: F64, rng: np.random.Generator, prob_var: float | None = None,
-                        eta: float = 20.0) -> F64:
-    """Deb's bounded polynomial mutation, each variable with probability ``prob_var`` (default 1/d)."""
-    X = np.array(X, dtype=np.float64)
+                        eta: float = 20.0, rows: NDArray[np.bool_] | None = None) -> F64:
+    """Deb's bounded polynomial mutation, each variable with probability ``prob_var`` (default 1/d); only the
+    ``rows`` given (a ``(n,)`` mask; default all). The result stays inside the bounds (a new array)."""
+    X = np.array(X, dtype=np.float64, order="C")
     n, d = X.shape
     if n == 0:
         return X
-    pm = 1.0 / d if prob_var is None else prob_var
-    mask = rng.random((n, d)) < pm
-    u = rng.random((n, d))
-    span = np.where(xu > xl, xu - xl, 1.0)
-    d1 = (X - xl) / span
-    d2 = (xu - X) / span
-    p = 1.0 / (eta + 1.0)
-    low = u <= 0.5
-    with np.errstate(invalid="ignore"):
-        dq_lo = (2.0 * u + (1.0 - 2.0 * u) * (1.0 - d1) ** (eta + 1.0)) ** p - 1.0
-        dq_hi = 1.0 - (2.0 * (1.0 - u) + 2.0 * (u - 0.5) * (1.0 - d2) ** (eta + 1.0)) ** p
-    dq = np.where(low, dq_lo, dq_hi)
-    Y = np.where(mask, X + dq * span, X)
-    return np.clip(Y, xl, xu)
+    pm = 1.0 / d if prob_var is None else float(prob_var)
+    lo, hi = _bounds(xl, xu, d)
+    site, u = rng.random((n, d)), rng.random((n, d))
+    sel = np.ones(n, dtype=np.bool_) if rows is None else np.asarray(rows, dtype=np.bool_)
+    _pm(X, np.ascontiguousarray(lo), np.ascontiguousarray(hi), site, u, sel, pm, float(eta))
+    return X
 
 
 def ga(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, half: bool = False, prob: float = 1.0,
@@ -84,24 +145,23 @@ def ga(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, half: bool 
     return polynomial_mutation(C, xl, xu, rng, prob_var, eta_m)
 
 
-def de_rand_1(X1: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Generator, F: float = 0.5,
-              CR: float = 1.0, prob_var: float | None = None, eta_m: float = 20.0) -> F64:
+def de_rand_1(X1: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Generator, F: float | F64 = 0.5,
+              CR: float | F64 = 1.0, prob_var: float | None = None, eta_m: float = 20.0) -> F64:
     """DE/rand/1 (PlatEMO's default): ``x1 + F (x2 - x3)`` on every variable with rand < CR (no forced j_rand),
-    clipped, then polynomial mutation."""
+    clipped, then polynomial mutation. ``F`` and ``CR`` are scalars or ``(k, 1)`` per-child values."""
     trial = X1 + F * (X2 - X3)
     C = np.where(rng.random(X1.shape) < CR, trial, X1)
     return polynomial_mutation(np.clip(C, xl, xu), xl, xu, rng, prob_var, eta_m)
 
 
 def de_current_to_pbest_1(X: F64, Xpbest: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Generator,
-                          F: float = 0.5, CR: float = 0.9) -> F64:
-    """DE/current-to-pbest/1/bin: ``x + F (x_pbest - x) + F (x2 - x3)``, binomial crossover with a forced
-    variable, clipped (IMTCMO's variant; no mutation)."""
-    n, d = X.shape
-    trial = X + F * (Xpbest - X) + F * (X2 - X3)
-    mask = rng.random((n, d)) < CR
-    mask[np.arange(n), rng.integers(0, d, n)] = True
-    return np.clip(np.where(mask, trial, X), xl, xu)
+                          F: float | F64 = 0.5, CR: float | F64 = 1.0, prob_var: float | None = None,
+                          eta_m: float = 20.0) -> F64:
+    """DE/current-to-pbest/1 as IMTCMO's (spec §5): ``x + F (x_pbest - x + x2 - x3)`` on every variable with
+    rand < CR (no forced j_rand), clipped, then polynomial mutation. ``F``, ``CR``: scalars or ``(k, 1)``."""
+    trial = X + F * (Xpbest - X + X2 - X3)
+    C = np.where(rng.random(X.shape) < CR, trial, X)
+    return polynomial_mutation(np.clip(C, xl, xu), xl, xu, rng, prob_var, eta_m)
 
 
 def uniform(n: int, xl: F64, xu: F64, rng: np.random.Generator) -> F64:

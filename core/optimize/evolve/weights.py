@@ -36,8 +36,13 @@ def neighbours(W: F64, T: int) -> NDArray[np.int64]:
 
 
 def tchebycheff(F: F64, W: F64, z: F64) -> F64:
-    """``max_k w_k |f_k - z_k|`` for rows of F against rows of W (broadcast)."""
+    """``max_k w_k |f_k - z_k|`` for rows of F against rows of W (broadcast); CMOEMT's form."""
     return (W * np.abs(F - z)).max(axis=-1)
+
+
+def tchebycheff_div(F: F64, W: F64, z: F64) -> F64:
+    """``max_k |f_k - z_k| / w_k`` (broadcast); MOEA/D-CMT's form (W >= 1e-6 from ``das_dennis``)."""
+    return (np.abs(F - z) / W).max(axis=-1)
 
 
 def pbi(F: F64, W: F64, z: F64, theta: float = 5.0) -> F64:
