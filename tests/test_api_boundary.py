@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from core.analysis.evaluate import evaluate
+from core.analysis.evaluate import evaluate, evaluate_paths
 from core.kinematics.design import Design
 from core.kinematics.model import OutputStage
 from core.kinematics.presets import get
@@ -28,12 +28,12 @@ REFUSED = [
     (lambda: evaluate(X3, 1), ValueError, "n_samples must be between 8"),
     (lambda: evaluate(X3, -4), ValueError, "n_samples must be between 8"),
     (lambda: evaluate(X3, 73), ValueError, "n_samples must be even"),
-    (lambda: evaluate(X3, 72, period=NAN), ValueError, "period must be finite"),
-    (lambda: evaluate(X3, 72, period=-2.0), ValueError, "period must be > 0"),
-    (lambda: evaluate(X3, 72, period=float("inf")), ValueError, "period must be finite"),
-    (lambda: evaluate(X3, 72, obstacle=(NAN, 25.0)), ValueError, "obstacle length must be finite"),
-    (lambda: evaluate(X3, 72, obstacle=(25.0, -1.0)), ValueError, "obstacle height must be >= 0"),
-    (lambda: evaluate(X3, 72, trunk=0.0), ValueError, "trunk must be > 0"),
+    (lambda: evaluate(X3, 72, period=NAN), ValueError, r"period \(s\) must be finite"),
+    (lambda: evaluate(X3, 72, period=-2.0), ValueError, r"period \(s\) must be > 0"),
+    (lambda: evaluate(X3, 72, period=float("inf")), ValueError, r"period \(s\) must be finite"),
+    (lambda: evaluate(X3, 72, obstacle=(NAN, 25.0)), ValueError, r"obstacle length \(mm\) must be finite"),
+    (lambda: evaluate(X3, 72, obstacle=(25.0, -1.0)), ValueError, r"obstacle height \(mm\) must be >= 0"),
+    (lambda: evaluate(X3, 72, trunk=0.0), ValueError, r"trunk \(mm\) must be > 0"),
     (lambda: evaluate(X3, 72, backend="gpu"), ValueError, "backend must be one of"),
     (lambda: make_problem("subtask1", n_samples=1), ValueError, "n_samples must be between 8"),
     (lambda: OutputStage(k=NAN), ValueError, "output k"),
@@ -45,6 +45,35 @@ REFUSED = [
     (lambda: Design(M, X3.params.astype(complex)), TypeError, "real numbers"),
     (lambda: Design(M, X3.params.astype("datetime64[s]")), TypeError, "real numbers"),
     (lambda: solve(M, np.array(["a"] * 16), 72), TypeError, "real numbers"),
+    (lambda: solve(M, np.ones((2, 16, 3)), 72), ValueError, r"16 parameters, params of shape \(pop, 16\)"),
+    (lambda: solve("stephenson1", X3.params, 72), TypeError, "mechanism must be a Mechanism"),
+    (lambda: solve(M, X3.params, 72, output=(-1.0, 150.0, 0.0)), TypeError, "output must be an OutputStage"),
+    (lambda: solve(M, X3.params, 72, joints="no"), TypeError, "joints must be true or false"),
+    (lambda: solve(M, np.ma.masked_invalid([[NAN] * 16]), 72), TypeError, "masked"),
+    (lambda: Design(M, X3.params, output={"k": -1.0}), TypeError, "design output must be an OutputStage"),
+    (lambda: evaluate(X3, 72, obstacle=25.0), TypeError, "obstacle must be a pair"),
+    (lambda: evaluate(X3, 72, obstacle=(25.0, 25.0, 1.0)), ValueError, "obstacle must be a pair"),
+    (lambda: evaluate(X3, 72, period=1e-300), ValueError, r"period \(s\) must be >= 1e-06"),
+    (lambda: evaluate(X3, 72, period=1e300), ValueError, r"period \(s\) must be <= 1e\+06"),
+    (lambda: evaluate(X3, 72, obstacle=(1e300, 25.0)), ValueError, "obstacle length"),
+    (lambda: evaluate(X3, 72, target="cycloid"), TypeError, "target must be a Target"),
+    (lambda: evaluate(X3, 72, phase_optimal="yes"), TypeError, "phase_optimal must be true or false"),
+    (lambda: evaluate_paths(np.zeros((1, 1, 2)), np.zeros((1, 1, 2))), ValueError, "samples per path"),
+    (lambda: evaluate_paths(np.zeros((1, 72, 2)), np.zeros((1, 70, 2))), ValueError, "same shape"),
+    (lambda: evaluate_paths(np.zeros((1, 72, 3)), np.zeros((1, 72, 3))), ValueError, r"\(pop, n, 2\)"),
+    (lambda: evaluate_paths(np.zeros((72, 2)), np.zeros((72, 2)), period=NAN), ValueError, "period"),
+    (lambda: evaluate_paths(np.zeros((72, 2)), np.zeros((72, 2)), np.zeros((72, 2)), [0.0, 1.0]), ValueError,
+     "kinematic_violation must have shape"),
+    (lambda: OutputStage(k=1e300), ValueError, "output k"),
+    (lambda: OutputStage(k=1e-300), ValueError, "output k"),
+    (lambda: OutputStage(k=-1.0, ox=1e10), ValueError, "output ox"),
+    (lambda: OutputStage.from_dict({"k": 1.0, "ox": 0.0, "oy": 0.0, "mirror": "false"}), TypeError, "mirror"),
+    (lambda: make_problem("subtask2", f1_max=NAN), ValueError, "f1_max must be finite"),
+    (lambda: make_problem("subtask2", f1_max="6"), TypeError, "f1_max must be a real number"),
+    (lambda: make_problem("subtask1", eq30="no"), TypeError, "eq30 must be true or false"),
+    (lambda: make_problem("subtask1", target=3), TypeError, "target must be a string"),
+    (lambda: make_problem("predesign", n_harmonics=0), ValueError, "n_harmonics must be between 1"),
+    (lambda: make_problem("subtask1", backend="bogus"), ValueError, "backend must be one of"),
 ]
 
 
@@ -52,6 +81,26 @@ REFUSED = [
 def test_odd_calls_are_refused_naming_the_argument(call, error, message):
     with pytest.raises(error, match=message):
         call()
+
+
+@pytest.mark.parametrize("kw", [{"period": NAN}, {"obstacle": (25.0, -1.0)}, {"trunk": np.inf}, {"target": "x"}],
+                         ids=str)
+def test_both_backends_refuse_the_same_calls_the_same_way(kw):
+    errors = []
+    for backend in ("numpy", "numba"):
+        with pytest.raises((TypeError, ValueError)) as e:
+            evaluate(X3, 72, backend=backend, **kw)
+        errors.append((e.type, str(e.value)))
+    assert errors[0] == errors[1]
+
+
+def test_integer_parameters_convert_and_are_judged_like_floats():
+    rounded = np.round(X3.params)
+    a = evaluate(Design(M, rounded.astype(np.int64), X3.output), 72)
+    b = evaluate(Design(M, rounded, X3.output), 72)
+    assert Design(M, rounded.astype(np.int32)).params.dtype == np.float64
+    np.testing.assert_array_equal(a.violation, b.violation)
+    np.testing.assert_array_equal(a.mse, b.mse)
 
 
 def both(params: np.ndarray, n: int = 72):
@@ -101,3 +150,14 @@ def test_stage_specs_and_pipelines_check_their_arguments():
         Pipeline(["subtask2"], X3)
     with pytest.raises(TypeError, match="Design"):
         Pipeline([StageSpec("s", prob)], X3.params)
+    with pytest.raises(ValueError, match="finite parameters"):
+        Pipeline([StageSpec("s", prob)], X3.replace(r1=NAN))
+    with pytest.raises(TypeError, match="StageResults or None"):
+        Pipeline([StageSpec("s", prob)], X3, [{"status": "complete"}])
+    pipe = Pipeline([StageSpec("s", prob)], X3)
+    with pytest.raises(TypeError, match="stage index must be an integer"):
+        pipe.stage(0.0)
+    with pytest.raises(TypeError, match="StageSpec"):
+        pipe.stage(0, spec="subtask2")
+    with pytest.raises(TypeError, match="records StageResults"):
+        pipe.record(0, None)

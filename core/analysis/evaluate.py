@@ -33,6 +33,7 @@ Backend = Literal["auto", "numpy", "numba"]
 CONSTRAINT_NAMES = ("order", "theta1", "theta2", "h_bar", "psi2")
 CONSTRAINT_UNITS = ("rad", "rad", "rad", "mm", "1")
 DEFAULT_OBSTACLE = (25.0, 25.0)
+MIN_SAMPLES = 8  # fewer samples cannot place two landing roots and a swing; 0 or 1 used to hang the kernel
 
 
 @dataclass(frozen=True)
@@ -139,25 +140,26 @@ def evaluate(
 
     Args:
         design: mechanism, ``(pop, n_params)`` parameters and output stage.
-        n_samples: crank samples per revolution (even numbers keep t + T/2 on a sample).
+        n_samples: crank samples per revolution, even (t + T/2 falls on a sample), 8 to 100 000.
         target: the shape target (default the paper's compound cycloid), compared in the design frame.
-        period: crank period T (s).
-        obstacle: (a, b) length and height of the psi obstacle (mm).
-        trunk: front-to-rear hip distance of the quadruped (mm).
+        period: crank period T (s), 1e-6 to 1e6.
+        obstacle: (a, b) length and height of the psi obstacle (mm), each 0 to 1e6.
+        trunk: front-to-rear hip distance of the quadruped (mm), > 0 and <= 1e6.
         backend: ``numpy``, ``numba`` or ``auto`` (numba when available) for the solver.
         phase_optimal: also compute the best-cyclic-shift shape error (O(n^2) per design).
+
+    Raises:
+        TypeError, ValueError: an argument of the wrong type or out of its range (named in the
+            message). Odd *designs* never raise: they get NaN metrics and a positive violation,
+            the same on both backends; ``violation == 0`` implies every metric is finite.
 
     With numba and without ``phase_optimal`` (the optimizer's path), one fused kernel solves and
     analyses each design while its rows are in cache (``metrics_numba.run_designs``).
     """
-    n_samples = checks.samples(n_samples, minimum=8, even=True)
+    checks.instance(design, Design, "design")
+    n_samples = checks.samples(n_samples, minimum=MIN_SAMPLES, even=True)
     backend = checks.backend(backend)  # type: ignore[assignment]
-    period = checks.real(period, "period", positive=True)
-    obstacle = (checks.real(obstacle[0], "obstacle length", nonnegative=True),
-                checks.real(obstacle[1], "obstacle height", nonnegative=True))
-    trunk = checks.real(trunk, "trunk", positive=True)
-    if not isinstance(design, Design):
-        raise TypeError(f"design must be a Design, got {type(design).__name__}")
+    period, obstacle, trunk = _check_args(target, period, obstacle, trunk, phase_optimal)
     use_numba = _numba_ready(backend)
     # An empty population takes the kernel's path on either backend: both then return the same empty arrays.
     if (use_numba and not phase_optimal) or design.pop == 0:
@@ -175,6 +177,24 @@ def evaluate(
         phase_optimal=phase_optimal,
         kernel=use_numba,
     )
+
+
+def _check_args(
+    target: Target | None, period: float, obstacle: tuple[float, float], trunk: float, phase_optimal: bool
+) -> tuple[float, tuple[float, float], float]:
+    """The scalar arguments of ``evaluate`` and ``evaluate_paths`` checked (see ``evaluate``)."""
+    if target is not None:
+        checks.instance(target, Target, "target")
+    checks.flag(phase_optimal, "phase_optimal")
+    period = checks.real(period, "period (s)", positive=True, maximum=checks.MAX_ABS)
+    # Speeds scale with 1/T: a period below 1e-6 s (or above 1e6 s) is a unit mistake, not a crank.
+    if period < 1.0 / checks.MAX_ABS:
+        raise ValueError(f"period (s) must be >= {1.0 / checks.MAX_ABS:g}, got {period:g}")
+    a, b = checks.pair(obstacle, "obstacle")
+    a = checks.real(a, "obstacle length (mm)", nonnegative=True, maximum=checks.MAX_ABS)
+    b = checks.real(b, "obstacle height (mm)", nonnegative=True, maximum=checks.MAX_ABS)
+    trunk = checks.real(trunk, "trunk (mm)", positive=True, maximum=checks.MAX_ABS)
+    return period, (a, b), trunk
 
 
 @lru_cache(maxsize=8)
@@ -292,12 +312,22 @@ def evaluate_paths(
         target, period, obstacle, trunk, phase_optimal: see ``evaluate``.
         kernel: use the numba kernel ``core.analysis.kernel`` (same results) instead of the numpy modules.
     """
-    point = np.asarray(point, dtype=np.float64)
-    point = point[None] if point.ndim == 2 else point
-    leg = np.asarray(leg, dtype=np.float64)
-    leg = leg[None] if leg.ndim == 2 else leg
+    period, obstacle, trunk = _check_args(target, period, obstacle, trunk, phase_optimal)
+    checks.flag(kernel, "kernel")
+    point = _paths(point, "point")
+    leg = _paths(leg, "leg")
+    if point.shape != leg.shape:
+        raise ValueError(f"point and leg must have the same shape (pop, n, 2), got {point.shape} and {leg.shape}")
     pop, n = leg.shape[:2]
-    kin = np.zeros(pop) if kinematic_violation is None else np.asarray(kinematic_violation, dtype=np.float64)
+    checks.samples(n, minimum=MIN_SAMPLES, name="samples per path (n)")
+    if dleg is not None:
+        dleg = _paths(dleg, "dleg")
+        if dleg.shape != leg.shape:
+            raise ValueError(f"dleg must have the shape of leg {leg.shape}, got {dleg.shape}")
+    kin = np.zeros(pop) if kinematic_violation is None else checks.real_array(kinematic_violation,
+                                                                               "kinematic_violation")
+    if kin.shape != (pop,):
+        raise ValueError(f"kinematic_violation must have shape ({pop},), got {kin.shape}")
     tgt = _default_target(float(period)) if target is None else target
     a, b = float(obstacle[0]), float(obstacle[1])
     target_n = _target_samples(tgt, n)
@@ -322,6 +352,15 @@ def evaluate_paths(
         )
     err_phase = mse_phase_optimal(point, target_n)[0] if phase_optimal else np.full(pop, np.nan)
     return _assemble(results, err_phase, kin, tgt, period, (a, b), trunk, n)
+
+
+def _paths(a: Any, name: str) -> F64:
+    """``(pop, n, 2)`` float64 paths from ``(n, 2)`` or ``(pop, n, 2)`` real numbers."""
+    p = checks.real_array(a, name, copy=False)
+    p = p[None] if p.ndim == 2 else p
+    if p.ndim != 3 or p.shape[2] != 2:
+        raise ValueError(f"{name} must have shape (pop, n, 2) or (n, 2), got {np.shape(a)}")
+    return p
 
 
 def _assemble(

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from core.kinematics.checks import real_array
+from core.kinematics.checks import instance, real_array
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.kinematics.solver import Solution, solve
 
@@ -17,6 +17,9 @@ class Design:
     """Frozen: a topology plus ``params`` of shape ``(pop, n_params)`` (mm, rad).
 
     One design is ``pop = 1``. The output stage maps the tracked point to the leg frame.
+    ``params`` must be real numbers: floats of any width, or integers, are stored as float64;
+    strings, booleans, complex numbers, dates and ``Decimal`` raise TypeError. Any float value
+    is accepted (NaN, inf, negative lengths): the solvers judge it with a violation.
     """
 
     mechanism: Mechanism
@@ -24,6 +27,8 @@ class Design:
     output: OutputStage = field(default=IDENTITY)
 
     def __post_init__(self) -> None:
+        instance(self.mechanism, Mechanism, "design mechanism")
+        instance(self.output, OutputStage, "design output")
         p = np.atleast_2d(real_array(self.params, f"{self.mechanism.name} params"))
         if p.ndim != 2 or p.shape[1] != self.mechanism.n_params:
             raise ValueError(

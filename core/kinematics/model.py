@@ -91,15 +91,17 @@ class OutputStage:
     mirror: bool = False
 
     def __post_init__(self) -> None:
-        from core.kinematics.checks import real
+        from core.kinematics.checks import MAX_ABS, flag, real
 
         for key, unit in (("k", "ratio"), ("ox", "mm"), ("oy", "mm")):
-            object.__setattr__(self, key, real(getattr(self, key), f"output {key} ({unit})"))
-        if self.k == 0.0:
-            raise ValueError("output k (ratio) must be non-zero")
-        if not isinstance(self.mirror, bool | np.bool_):
-            raise TypeError(f"output mirror must be true or false, got {self.mirror!r}")
-        object.__setattr__(self, "mirror", bool(self.mirror))
+            v = real(getattr(self, key), f"output {key} ({unit})")
+            if not abs(v) <= MAX_ABS:
+                raise ValueError(f"output {key} ({unit}) must be within +-{MAX_ABS:g}, got {v:g}")
+            object.__setattr__(self, key, v)
+        # A ratio near 0 collapses the leg onto O (every path "flat"); beyond 1e6 the leg path overflows.
+        if not abs(self.k) >= 1.0 / MAX_ABS:
+            raise ValueError(f"output k (ratio) must be non-zero, |k| >= {1.0 / MAX_ABS:g}, got {self.k:g}")
+        object.__setattr__(self, "mirror", flag(self.mirror, "output mirror"))
 
     @property
     def ratios(self) -> tuple[float, float]:
@@ -130,9 +132,9 @@ class OutputStage:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> OutputStage:
-        """Inverse of :meth:`to_dict` (numbers, or the strings ``float`` reads, e.g. "Infinity");
-        ``mirror`` is optional (false)."""
-        return cls(float(d["k"]), float(d["ox"]), float(d["oy"]), bool(d.get("mirror", False)))
+        """Inverse of :meth:`to_dict` (numbers, or the strings ``float`` reads, e.g. "1.5");
+        ``mirror`` is optional (false) and must be a boolean ("false" is not read as true)."""
+        return cls(float(d["k"]), float(d["ox"]), float(d["oy"]), d.get("mirror", False))
 
 
 IDENTITY = OutputStage()

@@ -153,9 +153,11 @@ def length_shortfall(mechanism: Mechanism, params: F64) -> F64:
 def prepare(mechanism: Mechanism, params: F64) -> Prepared:
     """Check and compile a population: operand values ``(pop, n_steps, 3)`` (non-finite rows NaN),
     the mechanism's derive violation ``(pop,)`` and the rows with non-finite parameters ``(pop,)``."""
+    shape = np.shape(params)
     params = np.atleast_2d(np.asarray(params, dtype=np.float64))
-    if params.shape[1] != mechanism.n_params:
-        raise ValueError(f"{mechanism.name} takes {mechanism.n_params} parameters, got {params.shape[1]}")
+    if params.ndim != 2 or params.shape[1] != mechanism.n_params:
+        n = mechanism.n_params
+        raise ValueError(f"{mechanism.name} takes {n} parameters, params of shape (pop, {n}) or ({n},); got {shape}")
     prog = mechanism.compile()
     internal, derive_viol = mechanism.internal(params)
     vals = np.ascontiguousarray(prog.operands(internal))
@@ -201,19 +203,25 @@ def solve(
     """Solve a population of designs over one crank revolution.
 
     Never raises for unassemblable or non-finite designs: their samples are NaN and their
-    violation is positive (+inf for non-finite parameters).
+    violation is positive (+inf for non-finite parameters or any beyond +-1e6; a parameter of
+    kind ``length`` below 1e-6 mm adds its shortfall). Odd *calls* raise before any work:
+    TypeError for a wrong type (parameters must be real numbers: floats, or integers, which
+    convert), ValueError for a value out of range, each naming the argument.
 
     Args:
         mechanism: the topology.
         params: ``(pop, n_params)`` or ``(n_params,)`` design vectors (mm, rad); not mutated.
-        n_samples: samples per revolution.
+        n_samples: samples per revolution, an integer in [1, 100 000].
         output: design frame -> leg frame map of the tracked point.
         joints: also return every joint (memory: pop * n_samples * n_joints * 32 bytes).
         derivatives: also return d/dtheta (djoints, dpoint, dleg; else None).
         backend: ``numpy`` reference, ``numba`` kernel, or ``auto`` (numba).
     """
+    checks.instance(mechanism, Mechanism, "mechanism")
+    checks.instance(output, OutputStage, "output")
     n_samples = checks.samples(n_samples)
     backend = checks.backend(backend)  # type: ignore[assignment]
+    joints, derivatives = checks.flag(joints, "joints"), checks.flag(derivatives, "derivatives")
     prep = prepare(mechanism, checks.real_array(params))
     prog, vals = prep.program, prep.vals
     theta = sample_angles(n_samples)

@@ -16,10 +16,13 @@ Three ways to drive it:
 from __future__ import annotations
 
 import json
+import numbers
 import threading
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
+
+import numpy as np
 
 from core.kinematics.design import Design
 from core.kinematics.mechanisms import get as get_mechanism
@@ -59,6 +62,11 @@ class Pipeline:
             raise TypeError(f"a pipeline's stages must be StageSpecs, got {bad[0]}")
         if len(results) > len(stages):
             raise ValueError(f"{len(results)} results for {len(stages)} stages")
+        bad = [type(r).__name__ for r in results if r is not None and not isinstance(r, StageResult)]
+        if bad:
+            raise TypeError(f"a pipeline's results must be StageResults or None, got {bad[0]}")
+        if not np.isfinite(start.params).all():
+            raise ValueError(f"a pipeline starts from finite parameters, got {start.named()}")
         self.stages: list[StageSpec] = list(stages)
         self.start = start
         self.results: list[StageResult | None] = list(results) + [None] * (len(stages) - len(results))
@@ -78,6 +86,8 @@ class Pipeline:
         return out
 
     def _check(self, k: int) -> None:
+        if isinstance(k, bool) or not isinstance(k, numbers.Integral):
+            raise TypeError(f"a stage index must be an integer, got {type(k).__name__} {k!r}")
         if not 0 <= k < self.n_stages:
             raise ValueError(f"no stage {k}; the pipeline has stages 0 to {self.n_stages - 1}")
 
@@ -116,6 +126,8 @@ class Pipeline:
         """
         self._check(k)
         if spec is not None:
+            if not isinstance(spec, StageSpec):
+                raise TypeError(f"spec must be a StageSpec, got {type(spec).__name__}")
             self.stages[k] = spec
         start, i = self.parent(k, pick)
         return Stage(self.stages[k], start, index=k, callback=callback, parent_pick=i)
@@ -123,6 +135,8 @@ class Pipeline:
     def record(self, k: int, result: StageResult) -> None:
         """Store stage k's result; set stage k-1's pick to the member it started from; drop later results."""
         self._check(k)
+        if not isinstance(result, StageResult):
+            raise TypeError(f"a pipeline records StageResults, got {type(result).__name__}")
         if k > 0 and result.parent_pick is not None:
             prev = self.results[k - 1]
             if prev is not None and prev.picked != result.parent_pick:

@@ -264,7 +264,9 @@ def make_problem(name: str, **options: Any) -> ProblemSpec:
     """Build a registered problem; the spec records every option (defaults included).
 
     Raises:
-        ValueError: unknown problem or option (named in the message).
+        ValueError: unknown problem or option, or an option out of range (named in the message).
+        TypeError: an option of the wrong type (by the factory's annotation: ``float`` options must be
+            finite real numbers, ``bool`` options booleans, ``int`` options counts >= 1, ``str`` strings).
     """
     if name not in _FACTORIES:
         _load_providers()
@@ -278,9 +280,27 @@ def make_problem(name: str, **options: Any) -> ProblemSpec:
             raise ValueError(f"unknown option {key!r} for problem {name!r}; known: {known}")
     bound = sig.bind(**options)
     bound.apply_defaults()
-    if "n_samples" in bound.arguments:
-        checks.samples(bound.arguments["n_samples"], minimum=8, even=True)
-    if "backend" in bound.arguments:
-        checks.backend(bound.arguments["backend"])
+    for key, value in bound.arguments.items():
+        bound.arguments[key] = _option(name, key, sig.parameters[key].annotation, value)
     spec = factory(**bound.arguments)
     return replace(spec, name=name, options=dict(bound.arguments))
+
+
+def _option(problem: str, key: str, annotation: Any, value: Any) -> Any:
+    """A factory option checked against its annotation: ``float`` finite (ints convert), ``int`` a count in
+    [1, MAX_SAMPLES] (not a bool), ``bool`` a boolean, ``str`` a string; ``n_samples`` even, >= 8."""
+    where = f"problem {problem!r} option {key}"
+    kind = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", "")
+    if key == "n_samples":
+        return checks.samples(value, minimum=8, even=True, name=where)
+    if key == "backend":
+        return checks.backend(value)
+    if kind == "float":
+        return checks.real(value, where)
+    if kind == "int":  # the registry's int options are counts (points, harmonics)
+        return checks.samples(value, minimum=1, name=where)
+    if kind == "bool":
+        return checks.flag(value, where)
+    if kind == "str" and not isinstance(value, str):
+        raise TypeError(f"{where} must be a string, got {type(value).__name__} {value!r}")
+    return value
