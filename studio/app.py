@@ -1,11 +1,7 @@
-"""``clm-studio``: serve the design studio on localhost.
+"""The running studio: one viser server, one shared session, its scene, panels, animator and stage runner.
 
-    clm-studio [--host 127.0.0.1] [--port 8080] [--session FILE]
-
-Opens on the paper's Stephenson-I X3 design, animating, against the compound-cycloid target
-(or on the session in FILE, which is then saved back after every change). Everything the
-browser needs is served locally (viser ships its client, plotly.js comes from the plotly
-package), so the studio works offline. Ctrl-C stops it.
+Everything the browser needs is served locally (viser ships its client, plotly.js comes from the plotly
+package), so the studio works offline. ``studio.serve`` is the ``clm-studio`` command that starts it.
 """
 
 from __future__ import annotations
@@ -20,6 +16,7 @@ import numpy as np
 import viser
 
 from core.formats.session import parse_json
+from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
 from studio.exports import design_json, drawing_export, figure_html, slug, trajectories_csv
@@ -52,13 +49,12 @@ STUDY_PUSH_PERIOD = 0.25
 DOUBLE_CLICK = 1.0
 
 
-def url_for(host: str, port: int) -> str:
-    """The address to open: ``localhost`` for loopback, IPv6 hosts in brackets (``http://[::]:8097``)."""
-    if host in ("127.0.0.1", "localhost"):
-        host = "localhost"
-    elif ":" in host and not host.startswith("["):
-        host = f"[{host}]"
-    return f"http://{host}:{port}"
+class StudioServer(viser.ViserServer):
+    """viser's server, never published: viser answers any client's share request by opening a public tunnel
+    to the studio through an outside relay (share.viser.studio); the studio refuses it."""
+
+    def request_share_url(self, verbose: bool = True) -> str | None:
+        return None
 
 
 class Studio:
@@ -95,7 +91,7 @@ class Studio:
         self._inset_key: object = None
         self._last_push = 0.0
         self._last_start = -DOUBLE_CLICK
-        self.server = viser.ViserServer(host=host, port=port, label="CLM Studio", verbose=False)
+        self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
                                         show_logo=False)
         self.server.gui.main_panel.dock_right()

@@ -1,50 +1,54 @@
 """``clm-studio``: serve the design studio on localhost.
 
-    clm-studio [--host 127.0.0.1] [--port 8080] [--session FILE]
+    clm-studio [--host 127.0.0.1] [--port 8080] [--session FILE] [--token [TOKEN]]
 
 Opens on the paper's Stephenson-I X3 design, animating, against the compound-cycloid target
-(or on the session in FILE, which is then saved back after every change). Ctrl-C stops it.
+(or on the session in FILE, which is then saved back after every change). The studio sits behind
+``studio.gate``: no other web page can drive it, and with ``--token`` only a browser that opened the
+printed URL (which carries the token) gets in. Ctrl-C stops it.
 """
 
 from __future__ import annotations
 
 import argparse
-import ipaddress
+import contextlib
+import io
 import sys
 import threading
 from pathlib import Path
+from typing import NoReturn
 
 from core.kinematics.memory import keep_freed_memory
+from studio.address import exposure_warning, url_for
 from studio.app import Studio
+from studio.gate import Gate, check_token, new_token
 from studio.session_file import load_session, save_session
 from studio.state import Session
 
 
-def is_loopback(host: str) -> bool:
-    """True for this machine only: localhost, 127.0.0.0/8, ::1."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one line (``clm-studio: error: ...``, exit 2), without the usage block."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
-def exposure_warning(host: str, port: int) -> str | None:
-    """The warning printed when the studio listens beyond this machine (None on loopback)."""
-    if is_loopback(host):
-        return None
-    return (f"clm-studio: warning: listening on {host} port {port}: anyone who can reach this machine can drive "
-            f"the studio and read and overwrite its session; there is no authentication. For a colleague, keep "
-            f"the default --host 127.0.0.1 and share it through an SSH tunnel (ssh -L {port}:127.0.0.1:{port} ...).")
+def _port(text: str) -> int:
+    if not text.strip().isdigit() or not 0 <= int(text) <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number 0-65535, got {text!r}")
+    return int(text)
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="clm-studio", description="Design studio for closed-chain legged mechanisms.")
+    p = _Parser(prog="clm-studio", description="Design studio for closed-chain legged mechanisms.")
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
+    p.add_argument("--port", type=_port, default=8080,
+                   help="port 0-65535 (default 8080; the next free one if taken; 0: any free one)")
     p.add_argument("--session", type=Path, metavar="FILE",
                    help="session JSON to open if it exists, and to save to after every change")
+    p.add_argument("--token", nargs="?", const="", metavar="TOKEN",
+                   help="admit only browsers that open the printed URL, which carries this token (without a "
+                        "value: a random one, which also keeps it out of the process list)")
     return p
 
 
@@ -52,26 +56,37 @@ def main(argv: list[str] | None = None) -> int:
     """Run the studio until Ctrl-C; returns the exit status."""
     args = _parser().parse_args(argv)
     keep_freed_memory()
+    studio: Studio | None = None
     try:
+        token = None if args.token is None else check_token(args.token) if args.token else new_token()
         if args.session is not None and args.session.exists():
             session = load_session(args.session)
         else:
             session = Session.default()
         if args.session is not None:
             save_session(session, args.session)  # fail now, not on the first autosave
-        studio = Studio(session, args.host, args.port, session_path=args.session)
+        # viser checks no Host, Origin or token: it listens on a free loopback port behind the gate. It also
+        # prints its own address box; the one line below is the address to open.
+        with contextlib.redirect_stdout(io.StringIO()):
+            studio = Studio(session, "127.0.0.1", 0, session_path=args.session)
+        gate = Gate(args.host, args.port, studio.server.get_port(), token)
+        port = gate.get_port()
     except (OSError, ValueError) as exc:
+        if studio is not None:
+            with contextlib.redirect_stdout(io.StringIO()):
+                studio.close()
         print(f"clm-studio: error: {exc}", file=sys.stderr)
         return 2
-    warning = exposure_warning(args.host, studio.server.get_port())
+    warning = exposure_warning(args.host, port, token is not None)
     if warning is not None:
         print(warning, file=sys.stderr, flush=True)
-    print(f"CLM Studio: {studio.url}  (Ctrl-C to stop)", flush=True)
+    print(f"CLM Studio: {url_for(args.host, port, token)}  (Ctrl-C to stop)", flush=True)
     try:
         threading.Event().wait()
     except KeyboardInterrupt:
         pass
     finally:
+        gate.close()
         studio.close()
     print("CLM Studio stopped.", flush=True)
     return 0

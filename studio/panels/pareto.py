@@ -8,6 +8,7 @@ labels). The chart's camera button saves it as PNG (plotly.js in the browser: of
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import plotly.graph_objects as go
@@ -83,8 +84,7 @@ class ParetoPanel:
             return
         self.plot.figure = fig
         self.plot.visible = True
-        tfig = None if r is None else make_trace_figure(r.trace, f"{r.settings.get('algorithm', {}).get('name', '')} "
-                                                                 f"trace")
+        tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:
             self.trace.figure = tfig
         self.trace.visible = tfig is not None
@@ -92,3 +92,10 @@ class ParetoPanel:
         what = ("objective against violation" if n == 1 else "2-D" if n == 2 else
                 "3-D (first three objectives)" if n >= 3 else "")
         self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
+
+
+def algorithm_name(settings: object) -> str:
+    """The algorithm's name in a stage result's settings, or "" (a loaded session's settings are free-form)."""
+    algorithm = settings.get("algorithm") if isinstance(settings, Mapping) else None
+    name = algorithm.get("name") if isinstance(algorithm, Mapping) else None
+    return name if isinstance(name, str) else ""

@@ -1,0 +1,170 @@
+"""clm-studio's gate: a studio on loopback answers only to localhost, no other web page can open its websocket,
+and with --token only requests that carry the token (the printed URL, then the gate's cookie) get through;
+everything else gets 403 and never reaches viser. Real sockets against a real studio."""
+
+from __future__ import annotations
+
+import base64
+import http.client
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from studio.app import Studio
+from studio.gate import Gate, host_name
+from studio.state import Session
+
+ROOT = Path(__file__).resolve().parents[1]
+TOKEN = "s3cret-token_0123"
+
+
+@pytest.fixture(scope="module")
+def studio() -> Iterator[Studio]:
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    yield s
+    s.close()
+
+
+@pytest.fixture(scope="module")
+def gated(studio: Studio) -> Iterator[tuple[Studio, Gate]]:
+    gate = Gate("127.0.0.1", 0, studio.server.get_port(), TOKEN)
+    yield studio, gate
+    gate.close()
+
+
+@pytest.fixture(scope="module")
+def open_gate(studio: Studio) -> Iterator[Gate]:
+    gate = Gate("127.0.0.1", 0, studio.server.get_port())
+    yield gate
+    gate.close()
+
+
+def get(port: int, path: str, headers: dict[str, str] | None = None) -> http.client.HTTPResponse:
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    c.request("GET", path, headers=headers or {})
+    r = c.getresponse()
+    r.read()
+    c.close()
+    return r
+
+
+def websocket_status(port: int, path: str, cookie: str | None = None, host: str | None = None,
+                     origin: str | None = None) -> bytes:
+    key = base64.b64encode(os.urandom(16)).decode()
+    head = (f"GET {path} HTTP/1.1\r\nHost: {host or f'127.0.0.1:{port}'}\r\nUpgrade: websocket\r\n"
+            f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
+            + (f"Cookie: {cookie}\r\n" if cookie else "") + (f"Origin: {origin}\r\n" if origin else "") + "\r\n")
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+        s.sendall(head.encode())
+        return s.recv(4096).split(b"\r\n", 1)[0]
+
+
+OK = b"HTTP/1.1 101 Switching Protocols"
+FORBIDDEN = b"HTTP/1.1 403 Forbidden"
+
+
+def test_without_the_token_every_request_is_forbidden(gated):
+    _, gate = gated
+    port = gate.get_port()
+    for path, headers in [("/", {}), ("/?token=wrong-token-000", {}), ("/index.html", {}),
+                          ("/?token=", {}), ("/", {"Cookie": "clm_studio_1=" + TOKEN}),
+                          ("/", {"Cookie": f"clm_studio_{gate.upstream_port}=wrong-token-000"}),
+                          ("/", {"Cookie": '"bad;cookie'}), ("/?token=" + TOKEN[:-1], {})]:
+        r = get(port, path, headers)
+        assert r.status == 403, path
+    assert websocket_status(port, "/") == FORBIDDEN
+
+
+def test_the_printed_url_sets_a_cookie_that_admits_the_page_and_its_websocket(gated):
+    studio, gate = gated
+    port = gate.get_port()
+    r = get(port, f"/?token={TOKEN}&x=1")
+    assert r.status == 303 and r.getheader("Location") == "/?x=1"  # the token leaves the address bar
+    cookie = r.getheader("Set-Cookie")
+    assert cookie is not None and "HttpOnly" in cookie and "SameSite=Strict" in cookie
+    pair = cookie.split(";", 1)[0]
+    page = get(port, "/", {"Cookie": pair})
+    direct = get(studio.server.get_port(), "/")
+    assert page.status == 200 == direct.status and page.getheader("Content-Length") == direct.getheader(
+        "Content-Length")
+    assert websocket_status(port, "/", pair) == OK
+    assert websocket_status(port, f"/?token={TOKEN}") == OK
+
+
+def test_no_other_web_page_can_open_the_studios_websocket(open_gate):
+    port = open_gate.get_port()
+    assert websocket_status(port, "/", origin=f"http://127.0.0.1:{port}") == OK  # the studio's own page
+    assert websocket_status(port, "/") == OK  # not a browser: no Origin
+    for origin in ("http://evil.example", f"http://127.0.0.1:{port + 1}", "null", f"http://localhost:{port}"):
+        assert websocket_status(port, "/", origin=origin) == FORBIDDEN, origin
+
+
+def test_a_loopback_studio_answers_only_to_a_loopback_host_name(open_gate):
+    port = open_gate.get_port()
+    for host in (f"localhost:{port}", f"127.0.0.1:{port}", f"[::1]:{port}", "localhost"):
+        assert get(port, "/", {"Host": host}).status == 200, host
+    # A page whose name was rebound to 127.0.0.1 sends its own name (DNS rebinding).
+    for host in (f"evil.example:{port}", "evil.example", f"127.0.0.1.evil.example:{port}"):
+        assert get(port, "/", {"Host": host}).status == 403, host
+    assert websocket_status(port, "/", host=f"evil.example:{port}", origin=f"http://evil.example:{port}") == FORBIDDEN
+
+
+@pytest.mark.parametrize(("authority", "name"), [("localhost:8080", "localhost"), ("[::1]:8080", "::1"),
+                                                 ("127.0.0.1", "127.0.0.1"), ("[::]", "::"), ("", "")])
+def test_host_names_of_authorities(authority, name):
+    assert host_name(authority) == name
+
+
+def test_the_studio_is_never_published_through_visers_share_relay(studio):
+    assert studio.server.request_share_url() is None
+
+
+def test_garbage_and_oversized_heads_are_closed_without_reaching_the_studio(gated):
+    _, gate = gated
+    with socket.create_connection(("127.0.0.1", gate.get_port()), timeout=10) as s:
+        s.sendall(b"NOT HTTP\r\n\r\n")
+        assert s.recv(4096).startswith(b"HTTP/1.1 400")
+    with socket.create_connection(("127.0.0.1", gate.get_port()), timeout=10) as s:
+        try:
+            s.sendall(b"GET /?token=" + TOKEN.encode() + b" HTTP/1.1\r\nX: " + b"a" * 100_000 + b"\r\n\r\n")
+            answer = s.recv(4096)
+        except (BrokenPipeError, ConnectionResetError):
+            answer = b""
+        assert answer == b""  # closed unanswered, even with the token
+
+
+def test_a_taken_port_moves_the_gate_to_the_next_free_one(gated):
+    _, gate = gated
+    other = Gate("127.0.0.1", gate.get_port(), gate.upstream_port, TOKEN)
+    try:
+        assert other.get_port() > gate.get_port()
+    finally:
+        other.close()
+
+
+def test_clm_studio_with_a_random_token_prints_a_url_that_opens_and_stops_on_ctrl_c():
+    proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0", "--token"], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        m = re.fullmatch(r"CLM Studio: http://localhost:(\d+)/\?token=([A-Za-z0-9_-]{16,})  \(Ctrl-C to stop\)\n", line)
+        assert m, line
+        port, token = int(m.group(1)), m.group(2)
+        assert get(port, "/").status == 403
+        r = get(port, f"/?token={token}")
+        assert r.status == 303
+        assert get(port, "/", {"Cookie": r.getheader("Set-Cookie", "").split(";", 1)[0]}).status == 200
+        assert websocket_status(port, "/", origin="http://evil.example", cookie=r.getheader(
+            "Set-Cookie", "").split(";", 1)[0]) == FORBIDDEN
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0 and "CLM Studio stopped." in out and "warning" not in err
