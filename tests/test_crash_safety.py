@@ -150,3 +150,44 @@ def test_workers_exit_when_clm_design_is_killed(tmp_path):
             proc.kill()
         for w in children(proc.pid):
             os.kill(w, signal.SIGKILL)
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc (Linux)")
+def test_study_workers_exit_when_clm_study_is_killed(tmp_path):
+    study = tmp_path / "s.toml"
+    study.write_text(f"""
+name = "orphans"
+seeds = "1..4"
+[[algorithms]]
+name = "nsga2"
+[[cases]]
+name = "subtask2"
+config = "{ROOT / 'assets' / 'configs' / 'stephenson1_cycloid.toml'}"
+stages = ["subtask2"]
+start = "stephenson1/X1"
+budget = 1000000
+""")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "core.cli", "study", str(study), "--out", str(tmp_path / "o"),
+                             "--workers", "2", "--quiet"], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        workers: set[int] = set()
+        while time.monotonic() < deadline and len(workers) < 2:
+            workers = {c for c in children(proc.pid) if alive(c)}
+            time.sleep(0.2)
+        assert len(workers) >= 2, "the study did not start its Dask workers"
+        time.sleep(3.0)  # let them take cells
+        workers |= {c for c in children(proc.pid) if alive(c)}
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and any(alive(w) for w in workers):
+            time.sleep(0.1)
+        assert not any(alive(w) for w in workers), "Dask workers outlived their killed parent"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for w in children(proc.pid):
+            os.kill(w, signal.SIGKILL)
