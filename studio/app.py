@@ -23,6 +23,7 @@ from studio.exports import design_json, drawing_export, figure_html, slug, traje
 from studio.frames import DEFAULT_ASPECT, FPS
 from studio.geometry import frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
+from studio.pacer import Pacer
 from studio.panels.bench import BenchPanel
 from studio.panels.files import FilesPanel
 from studio.panels.history import HistoryPanel
@@ -43,7 +44,7 @@ from studio.study_view import StudyView, study_view
 BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
 # the session file is still written after every generation.
-STUDY_PUSH_PERIOD = 0.25
+STUDY_PUSH_PERIOD = 0.15
 # A Run click this soon after a run started is the second click of a double click (even if that
 # run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
@@ -90,11 +91,13 @@ class Studio:
         self._study_key: object = None
         self._inset_key: object = None
         self._last_push = 0.0
+        self._study_dirty = False
         self._last_start = -DOUBLE_CLICK
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
                                         show_logo=False)
         self.server.gui.main_panel.dock_right()
+        self.pacer = Pacer(self.server)
         self.scene = MechanismScene(self.server)
         self.inset = CandidateInset(self.server, self._on_inset_pick)
         self.runner = Runner(session.lock, lambda: self.session.study, self._on_generation, self._on_finish)
@@ -223,8 +226,18 @@ class Studio:
         view = self._shown
         if view is None or not self.server.get_clients():  # nobody watching: keep time, skip the pushes
             return
-        self.scene.draw(frame_index(pb.angle, view.n_samples))
+        if not self.pacer.ready():  # a page is still drawing the last push: skip this frame, keep time
+            return
+        pushed = False
+        if self._study_dirty and time.monotonic() - self._last_push >= STUDY_PUSH_PERIOD:
+            self._study_dirty = False
+            self.refresh()
+            pushed = True
+            view = self._shown or view
+        drawn = self.scene.draw(frame_index(pb.angle, view.n_samples))
         self.playback.tick(pb)
+        if drawn or pushed:
+            self.pacer.probe()
 
     def notify(
         self, client: viser.ClientHandle, title: str, body: str, color: Literal["red", "yellow", "green"] = "red"
@@ -258,8 +271,7 @@ class Studio:
 
     def _on_generation(self, _progress: object) -> None:
         self.autosave()
-        if time.monotonic() - self._last_push >= STUDY_PUSH_PERIOD:
-            self.refresh()
+        self._study_dirty = True  # the animator pushes it, at the pace the pages keep up with
 
     def _on_finish(self) -> None:
         """A run ended: animate the finished stage's pick, redraw everything, save."""

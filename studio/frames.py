@@ -6,7 +6,7 @@ Pure functions of a DesignView (no viser): ``build_frames`` and ``build_walk_sce
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,6 +21,7 @@ from studio.geometry import (
     Layout,
     closed_polyline,
     compose,
+    grid_lines,
     hold_last_valid,
     layout,
     link_edges,
@@ -63,6 +64,7 @@ class SceneFrames:
         marker: marker size (m), scaled with the drawing.
         composition: where the walking view and the candidates inset sit (mm).
         walk: the walking view's scene geometry, or None without a walking trajectory.
+        grid: ``(k, 2, 3)`` the millimetre grid behind every view; grid_step: its spacing (mm).
     """
 
     links: F32
@@ -84,6 +86,8 @@ class SceneFrames:
     marker: float
     composition: Composition
     walk: WalkScene | None = None
+    grid: F32 = field(default_factory=lambda: np.zeros((0, 2, 3), dtype=np.float32))
+    grid_step: float = 0.0
 
     @property
     def n_samples(self) -> int:
@@ -211,6 +215,8 @@ def build_frames(view: DesignView) -> SceneFrames:
     else:
         pose, foot, leg_foot = joints[hold], point[hold], leg[hold]
     wf = view.walking
+    composition = compose(lay, None if wf is None else wf.bounds)
+    grid, step = grid_lines(composition.bounds)
     return SceneFrames(
         links=_lift(to_scene(link_segments(pose, edges.pairs)), Z_LINES),
         link_colors=link_colors,
@@ -229,6 +235,8 @@ def build_frames(view: DesignView) -> SceneFrames:
         feature_names=tuple(name for name, _ in view.features),
         layout=lay,
         marker=0.01 * extent * SCENE_SCALE,
-        composition=compose(lay, None if wf is None else wf.bounds),
+        composition=composition,
         walk=None if wf is None else build_walk_scene(wf, view),
+        grid=_lift(to_scene(grid), 0.0),
+        grid_step=step,
     )

@@ -112,8 +112,11 @@ class CandidateInset:
                 scene = self.server.scene
                 for m in markers:
                     pos = (m.xy[0] * SCENE_SCALE, m.xy[1] * SCENE_SCALE, 2 * Z_MARKERS)
+                    # Toon material, no shadows: the standard (PBR) shader takes ~3.5 s to compile under
+                    # software WebGL, and the page would freeze the first time candidates appear.
                     h = scene.add_icosphere(f"/candidates/pick_{m.member}", radius=self._radius, subdivisions=2,
-                                            color=self._colour(m, shown), position=pos)
+                                            color=self._colour(m, shown), position=pos, material="toon3",
+                                            cast_shadow=False, receive_shadow=False)
                     h.on_click(self._clicked(m.member))
                     self._spheres[m.member] = h
                     self._labels.append(scene.add_label(f"/candidates/tag_{m.member}", m.tag, anchor="bottom-center",

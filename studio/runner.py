@@ -52,6 +52,8 @@ class Runner:
 
     def stop(self) -> bool:
         """Ask the run to stop after the current generation; False if nothing runs."""
+        if self.busy:
+            self._cancel.set()  # first, without waiting for the lock: the worker checks it between generations
         with self._lock:
             study = self._study()
             if not study.status.running:

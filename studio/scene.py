@@ -49,8 +49,10 @@ class MechanismScene:
         scene.set_up_direction("+y")
         empty_seg = np.zeros((1, 2, 3), dtype=np.float32)
         one = np.zeros((1, 3), dtype=np.float32)
-        self.grid = scene.add_grid("/grid", width=4.0, height=4.0, plane="xy", cell_size=0.01, section_size=0.05,
-                                   cell_color=(240, 240, 240), section_color=(218, 218, 218), shadow_opacity=0.0)
+        # Millimetre paper: plain lines sized to the views (viser's shader grid costs ~150 ms a frame under
+        # software WebGL), with its spacing written in a corner as the scale.
+        self.grid = scene.add_line_segments("/grid", empty_seg, palette.GRID, thickness=1.0, thickness_units="screen")
+        self.grid_label = scene.add_label("/grid_label", "", anchor="top-left", font_screen_scale=0.8)
         self.path = scene.add_line_segments("/design/path", empty_seg, palette.PATH, thickness=2.0,
                                             thickness_units="screen")
         self.target = scene.add_line_segments("/design/target", empty_seg, palette.TARGET, thickness=1.5,
@@ -103,6 +105,11 @@ class MechanismScene:
         with self._lock, self.server.atomic():
             self._frames = frames
             self._index = -1
+            _set_segments(self.grid, frames.grid)
+            b = frames.grid[:, :, :2].reshape(-1, 2)
+            if len(b):
+                self.grid_label.position = (float(b[:, 0].min()), float(b[:, 1].min()), 0.0)
+            self.grid_label.text = f"grid {frames.grid_step:g} mm"
             _set_segments(self.path, frames.path)
             _set_segments(self.target, frames.target)
             self.links.colors = frames.link_colors

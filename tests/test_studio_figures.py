@@ -217,3 +217,17 @@ def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
     assert fig.layout.yaxis2.type == "log" and list(fig.data[0].x) == [40.0, 80.0]
     nsga = make_trace_figure([{"gen": 1.0, "n_eval": 20.0, "feasible_ratio": 0.5}])
     assert [d.name for d in nsga.data] == ["feasible"] and "yaxis2" not in nsga.layout.to_plotly_json()
+
+
+def test_the_grid_is_round_millimetres_covering_every_view():
+    from studio.geometry import grid_lines, nice_step
+
+    assert [nice_step(s) for s in (400.0, 1000.0, 40.0, 3.0)] == [10.0, 50.0, 1.0, 0.1]
+    box = np.array([-120.0, -35.0, 610.0, 240.0])
+    seg, step = grid_lines(box)
+    assert step == 50.0  # 730 mm wide plus 10 % each side: 876 mm / 40 lines = 21.9 -> 50
+    xs = seg[:, 0, 0][seg[:, 0, 0] == seg[:, 1, 0]]  # vertical lines
+    assert np.allclose(np.round(xs / step) * step, xs) and np.all(np.diff(xs) == step)
+    lo, hi = seg.reshape(-1, 2).min(axis=0), seg.reshape(-1, 2).max(axis=0)
+    assert np.all(lo <= box[:2]) and np.all(hi >= box[2:])
+    assert len(seg) < 120  # a few dozen lines, not a shader over the screen

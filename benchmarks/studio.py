@@ -1,0 +1,211 @@
+"""Studio: how far the page trails the server, how fast Stop acts, what the server sends, page-ready time.
+
+    python benchmarks/studio.py            # a 300 x 600 subtask-2 run (the issue's case), 1600 x 1000 page
+    python benchmarks/studio.py --quick    # a 100 x 300 run (CI)
+
+A studio runs in this process; Playwright drives Debian's headless chromium (software WebGL) on it. While
+the animation plays and a stage runs, every 50 ms the script reads the generation the page shows (the
+Stages panel's "generation k/n") and the server's; the lag is how long ago the server reached the
+generation after the one the page shows. Stop is clicked at 60 % of the run; its latency runs from the
+press as the page's event records it to the server cancelling the run. Messages and bytes are what the
+server queued for the pages (msgpack, before compression). Targets (issue 13): lag <= 0.5 s, Stop <= 0.5 s,
+page ready <= 2 s. Not a test: numbers depend on the machine and its load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import msgspec
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking"]
+STAGE = "subtask2"
+STAGE_TITLE = "Subtask 2 → X2 (h_s, I)"
+msgpack = msgspec.msgpack.Encoder()
+DEBUG = False
+# When the page got the press (the event's own time, not when a busy page got round to it), in ms since 1970.
+PRESS_CLOCK = """() => document.addEventListener("pointerdown",
+    (e) => { window.__downAt = performance.timeOrigin + e.timeStamp; }, true)"""
+SHOWN = re.compile(r"generation (\d+)/(\d+)")
+
+
+class Sent:
+    """Messages the server queues for its pages (viser's broadcast buffer), with their times and sizes."""
+
+    def __init__(self, server: Any) -> None:
+        self.times: list[float] = []
+        self.sizes: list[int] = []
+        buffer = server._websock_server.get_message_buffer()
+        push = buffer.push
+
+        def counted(message: Any) -> Any:
+            self.times.append(time.monotonic())
+            self.sizes.append(len(msgpack.encode(message.as_serializable_dict([]))))
+            return push(message)
+
+        buffer.push = counted  # this benchmark's own server only
+
+    def rate(self, t0: float, t1: float) -> tuple[float, float]:
+        t = np.asarray(self.times)
+        sel = (t >= t0) & (t < t1)
+        span = max(t1 - t0, 1e-9)
+        return float(sel.sum() / span), float(np.asarray(self.sizes)[sel].sum() / span)
+
+
+class ServerClock:
+    """When the server reached each generation of the running stage (polled at 200 Hz)."""
+
+    def __init__(self, studio: Any) -> None:
+        self.studio = studio
+        self.reached: dict[int, float] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            g = self.studio.session.study.status.generation
+            self.reached.setdefault(g, time.monotonic())
+            time.sleep(0.005)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def page_generation(page: Any) -> int | None:
+    text = page.evaluate("() => document.body.innerText")
+    m = SHOWN.search(text)
+    return int(m.group(1)) if m else None
+
+
+def ready(page: Any, timeout: float = 60.0) -> None:
+    page.wait_for_selector('table.clm-metrics tr[data-key="mse"] td[data-value]', timeout=timeout * 1000)
+
+
+def measure(quick: bool) -> dict[str, float]:
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+    from playwright.sync_api import sync_playwright
+
+    from studio.app import Studio
+    from studio.state import Session
+
+    pop, gens = (100, 300) if quick else (300, 600)
+    studio = Studio(Session.default(), host="127.0.0.1", port=0)
+    url = f"http://127.0.0.1:{studio.server.get_port()}/"
+    out: dict[str, float] = {}
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            ctx = browser.new_context(viewport={"width": 1600, "height": 1000})
+            page = ctx.new_page()
+            frames = Sent(studio.server)
+            t = time.monotonic()
+            page.goto(url)
+            ready(page)
+            out["page ready (s)"] = time.monotonic() - t
+            page.reload()
+            t = time.monotonic()
+            ready(page)
+            out["page ready after reload (s)"] = time.monotonic() - t
+
+            t0 = time.monotonic()
+            time.sleep(3.0)
+            out["idle: messages/s"], bps = frames.rate(t0, time.monotonic())
+            out["idle: kB/s"] = bps / 1e3
+
+            page.get_by_label("Stage", exact=True).click()
+            page.get_by_role("option", name=STAGE_TITLE, exact=True).click()
+            deadline = time.monotonic() + 30
+            while studio.session.study.next_stage != STAGE and time.monotonic() < deadline:
+                time.sleep(0.05)
+            page.get_by_label("Population", exact=True).fill(str(pop))
+            page.get_by_label("Generations", exact=True).fill(str(gens))
+            while time.monotonic() < deadline:
+                s = studio.session.study.settings.get(STAGE)
+                if s is not None and (s.pop_size, s.n_gen) == (pop, gens):
+                    break
+                time.sleep(0.05)
+            clock = ServerClock(studio)
+            page.evaluate(PRESS_CLOCK)
+            stop_called: list[float] = []
+            runner_stop = studio.runner.stop
+
+            def stop_seen() -> bool:
+                stop_called.append(time.time())
+                return runner_stop()
+
+            studio.runner.stop = stop_seen  # when the click reaches the server
+            page.get_by_role("button", name="Run", exact=True).click()
+            while not studio.session.study.status.running and time.monotonic() < deadline:
+                time.sleep(0.01)
+            t_run = time.monotonic()
+            lags: list[float] = []
+            stop_at = gens * 0.6
+            clicked = None
+            while studio.session.study.status.running:
+                shown = page_generation(page)
+                now = time.monotonic()
+                if shown is not None and shown in clock.reached:
+                    server_g = studio.session.study.status.generation
+                    lags.append(0.0 if shown >= server_g else now - clock.reached.get(shown + 1, now))
+                    if DEBUG:
+                        print(f"{now - t_run:6.2f} shown {shown} server {server_g} lag {lags[-1]:.2f}")
+                stop = page.get_by_role("button", name="Stop", exact=True)
+                if clicked is None and studio.session.study.status.generation >= stop_at and stop.is_enabled():
+                    clicked = time.monotonic()
+                    try:
+                        stop.click(timeout=2000)
+                    except PlaywrightTimeout:  # the run ended between the check and the click
+                        continue
+                    while studio.session.study.status.state != "stopping" and studio.session.study.status.running:
+                        time.sleep(0.002)
+                    down = page.evaluate("() => window.__downAt || null")
+                    if stop_called and down is not None:
+                        out["Stop: press in page -> run cancelled (s)"] = stop_called[0] - down / 1000.0
+                time.sleep(0.05)
+            t_end = time.monotonic()
+            clock.close()
+            out["run: messages/s"], bps = frames.rate(t_run, t_end)
+            out["run: kB/s"] = bps / 1e3
+            out["run: generations"] = float(studio.session.study.status.generation)
+            out["run: seconds"] = t_end - t_run
+            lag = np.asarray(lags) if lags else np.array([np.nan])
+            out["lag median (s)"] = float(np.median(lag))
+            out["lag p95 (s)"] = float(np.percentile(lag, 95))
+            out["lag max (s)"] = float(lag.max())
+            browser.close()
+    finally:
+        studio.close()
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="a short run (CI)")
+    args = ap.parse_args(argv)
+    if not Path(CHROMIUM).exists():
+        print(f"skipped: {CHROMIUM} is missing")
+        return 0
+    res = measure(args.quick)
+    print(f"studio page on software-rendered chromium ({'quick' if args.quick else 'full'} run)")
+    print(f"{'measure':<42} {'value':>10}")
+    for k, v in res.items():
+        print(f"{k:<42} {v:10.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
