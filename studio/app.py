@@ -150,6 +150,7 @@ class Studio:
             study_changed = sv.key != self._study_key
             if changed or study_changed:
                 self._show_study(sv)
+                self.metrics.show_stage(sv, view)
                 self._last_push = time.monotonic()
             if fit_camera:
                 self.scene.fit_camera()
@@ -356,10 +357,21 @@ class Studio:
                 self.notify(client, "Branch not restored", str(exc))
         self.refresh()
 
+    def delete_branch(self, label: str, client: viser.ClientHandle | None) -> None:
+        try:
+            with self.session.lock:
+                if self.session.study.status.running:
+                    raise ValueError("a stage is running; delete branches when it has finished")
+                self.session.study.delete_branch(label)
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Branch not deleted", str(exc))
+        self.refresh()
+
     # Files -------------------------------------------------------------------------------
 
     def session_file(self) -> tuple[str, bytes]:
-        data = json.dumps(self.session.to_dict(), indent=1) + "\n"
+        data = json.dumps(self.session.to_dict(), separators=(",", ":")) + "\n"
         return f"clm-session-{time.strftime('%Y%m%d-%H%M%S')}.json", data.encode()
 
     def design_file(self) -> tuple[str, bytes]:

@@ -13,7 +13,7 @@ from studio.state import Session
 def save_session(session: Session, path: Path) -> None:
     """Write a session as JSON via a temporary file and an atomic rename."""
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(session.to_dict(), indent=2) + "\n", encoding="utf-8")
+    tmp.write_text(json.dumps(session.to_dict(), separators=(",", ":")) + "\n", encoding="utf-8")
     os.replace(tmp, path)
 
 

@@ -29,13 +29,14 @@ from core.kinematics.design import Design
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
+from studio.session_pack import pack_study, unpack_study
 from studio.study import Study
 from studio.target import Curve, TargetSpec
 from studio.walking import WalkFrames, WalkSpec, build_walk
 
 F64 = NDArray[np.float64]
 
-SESSION_VERSION = 2
+SESSION_VERSION = 3  # 3: stage results stored once by hash, arrays packed (studio.session_pack)
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0
@@ -352,7 +353,7 @@ class Session:
                 "target": v.target.to_dict(),
                 "walk": v.walk.to_dict(),
                 "playback": {"playing": pb.playing, "speed": pb.speed, "angle": pb.angle},
-                "study": self.study.to_dict(),
+                "study": pack_study(self.study.to_dict()),
             }
 
     @classmethod
@@ -380,7 +381,7 @@ class Session:
         walk = WalkSpec.from_dict(f.walk)
         view = build_view(design, preset, target, walk=walk)
         pb = f.playback
-        study = None if f.study is None else msgspec.to_builtins(f.study)
+        study = None if f.study is None else unpack_study(msgspec.to_builtins(f.study))
         session = cls(view, study=Study.from_dict(study, target))
         session.set_speed(float(pb.speed))
         session.playback = Playback(pb.playing, float(pb.speed), float(pb.angle) % (2.0 * math.pi))

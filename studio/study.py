@@ -89,6 +89,14 @@ class RunPlan:
     stage: ChainStage
 
 
+def _values(r: StageResult, shown: dict[str, int]) -> str:
+    """`` · h_s 5.93, I 0.452``: the objective values of the member a branch ends on (what tells branches apart)."""
+    i = r.picked if r.picked is not None else shown.get(r.name, r.shortlist.first)
+    if i is None or not 0 <= i < r.pop:
+        return ""
+    return " · " + ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[i], strict=True))
+
+
 def status_text(r: StageResult) -> str:
     """The stage's state in words; a population with no feasible member says so and names what its least
     violating member misses (``complete — no feasible member: h_s 8.72 > 6.5``)."""
@@ -195,7 +203,8 @@ class Study:
         done = ", ".join(
             f"{r.name}" + (f" #{r.picked}" if r.picked is not None else "") for r in pipe.lineage
         )
-        label = f"{len(self.branches) + 1}: {done} ({why}, {time.strftime('%H:%M:%S')})"
+        label = f"{len(self.branches) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
+                f"{time.strftime('%H:%M:%S')})"
         self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None))))
 
     def start_over(self, why: str) -> None:
@@ -251,6 +260,14 @@ class Study:
         self.viewing = nxt if self.result(nxt) is not None else name
         self.touch()
         return nxt
+
+    def delete_branch(self, label: str) -> None:
+        """Drop the branch with this label (ValueError if there is none)."""
+        labels = [b.label for b in self.branches]
+        if label not in labels:
+            raise ValueError(f"no branch {label!r}")
+        del self.branches[labels.index(label)]
+        self.touch()
 
     def restore_branch(self, j: int) -> None:
         """Make branch j the current pipeline; the current one is kept as a branch in its place."""

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from core.kinematics.design import Design
 from core.optimize.box import Box, global_box, search_box
+from core.optimize.problem import Constraint
 from core.optimize.result import StageResult
 from core.optimize.stage import StageSpec
-from studio.chains import ChainStage, RunSettings
+from studio.chains import ChainStage, RunSettings, stage_spec
 from studio.study import RunStatus, Study
 from studio.target import TargetSpec
 
@@ -28,6 +30,7 @@ class StudyView:
         settings: run settings of ``next_stage``.
         box: the search box ``next_stage`` would get, or None; box_note: what it is built around.
         branches: labels of the kept branches.
+        constraints: ``next_stage``'s constraints in words (``assembles``, ``h_s <= 6.5``).
     """
 
     key: tuple[int, int]
@@ -44,6 +47,7 @@ class StudyView:
     box: Box | None
     box_note: str
     branches: tuple[str, ...]
+    constraints: tuple[str, ...] = ()
 
     def result(self, name: str | None) -> StageResult | None:
         if name is None or name not in self.names:
@@ -90,4 +94,21 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
         box=box,
         box_note=note,
         branches=tuple(b.label for b in study.branches),
+        constraints=() if stage is None else _constraints(stage, study.settings_for(stage), target),
     )
+
+
+def constraint_text(c: Constraint, labels: Mapping[str, str] | None = None) -> str:
+    """``assembles``, ``f4 = h_s (mm) ≤ 6.5``, ``theta1 (rad) ≥ 0.1`` (the problem's label for the metric)."""
+    if c.metric in ("violation", "violation_mm"):
+        return "assembles"
+    name = (labels or {}).get(c.metric, c.metric)
+    return f"{name} ≤ {c.upper:g}" if c.upper is not None else f"{name} ≥ {c.lower:g}"
+
+
+def _constraints(stage: ChainStage, settings: RunSettings, target: TargetSpec) -> tuple[str, ...]:
+    try:
+        spec = stage_spec(stage, settings, target)
+    except ValueError:  # a problem that cannot be built here says so when run
+        return ()
+    return tuple(constraint_text(c, spec.problem.labels) for c in spec.problem.constraints)

@@ -11,10 +11,12 @@ import html
 import numpy as np
 
 from core.optimize.box import Box
+from core.optimize.result import StageResult
 from studio.candidates import HistoryRow
 
 STYLE = "width:100%;font-size:0.8em;border-collapse:collapse;padding:0 0.75em"
 NUM = "text-align:right;font-variant-numeric:tabular-nums;padding:1px 4px"
+VERDICT = "font-size:0.8em;padding:2px 0.75em;font-weight:600;"
 
 
 def _e(s: object) -> str:
@@ -84,3 +86,15 @@ def history_html(rows: list[HistoryRow]) -> str:
             f'<th style="{NUM}">gen</th><th style="{NUM}">feas.</th><th style="{NUM}">front</th>'
             f'<th style="{NUM}">pick</th></tr>')
     return f'<table class="clm-history" style="{STYLE}">{head}{"".join(body)}</table>'
+
+
+def verdict_html(r: StageResult, i: int, stage: str) -> str:
+    """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``)."""
+    unmet = r.unmet(i) if r.cv[i] > 0 else []
+    if not unmet and r.cv[i] > 0:
+        unmet = [f"violation {r.cv[i]:.3g}"]
+    if unmet:
+        text = f"✗ #{i} does not meet {html.escape(stage)}'s constraints: {html.escape('; '.join(unmet))}"
+        return f'<div class="clm-verdict" data-feasible="false" style="{VERDICT}color:#b91c1c">{text}</div>'
+    return (f'<div class="clm-verdict" data-feasible="true" style="{VERDICT}color:#15803d">'
+            f"✓ #{i} meets {html.escape(stage)}'s constraints</div>")

@@ -203,9 +203,9 @@ def test_free_form_stage_settings_load_and_draw(real_session, algorithm):
     from studio.app import Studio
 
     d = copy.deepcopy(real_session)
-    for r in d["study"]["pipeline"]["results"]:
-        if r is not None:
-            r["settings"]["algorithm"] = algorithm
+    assert d["study"]["results"], "the session stores its stage results by hash (version 3)"
+    for r in d["study"]["results"].values():
+        r["settings"]["algorithm"] = algorithm
     studio = Studio(Session.default(), host="127.0.0.1", port=0)
     try:
         client = FakeClient()

@@ -14,6 +14,7 @@ from core.optimize.box import SUBTASK_STEPS, periodic_mask
 from core.optimize.result import StageResult
 from studio.chains import RunSettings, chain_for, find, stage_spec
 from studio.runner import Runner
+from studio.session_pack import pack_array, unpack_study
 from studio.state import Session
 from studio.study import Study
 from studio.study_view import study_view
@@ -244,10 +245,19 @@ def test_every_generation_is_saved_and_an_interrupted_run_loads_back_as_such(ses
     assert view.result("subtask1") is r
 
 
+def first_result(d: dict) -> dict:
+    """The stored (packed) result of the pipeline's first stage in a version-3 session."""
+    return d["study"]["results"][d["study"]["pipeline"]["results"][0]]
+
+
 @pytest.mark.parametrize(("change", "message"), [
     (lambda d: d["study"].update(pipeline=[]), "pipeline must be an object"),
     (lambda d: d["study"]["pipeline"].update(format="x"), "not a pipeline"),
-    (lambda d: d["study"]["pipeline"]["results"][0].update(X=[[1.0]]), "pipeline"),
+    (lambda d: first_result(d).update(X=pack_array([[1.0]])), "pipeline"),
+    (lambda d: d["study"]["pipeline"]["results"].__setitem__(0, "0" * 20), "no stage result '00000000000000000000'"),
+    (lambda d: first_result(d)["X"].update(f64="not base64!"), "X: not base64"),
+    (lambda d: first_result(d)["X"].update(shape=[3, 3]), r"bytes for shape \[3, 3\]"),
+    (lambda d: first_result(d)["metrics"].update(mse={"shape": [-1]}), "metrics.mse: expected a packed array"),
     (lambda d: d["study"].update(settings={"subtask1": {"problem": "subtask1", "pop_size": 1}}), "population"),
     (lambda d: d["study"].update(shown={"subtask1": "a"}), "member indices"),
     (lambda d: d["study"].update(branches=[{"label": "b"}]), "branch 1"),
@@ -300,8 +310,9 @@ def test_the_studio_saves_the_session_after_every_generation_and_every_pick(tmp_
         saved.clear()
         assert studio.start_run()
         studio.runner.join(60)
-        generations = [s["study"]["pipeline"]["results"][0]["generation"] for s in saved
-                       if s["study"]["pipeline"] and s["study"]["pipeline"]["results"][0]]
+        studies = [unpack_study(s["study"]) for s in saved]
+        generations = [st["pipeline"]["results"][0]["generation"] for st in studies
+                       if st["pipeline"] and st["pipeline"]["results"][0]]
         assert set(range(1, 16)) <= set(generations)  # every generation reached the disk
         r = load_session(path).study.result("subtask2")
         assert r.status == "complete" and r.generation == 15

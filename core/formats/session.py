@@ -16,7 +16,7 @@ from msgspec import Meta, Struct
 from core.formats.typed import decode
 
 SESSION_FORMAT = "clm-studio-session"
-READS_VERSIONS = (1, 2)  # version 1: no walk, no study
+READS_VERSIONS = (1, 2, 3)  # 1: no walk, no study; 3: stage results once, by hash (studio.session_pack)
 MAX_SESSION_BYTES = 64 * 2**20
 Label = Annotated[str, Meta(min_length=1, max_length=200)]
 
@@ -42,13 +42,14 @@ class StudyFile(Struct, forbid_unknown_fields=True, frozen=True):
     next_stage: str | None = None
     from_pick: bool = False
     settings: dict[str, dict[str, Any]] = {}
+    results: dict[str, dict[str, Any]] = {}  # version 3: stage results by content hash
 
 
 class SessionFile(Struct, forbid_unknown_fields=True, frozen=True):
     """A CLM Studio session: the editor's design, target, walking view and playback, and the study."""
 
     format: Literal["clm-studio-session"]
-    version: Literal[1, 2]
+    version: Literal[1, 2, 3]
     design: dict[str, Any]
     target: dict[str, Any]
     preset: str | None = None

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 from studio.candidates import history_rows
+from studio.panels._confirm import confirm
 from studio.panels._inputs import set_value
 from studio.study import status_text
 from studio.study_view import StudyView
@@ -24,7 +25,7 @@ NO_BRANCH = "(no branches)"
 
 
 class HistoryPanel:
-    """Lineage table, "Show stage" dropdown, branch dropdown and "Restore branch"."""
+    """Lineage table, "Show stage" dropdown, branch dropdown, "Restore branch" and "Delete branch"."""
 
     def __init__(self, studio: Studio, order: float) -> None:
         self.studio = studio
@@ -39,8 +40,11 @@ class HistoryPanel:
                                            hint="pipelines kept when a pick or a new start replaced them")
             self.restore = gui.add_button("Restore branch", disabled=True,
                                           hint="make the branch current (the current pipeline becomes a branch)")
+            self.delete = gui.add_button("Delete branch", disabled=True, color="gray",
+                                         hint="remove the branch and its results from the session (asks first)")
         self.show_stage.on_update(self._on_show)
         self.restore.on_click(self._on_restore)
+        self.delete.on_click(self._on_delete)
 
     def show(self, sv: StudyView) -> None:
         key = (sv.key, tuple(id(r) for r in sv.results))
@@ -66,6 +70,7 @@ class HistoryPanel:
             set_value(self.branch, sv.branches[-1])
         self.branch.disabled = not sv.branches or sv.status.running
         self.restore.disabled = not sv.branches or sv.status.running
+        self.delete.disabled = self.restore.disabled
 
     def _on_show(self, event: viser.GuiEvent[Any]) -> None:
         if event.client is None:
@@ -78,3 +83,11 @@ class HistoryPanel:
         if label not in labels:
             return
         self.studio.restore_branch(labels.index(label), event.client)
+
+    def _on_delete(self, event: viser.GuiEvent[Any]) -> None:
+        label, client = str(self.branch.value), event.client
+        if client is None or label == NO_BRANCH:
+            return
+        confirm(client, "Delete this branch?", f"**{label}**\n\nIts stage results leave the session (those it "
+                "shares with other branches stay). This cannot be undone.", "Delete branch",
+                lambda: self.studio.delete_branch(label, client))

@@ -23,9 +23,10 @@ from studio.candidates import (
     objective_text,
     start_design,
 )
+from studio.panels._confirm import confirm
 from studio.panels._inputs import set_value
 from studio.study_view import StudyView
-from studio.tables import compare_html
+from studio.tables import compare_html, verdict_html
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -110,7 +111,7 @@ class PickPanel:
                     start = {}
             self._start_cache = {id(r): start}
         rows = comparison(r, sv.shown, start, compared_metrics(r, cons), labels)
-        return compare_html(rows, "start", f"#{sv.shown}")
+        return verdict_html(r, sv.shown, sv.viewing or "") + compare_html(rows, "start", f"#{sv.shown}")
 
     # Callbacks -------------------------------------------------------------------------------
 
@@ -129,6 +130,16 @@ class PickPanel:
             self.studio.pick(self._stage, self._front[j], event.client)
 
     def _on_use(self, event: viser.GuiEvent[Any]) -> None:
-        if self._stage is None:
+        stage, client = self._stage, event.client
+        if stage is None:
             return
-        self.studio.use_for_next(self._stage, event.client)
+        with self.studio.session.lock:
+            r = self.studio.session.study.result(stage)
+            i = self.studio.session.study.shown_member(stage)
+        unmet = r.unmet(i) if r is not None and i is not None and r.cv[i] > 0 else []
+        if unmet and client is not None:
+            confirm(client, f"Pass on an infeasible member of {stage}?",
+                    f"#{i} does not meet {stage}'s constraints: **{'; '.join(unmet)}**.\n\nThe next stage will "
+                    "search around it anyway.", "Pass it on", lambda: self.studio.use_for_next(stage, client))
+            return
+        self.studio.use_for_next(stage, client)

@@ -7,6 +7,7 @@ runner refuses a second start (a double click starts one run). Settings are kept
 
 from __future__ import annotations
 
+import html
 from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -49,6 +50,7 @@ class StagesPanel:
                                         hint="generations (the first evaluates the initial population)")
             self.seed = gui.add_number("Seed", 1, min=0, max=2**31 - 1, step=1,
                                        hint="seed of the algorithm and the initial sample")
+            self.constraints = gui.add_html("")
             with gui.add_folder("Search box", expand_by_default=False):
                 self.box = gui.add_html("")
             self.run = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY,
@@ -98,6 +100,9 @@ class StagesPanel:
         set_value(self.progress, float(min(100.0, 100.0 * sv.status.fraction)))
         self.progress.animated = running
         self.status.content = self._status(sv)
+        self.constraints.content = (f'<div style="font-size:0.8em;padding:0 0.75em">Constraints of {sv.next_stage}: '
+                                    f'{" · ".join(html.escape(c) for c in sv.constraints)}</div>'
+                                    if sv.constraints else "")
         if sv.box is None:
             self.box.content = f'<div style="font-size:0.8em;padding:0 0.75em">{sv.box_note}</div>'
         else:

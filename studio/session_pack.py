@@ -1,0 +1,122 @@
+"""Session version 3: every stage result stored once, however many branches share it, its arrays packed.
+
+A study's pipelines (the current one and every branch) name their stage results by content hash; the
+results sit once in ``study.results``. A result's pick is not part of its content (branches that picked
+different members of one front share that front): it stays in the pipeline's ``picks``. Population
+arrays (X, F, G, cv and every metric) are little-endian float64 in base64 with their shape: exact,
+about half the size of decimal text. ``unpack_study`` gives back the version-2 shape, so everything
+after it (the study's decoder, the pipeline's and the results' checks) is unchanged.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import hashlib
+import json
+from typing import Any
+
+import numpy as np
+
+from core.optimize.result import decode_array, encode
+
+ARRAYS = ("X", "F", "G", "cv")
+PICK_KEYS = ("picked", "pick")
+MAX_ELEMENTS = 10_000_000  # a packed array larger than this is refused before it is allocated
+
+
+def pack_array(values: Any) -> dict[str, Any]:
+    a = np.ascontiguousarray(decode_array(values), dtype="<f8")
+    return {"shape": list(a.shape), "f64": base64.b64encode(a.tobytes()).decode("ascii")}
+
+
+def unpack_array(packed: Any, where: str) -> Any:
+    if not isinstance(packed, dict) or not isinstance(packed.get("f64"), str) or \
+            not isinstance(packed.get("shape"), list):
+        raise ValueError(f"{where}: expected a packed array {{shape, f64}}")
+    shape = packed["shape"]
+    if not all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= MAX_ELEMENTS for n in shape) \
+            or len(shape) > 2 or int(np.prod(shape)) > MAX_ELEMENTS:
+        raise ValueError(f"{where}: bad shape {shape!r}")
+    try:
+        raw = base64.b64decode(packed["f64"], validate=True)
+    except (binascii.Error, ValueError):
+        raise ValueError(f"{where}: not base64") from None
+    if len(raw) != 8 * int(np.prod(shape)):
+        raise ValueError(f"{where}: {len(raw)} bytes for shape {shape}")
+    return encode(np.frombuffer(raw, dtype="<f8").reshape(shape))
+
+
+def _content(result: dict[str, Any]) -> dict[str, Any]:
+    blob = {k: v for k, v in result.items() if k not in PICK_KEYS}
+    for k in ARRAYS:
+        if k in blob:
+            blob[k] = pack_array(blob[k])
+    if isinstance(blob.get("metrics"), dict):
+        blob["metrics"] = {str(k): pack_array(v) for k, v in blob["metrics"].items()}
+    return blob
+
+
+def pack_study(study: dict[str, Any]) -> dict[str, Any]:
+    """A study from ``Study.to_dict`` with its results stored once, by hash (a new dict)."""
+    table: dict[str, Any] = {}
+
+    def pack_pipeline(p: Any) -> Any:
+        if not isinstance(p, dict):
+            return p
+        refs: list[str | None] = []
+        for r in p.get("results", []):
+            if r is None:
+                refs.append(None)
+                continue
+            blob = _content(r)
+            key = hashlib.sha256(json.dumps(blob, sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:20]
+            table.setdefault(key, blob)
+            refs.append(key)
+        return {**p, "results": refs}
+
+    out = dict(study)
+    out["pipeline"] = pack_pipeline(study.get("pipeline"))
+    out["branches"] = [{**b, "pipeline": pack_pipeline(b.get("pipeline"))} for b in study.get("branches", [])]
+    out["results"] = table
+    return out
+
+
+def unpack_study(study: Any) -> Any:
+    """The version-2 shape of a packed study (results inline, picks set); ValueError naming the problem.
+    A version-2 study (results inline) passes through unchanged."""
+    if not isinstance(study, dict) or "results" not in study:
+        return study
+    table = study["results"]
+    if not isinstance(table, dict):
+        raise ValueError("study.results must map hashes to stage results")
+
+    def result(key: Any, pick: Any, where: str) -> Any:
+        if key is None or isinstance(key, dict):  # nothing, or a version-2 result written inline
+            return key
+        if not isinstance(key, str) or not isinstance(table.get(key), dict):
+            raise ValueError(f"{where}: no stage result {key!r} in study.results")
+        blob = dict(table[key])
+        for k in ARRAYS:
+            if k in blob:
+                blob[k] = unpack_array(blob[k], f"study.results[{key}].{k}")
+        if isinstance(blob.get("metrics"), dict):
+            blob["metrics"] = {m: unpack_array(v, f"study.results[{key}].metrics.{m}")
+                               for m, v in blob["metrics"].items()}
+        blob["picked"] = pick
+        return blob
+
+    def unpack_pipeline(p: Any, where: str) -> Any:
+        if not isinstance(p, dict) or not isinstance(p.get("results"), list):
+            return p
+        picks = p.get("picks")
+        picks = picks if isinstance(picks, list) and len(picks) == len(p["results"]) else [None] * len(p["results"])
+        return {**p, "results": [result(k, picks[j], f"{where}.results[{j}]") for j, k in enumerate(p["results"])]}
+
+    out = {k: v for k, v in study.items() if k != "results"}
+    out["pipeline"] = unpack_pipeline(study.get("pipeline"), "study.pipeline")
+    branches = study.get("branches")
+    if isinstance(branches, list):
+        out["branches"] = [{**b, "pipeline": unpack_pipeline(b.get("pipeline"), f"study.branches[{j}].pipeline")}
+                           if isinstance(b, dict) else b for j, b in enumerate(branches)]
+    return out

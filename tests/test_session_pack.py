@@ -1,0 +1,78 @@
+"""Session version 3: stage results stored once by content, arrays packed exactly (issue 13, item 5)."""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+
+import numpy as np
+import pytest
+
+from core.optimize.result import decode_array, encode
+from studio.chains import RunSettings, chain_for, find
+from studio.runner import Runner
+from studio.session_pack import pack_array, pack_study, unpack_array, unpack_study
+from studio.state import Session
+
+
+def test_a_packed_array_is_exact_with_non_finite_values():
+    a = np.array([[1.0 / 3.0, -0.0, math.pi], [np.nan, np.inf, -np.inf]])
+    back = decode_array(unpack_array(json.loads(json.dumps(pack_array(encode(a)))), "x"))
+    assert back.shape == a.shape
+    assert np.array_equal(back, a, equal_nan=True) and math.copysign(1.0, back[0, 1]) == -1.0
+
+
+def run_stage(session: Session, name: str, pop: int = 12, gens: int = 3) -> None:
+    """Run one stage from the editor's design, as the studio's runner does."""
+    session.study.settings[name] = RunSettings(name, pop_size=pop, n_gen=gens, seed=5)
+    done = threading.Event()
+    runner = Runner(session.lock, lambda: session.study, lambda p: None, done.set)
+    chain = chain_for(session.view.design.mechanism)
+    stage, view = find(chain, name), session.view
+    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
+    assert done.wait(60)
+    runner.join(10)
+
+
+@pytest.fixture(scope="module")
+def session() -> Session:
+    s = Session.default()
+    run_stage(s, "subtask1")
+    return s
+
+
+def test_branches_that_share_a_front_store_it_once_and_keep_their_own_picks(session):
+    study = session.study
+    base = json.loads(json.dumps(session.to_dict()))
+    one = len(json.dumps(base))
+    # Six branches of the same pipeline, each with a different pick of the same front.
+    for j in range(6):
+        study.keep_branch(f"test {j}")
+        study.branches[-1].pipeline["results"][0]["picked"] = j
+        study.branches[-1].pipeline["picks"][0] = j
+    data = json.loads(json.dumps(session.to_dict()))
+    assert len(data["study"]["results"]) == 1  # one front, however many branches
+    assert len(json.dumps(data)) - one < 6 * 4000  # a branch costs its labels and picks, not its front
+    back = Session.from_dict(data)
+    assert [b.pipeline["results"][0]["picked"] for b in back.study.branches] == list(range(6))
+    r, r2 = study.result("subtask1"), back.study.result("subtask1")
+    assert np.array_equal(r.X, r2.X) and np.array_equal(r.F, r2.F) and r.picked == r2.picked
+    for k, v in r.metrics.items():
+        assert np.array_equal(v, r2.metrics[k], equal_nan=True)
+    study.branches.clear()
+
+
+def test_a_version_2_session_still_loads(session):
+    data = json.loads(json.dumps(session.to_dict()))
+    data["study"] = unpack_study(data["study"])
+    data["version"] = 2
+    back = Session.from_dict(data)
+    assert np.array_equal(back.study.result("subtask1").X, session.study.result("subtask1").X)
+
+
+def test_packing_is_a_pure_function_of_the_study(session):
+    d = session.study.to_dict()
+    assert pack_study(d) == pack_study(json.loads(json.dumps(d)))
+    assert unpack_study(json.loads(json.dumps(pack_study(d))))["pipeline"]["results"][0]["picked"] == \
+        session.study.result("subtask1").picked
