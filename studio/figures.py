@@ -101,12 +101,32 @@ def make_bench_figure(
         plot_bgcolor="white",
         showlegend=True,
     )
+    xr, yr = equal_aspect_ranges([leg, *(() if target_leg is None else (np.asarray(target_leg, dtype=np.float64),))])
     fig.update_xaxes(title_text="x, leg frame (mm)", showgrid=True, gridcolor="#e5e5e5", zeroline=False,
-                     constrain="domain")
-    # Equal scales, fitted by shrinking the plot area rather than padding the y range.
+                     constrain="domain", range=xr)
+    # Equal scales, fitted by shrinking the plot area; a flat path gets a minimum height (MIN_ASPECT).
     fig.update_yaxes(title_text="y (mm)", showgrid=True, gridcolor="#e5e5e5", zeroline=False,
-                     scaleanchor="x", scaleratio=1, constrain="domain")
+                     scaleanchor="x", scaleratio=1, constrain="domain", range=yr)
     return fig
+
+
+MIN_ASPECT = 0.3  # height / width of the bench chart's axes at least, however flat the path
+
+
+def equal_aspect_ranges(clouds: list[F64], pad: float = 0.06) -> tuple[list[float] | None, list[float] | None]:
+    """x and y ranges (mm) around the finite points of ``(n, 2)`` clouds, the shorter axis widened to at least
+    ``MIN_ASPECT`` of the longer one (a nearly flat RTCLM path would otherwise get a chart of zero height)."""
+    pts = np.concatenate([np.asarray(c, dtype=np.float64).reshape(-1, 2) for c in clouds])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) == 0:
+        return None, None
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = np.maximum(hi - lo, 1e-6)
+    big = float(span.max())
+    span = np.maximum(span, MIN_ASPECT * big) * (1.0 + 2.0 * pad)
+    mid = 0.5 * (lo + hi)
+    return [float(mid[0] - span[0] / 2), float(mid[0] + span[0] / 2)], \
+        [float(mid[1] - span[1] / 2), float(mid[1] + span[1] / 2)]
 
 
 def _axis_range(values: F64, focus: F64) -> list[float] | None:

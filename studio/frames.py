@@ -154,7 +154,7 @@ def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
         obstacle=_lift(to_scene(outline), Z_LINES),
         hit=wf.hit,
         text=walk_text(view),
-        title_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.16 * (y1 - y0)) * SCENE_SCALE, 0.0),
+        title_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.08 * (y1 - y0)) * SCENE_SCALE, 0.0),
         text_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.02 * (y1 - y0)) * SCENE_SCALE, 0.0),
     )
 

@@ -157,11 +157,21 @@ def stance_mask(ev: Evaluation, n_samples: int, i: int = 0) -> NDArray[np.bool_]
     return np.asarray((np.arange(n_samples) - q1) % n_samples <= span)
 
 
-def feature_labels(ev: Evaluation, i: int = 0, tol: float = 1e-6) -> tuple[tuple[str, tuple[float, float]], ...]:
-    """Feature points t1 ... t8 of member i as ``(label, (x, y))``; coincident points share one label
-    (``t6=t7=t8`` for a single-peak swing). Empty without feature points."""
+MERGE = 0.04  # feature points closer than this fraction of their spread share one label (``t1=t4``)
+
+
+def feature_labels(ev: Evaluation, i: int = 0, tol: float | None = None) -> tuple[tuple[str, tuple[float, float]], ...]:
+    """Feature points t1 ... t8 of member i as ``(label, (x, y))``; points that would print over each other
+    share one label at the first one (``t6=t7=t8`` for a single-peak swing, ``t1=t4`` when the stance starts
+    where it is lowest): closer than ``tol`` mm, by default ``MERGE`` of the points' spread. Empty without
+    feature points."""
     if not ev.feasible[i]:
         return ()
+    pts = np.asarray(ev.points[i], dtype=np.float64)
+    finite = pts[np.isfinite(pts).all(axis=1)]
+    if tol is None:
+        spread = float(np.ptp(finite, axis=0).max()) if len(finite) else 0.0
+        tol = max(MERGE * spread, 1e-6)
     out: list[tuple[list[str], tuple[float, float]]] = []
     for name, p in zip(FEATURE_NAMES, ev.points[i], strict=True):
         if not np.isfinite(p).all():

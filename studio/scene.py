@@ -31,6 +31,9 @@ def _set_segments(node: viser.LineSegmentsHandle, segments: F32, colors: U8 | No
         node.points = segments
 
 
+WALK_TITLE = "Walking (world frame): trunk, feet, obstacle a × b"
+
+
 class MechanismScene:
     """Owns the scene nodes; ``show`` a design view, then ``draw`` crank samples of it.
 
@@ -90,9 +93,8 @@ class MechanismScene:
                                                  thickness_units="screen")
         self.walk_feet = scene.add_point_cloud("/walk/feet", one, palette.FOOT, point_shape="circle",
                                                precision="float32", point_shading="flat")
-        self.walk_title = scene.add_label("/walk/title", "Walking (world frame): trunk, feet, obstacle a × b",
+        self.walk_title = scene.add_label("/walk/title", WALK_TITLE,
                                           anchor="bottom-left")
-        self.walk_text = scene.add_label("/walk/metrics", "", anchor="bottom-left", font_screen_scale=0.85)
 
     @property
     def frames(self) -> SceneFrames | None:
@@ -138,7 +140,7 @@ class MechanismScene:
     def _show_walk(self, frames: SceneFrames) -> None:
         w = frames.walk
         for node in (self.walk_ground, self.walk_trails, self.walk_obstacle, self.walk_body, self.walk_feet,
-                     self.walk_title, self.walk_text):
+                     self.walk_title):
             node.visible = w is not None
         if w is None:
             return
@@ -152,9 +154,9 @@ class MechanismScene:
         self.walk_body.colors = w.body_colors
         self.walk_feet.point_size = frames.marker * 1.1
         self.walk_feet.colors = w.feet_colors
+        # One line, title then metrics: two labels overlapped each other or the trunk at some zooms.
         self.walk_title.position = w.title_at
-        self.walk_text.position = w.text_at
-        self.walk_text.text = w.text
+        self.walk_title.text = f"{WALK_TITLE}  |  {w.text}" if w.text else WALK_TITLE
 
     def _show_labels(self, frames: SceneFrames) -> None:
         """Static labels: ground pivots (design view) and feature points (leg view)."""

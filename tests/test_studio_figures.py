@@ -231,3 +231,23 @@ def test_the_grid_is_round_millimetres_covering_every_view():
     lo, hi = seg.reshape(-1, 2).min(axis=0), seg.reshape(-1, 2).max(axis=0)
     assert np.all(lo <= box[:2]) and np.all(hi >= box[2:])
     assert len(seg) < 120  # a few dozen lines, not a shader over the screen
+
+
+def test_a_flat_bench_path_still_gets_a_chart_with_height_and_equal_scales():
+    # An RTCLM-like path: 200 mm long, 2 mm high (the chart used to collapse to zero height).
+    x = np.linspace(-100.0, 100.0, 90)
+    leg = np.stack([x, 48.6 + 2.0 * (x / 100.0) ** 2], axis=1)
+    from studio.figures import MIN_ASPECT, equal_aspect_ranges, make_bench_figure
+
+    xr, yr = equal_aspect_ranges([leg])
+    assert yr[1] - yr[0] >= MIN_ASPECT * (xr[1] - xr[0]) - 1e-9
+    assert xr[0] < -100.0 and xr[1] > 100.0 and yr[0] < 48.6 and yr[1] > 50.6
+    fig = make_bench_figure(leg, None)
+    assert list(fig.layout.yaxis.range) == yr and fig.layout.yaxis.scaleanchor == "x"
+
+
+def test_feature_points_that_would_print_over_each_other_share_one_label():
+    from studio.state import Session
+
+    names = [n for n, _ in Session.default("stephenson1/X3").view.features]
+    assert names == ["t1=t4", "t2=t5", "t3", "t6=t7=t8"]  # t4 is 8 mm from t1 on a 300 mm stance
