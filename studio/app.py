@@ -19,6 +19,7 @@ from core.formats.session import parse_json
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find
+from studio.charts import png
 from studio.exports import design_json, drawing_export, figure_html, slug, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS
 from studio.geometry import frame_index, inset_positions
@@ -391,6 +392,15 @@ class Studio:
         if fig is None:
             raise ValueError("no stage result to chart yet; run a stage first")
         return f"pareto-{slug(sv.viewing or 'stage')}.html", figure_html(fig, f"CLM Studio: {sv.viewing}")
+
+    def pareto_png_file(self) -> tuple[str, bytes]:
+        """The chart in view (and its projection) as PNG, drawn on the server; ValueError if there is none or
+        no browser can draw it."""
+        sv = self.study_view()
+        fig = pareto_figure(sv, self.pareto.axes())
+        if fig is None:
+            raise ValueError("no stage result to chart yet; run a stage first")
+        return f"pareto-{slug(sv.viewing or 'stage')}.png", png(fig)
 
     def scene_file(self) -> tuple[str, bytes]:
         view = self.session.view

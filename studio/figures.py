@@ -159,8 +159,10 @@ def make_pareto_figure(
     shown: int | None = None,
     passed: int | None = None,
     title: str = "",
+    axes: tuple[int, int] | None = None,
 ) -> go.Figure:
-    """The population of a stage in objective space: 2-D for two objectives, 3-D for three or more.
+    """The population of a stage in objective space: 2-D for two objectives, 3-D for three or more (or, with
+    ``axes``, the 2-D projection onto those two objectives).
 
     Args:
         F: ``(pop, n_obj)`` objectives (+inf or NaN where undefined: such members are not drawn).
@@ -173,6 +175,7 @@ def make_pareto_figure(
         shown: the member the designer picked (animated in the editor), marked.
         passed: the member passed on to the next stage, if different, marked too.
         title: figure title.
+        axes: two objective columns to project onto (three or more objectives); None: all (3-D).
 
     With one objective the chart is objective against constraint violation. Member indices
     are in each point's hover text and ``customdata``.
@@ -189,6 +192,10 @@ def make_pareto_figure(
     if n_obj == 1:
         coords = np.stack([F[:, 0], np.where(np.isfinite(cv), cv, np.nan)], axis=1)
         titles = [objective_label(objectives[0], labels), "violation (0 = feasible)"]
+    elif axes is not None and n_obj >= 2:
+        cols = [int(a) for a in axes]
+        coords = F[:, cols]
+        titles = [objective_label(objectives[c], labels) for c in cols]
     else:
         coords = F[:, : min(n_obj, 3)]
         titles = [objective_label(o, labels) for o in objectives[:3]]
@@ -209,14 +216,15 @@ def make_pareto_figure(
         pts = coords[idx]
         if three:
             fig.add_trace(go.Scatter3d(x=pts[:, 0], y=pts[:, 1], z=pts[:, 2], **common))
-        else:
-            fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], **common))
+        else:  # markers and labels at the edge are drawn whole, not cut by the plot area
+            fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], cliponaxis=False, **common))
 
     size = 4 if three else 7
     add("infeasible", np.flatnonzero(drawable & ~feasible),
         {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"})
-    add("feasible", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.7), "size": size})
-    add("Pareto front", np.flatnonzero(on_front), {"color": palette.css(palette.PATH), "size": size + 1})
+    add("dominated", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.8), "size": size})
+    add("Pareto front", np.flatnonzero(on_front), {"color": palette.css(palette.PATH), "size": size + 2,
+                                                   "line": {"color": "white", "width": 0.5}})
     if knees:
         add("knee candidates", list(knees), {"color": palette.css(palette.KNEE), "size": size + 5,
                                              "symbol": "diamond", "line": {"color": "black", "width": 1}},
@@ -234,9 +242,10 @@ def make_pareto_figure(
                                 "line": {"color": palette.css(palette.FOOT), "width": 3}})
     fig.update_layout(
         title={"text": title, "font": {"size": 13}, "x": 0.0, "xanchor": "left"},
-        margin={"l": 55, "r": 36, "t": 45 if title else 10, "b": 45},
+        margin={"l": 55, "r": 40, "t": 45 if title else 10, "b": 10},
         modebar={"orientation": "v"},
-        legend={"orientation": "h", "yanchor": "top", "y": -0.18, "x": 0.0, "font": {"size": 10}},
+        # Below the axis title, outside the plot (legend items wrap on a narrow panel).
+        legend={"orientation": "h", "yanchor": "top", "y": -0.22, "x": 0.0, "font": {"size": 10}},
         plot_bgcolor="white",
         showlegend=True,
     )
@@ -246,8 +255,9 @@ def make_pareto_figure(
     else:
         for axis, k in (("xaxis", 0), ("yaxis", 1)):
             rng = _axis_range(coords[:, k], coords[feasible, k])
-            fig.update_layout({axis: {"title": {"text": titles[k]}, "showgrid": True, "gridcolor": "#e5e5e5",
-                                      "zeroline": False, **({"range": rng} if rng else {})}})
+            fig.update_layout({axis: {"title": {"text": titles[k], "standoff": 4}, "showgrid": True,
+                                      "gridcolor": "#e5e5e5", "zeroline": False, "nticks": 7, "automargin": True,
+                                      **({"range": rng} if rng else {})}})
     return fig
 
 

@@ -108,9 +108,8 @@ class MechanismScene:
             self._frames = frames
             self._index = -1
             _set_segments(self.grid, frames.grid)
-            b = frames.grid[:, :, :2].reshape(-1, 2)
-            if len(b):
-                self.grid_label.position = (float(b[:, 0].min()), float(b[:, 1].min()), 0.0)
+            b = frames.composition.bounds * SCENE_SCALE  # under the views' lower-left corner, inside the frame
+            self.grid_label.position = (float(b[0]), float(b[1]), 0.0)
             self.grid_label.text = f"grid {frames.grid_step:g} mm"
             _set_segments(self.path, frames.path)
             _set_segments(self.target, frames.target)

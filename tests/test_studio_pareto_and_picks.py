@@ -45,7 +45,9 @@ def test_pareto_chart_tells_feasible_infeasible_front_and_knees_apart_with_unit_
     infeasible = set(np.flatnonzero(drawable & (cv > 0)))
     assert set(t["infeasible"].customdata) == infeasible
     assert set(t["Pareto front"].customdata) == set(sl.front)
-    assert set(t["feasible"].customdata) == set(np.flatnonzero(drawable & (cv <= 0))) - set(sl.front)
+    assert set(t["dominated"].customdata) == set(np.flatnonzero(drawable & (cv <= 0))) - set(sl.front)
+    colours = {t[n].marker.color for n in ("infeasible", "dominated", "Pareto front")}
+    assert len(colours) == 3  # front, dominated and infeasible in three colours
     assert 5 not in {i for tr in fig.data for i in tr.customdata}  # undefined members are not drawn
     assert list(t["knee candidates"].customdata) == list(sl.knees)
     assert list(t["knee candidates"].text) == [f"K{j + 1}" for j in range(len(sl.knees))]
@@ -162,3 +164,17 @@ def test_inset_positions_stay_in_the_box_and_keep_the_order(points: list[tuple[f
 def test_inset_positions_park_undefined_rows_in_the_corner(bad: float) -> None:
     p = inset_positions(np.array([[1.0, 2.0], [bad, 0.0], [3.0, 4.0]]), np.array([0.0, 0.0, 1.0, 1.0]))
     assert tuple(p[1]) == (0.0, 0.0)
+
+
+def test_three_objectives_project_onto_any_two():
+    rng = np.random.default_rng(4)
+    F, cv = rng.random((30, 3)), np.zeros(30)
+    sl = decision.shortlist(F, cv)
+    full = make_pareto_figure(F, cv, objectives=("a", "b", "c"), front=sl.front)
+    assert full.data[0].type == "scatter3d"
+    side = make_pareto_figure(F, cv, objectives=("a", "b", "c"), front=sl.front, axes=(0, 2), knees=sl.knees)
+    t = traces(side)
+    assert t["Pareto front"].type == "scatter" and side.layout.xaxis.title.text == "a"
+    assert side.layout.yaxis.title.text == "c"
+    i = t["knee candidates"].customdata[0]
+    assert (t["knee candidates"].x[0], t["knee candidates"].y[0]) == (F[i, 0], F[i, 2])

@@ -38,6 +38,8 @@ class FilesPanel:
                                       hint="design-frame path, bench trajectory, stance, target per crank sample")
             self.pareto = gui.add_button("Pareto chart (HTML)", icon=viser.Icon.FILE_DOWNLOAD,
                                          hint="the chart as a self-contained page (PNG: camera icon on the chart)")
+            self.pareto_png = gui.add_button("Pareto chart (PNG)", icon=viser.Icon.FILE_DOWNLOAD,
+                                             hint="the chart drawn on the server (kaleido), 1000 x 800")
             self.scene = gui.add_button("Animated scene (HTML)", icon=viser.Icon.FILE_DOWNLOAD,
                                         hint="one crank revolution of the scene, self-contained (works offline)")
         self.download.on_click(self._send(self.studio.session_file))
@@ -46,6 +48,7 @@ class FilesPanel:
         self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg")))
         self.csv.on_click(self._send(self.studio.trajectories_file))
         self.pareto.on_click(self._send(self.studio.pareto_file))
+        self.pareto_png.on_click(self._send(self.studio.pareto_png_file))
         self.scene.on_click(self._send(self.studio.scene_file))
         self.load.on_upload(self._on_load)
 

@@ -12,7 +12,9 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import plotly.graph_objects as go
+import viser
 
+from studio.charts import target_text
 from studio.figures import make_pareto_figure, make_trace_figure
 from studio.study import status_text
 from studio.study_view import StudyView
@@ -34,8 +36,9 @@ CONFIG = {
 REDRAW_2D, REDRAW_3D = 0.5, 1.0
 
 
-def pareto_figure(sv: StudyView) -> go.Figure | None:
-    """The chart of the shown stage, or None if it has no result yet."""
+def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figure | None:
+    """The chart of the shown stage (projected onto two objectives with ``axes``), or None if it has no result
+    yet. The title names the mechanism, the stage, its state and the target (a saved chart reads on its own)."""
     r = sv.result(sv.viewing)
     if r is None or sv.viewing is None:
         return None
@@ -43,27 +46,59 @@ def pareto_figure(sv: StudyView) -> go.Figure | None:
     labels = dict(spec.problem.labels) if spec is not None else {}
     running = sv.status.running and sv.status.stage == sv.viewing
     state = f"generation {r.generation}/{r.n_gen}" if running else status_text(r)
-    title = (f"{sv.viewing} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
-             f"front {len(set(r.front))}")
+    target = target_text(r.settings)
+    title = (f"{r.mechanism.title} · {sv.viewing} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
+             f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels, front=r.front,
                               knees=r.shortlist.knees, best=r.shortlist.best, shown=sv.shown, passed=r.picked,
-                              title=title)
+                              title=title, axes=axes if len(r.objectives) >= 3 else None)
+
+
+THREE_D = "3-D (all three)"
+
+
+def projections(objectives: tuple[str, ...]) -> dict[str, tuple[int, int] | None]:
+    """The View options of a chart with three or more objectives: the 3-D cloud and each pair of the first three."""
+    names = objectives[:3]
+    out: dict[str, tuple[int, int] | None] = {THREE_D: None}
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
+            out[f"{names[a]} vs {names[b]}"] = (a, b)
+    return out
 
 
 class ParetoPanel:
-    """A plotly chart of the shown stage, and a caption."""
+    """A plotly chart of the shown stage, a View choice (3-D or a projection) for three objectives, a large
+    floating copy of the chart, the algorithm's trace, and a caption."""
 
     def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
         gui = studio.server.gui
         self._key: object = None
         self._drawn_at = 0.0
+        self._sv: StudyView | None = None
+        self._large: viser.PanelHandle | None = None
+        self._large_plot: viser.GuiPlotlyHandle | None = None
         self.folder = gui.add_folder("Pareto front", order=order)
         with self.folder:
             self.caption = gui.add_markdown("No stage has run yet.")
+            self.view = gui.add_dropdown("View", (THREE_D,), visible=False,
+                                         hint="three objectives: the 3-D cloud, or its projection onto two of them")
             # viser 1.1.1 draws the chart ``width * aspect`` tall.
-            self.plot = gui.add_plotly(go.Figure(), aspect=0.85, config=CONFIG, visible=False)
+            self.plot = gui.add_plotly(go.Figure(), aspect=0.95, config=CONFIG, visible=False)
+            self.open_large = gui.add_button("Open large chart", icon=viser.Icon.ARROWS_MAXIMIZE, visible=False,
+                                             hint="the chart in a large window you can move (Close in it)")
             # The algorithm's own log: feasible ratios (and epsilon, task odds) over evaluations.
             self.trace = gui.add_plotly(go.Figure(), aspect=0.5, config=CONFIG, visible=False)
+        self.view.on_update(lambda _: self._redraw())
+        self.open_large.on_click(lambda _: self._open_large())
+
+    def axes(self) -> tuple[int, int] | None:
+        sv = self._sv
+        r = None if sv is None else sv.result(sv.viewing)
+        if r is None or len(r.objectives) < 3:
+            return None
+        return projections(r.objectives).get(str(self.view.value))
 
     def show(self, sv: StudyView) -> None:
         r = sv.result(sv.viewing)
@@ -71,27 +106,61 @@ class ParetoPanel:
         if key == self._key:
             return
         if r is not None and sv.status.running and sv.status.stage == sv.viewing:
-            period = REDRAW_3D if len(r.objectives) >= 3 else REDRAW_2D
+            period = REDRAW_3D if len(r.objectives) >= 3 and self.axes() is None else REDRAW_2D
             if time.monotonic() - self._drawn_at < period:
                 return  # a later generation (or the end of the run) redraws it
         self._key = key
+        self._sv = sv
+        self._draw(sv)
+
+    def _redraw(self) -> None:
+        if self._sv is not None:
+            self._draw(self._sv)
+
+    def _draw(self, sv: StudyView) -> None:
         self._drawn_at = time.monotonic()
-        fig = pareto_figure(sv)
+        r = sv.result(sv.viewing)
+        n = len(r.objectives) if r is not None else 0
+        options = tuple(projections(r.objectives)) if r is not None and n >= 3 else (THREE_D,)
+        if tuple(self.view.options) != options:
+            self.view.options = options
+        self.view.visible = n >= 3
+        fig = pareto_figure(sv, self.axes())
         if fig is None:
-            self.plot.visible = False
+            self.plot.visible = self.open_large.visible = False
             self.caption.content = ("No stage has run yet." if not sv.names else
                                     f"{sv.viewing or 'This stage'} has no result yet: run it.")
+            self._close_large()
             return
         self.plot.figure = fig
-        self.plot.visible = True
+        self.plot.visible = self.open_large.visible = True
+        if self._large_plot is not None:
+            self._large_plot.figure = fig
         tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:
             self.trace.figure = tfig
         self.trace.visible = tfig is not None
-        n = len(r.objectives) if r is not None else 0
         what = ("objective against violation" if n == 1 else "2-D" if n == 2 else
-                "3-D (first three objectives)" if n >= 3 else "")
+                ("3-D" if self.axes() is None else str(self.view.value)) if n >= 3 else "")
         self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
+
+    def _open_large(self) -> None:
+        if self._large is not None or self._sv is None:
+            return
+        gui = self.studio.server.gui
+        panel = gui.add_panel()
+        with panel.add_tab("Pareto front (large)", viser.Icon.CHART_DOTS):
+            self._large_plot = gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
+                                              config=CONFIG)
+            close = gui.add_button("Close", icon=viser.Icon.X)
+        close.on_click(lambda _: self._close_large())
+        panel.float(x=24, y=24, width=960, height=760)
+        self._large = panel
+
+    def _close_large(self) -> None:
+        panel, self._large, self._large_plot = self._large, None, None
+        if panel is not None:
+            panel.remove()
 
 
 def algorithm_name(settings: object) -> str:

@@ -2,7 +2,8 @@
 
 The lag is recorded as ``benchmarks/studio.py`` does it: how long ago the server reached the generation after
 the one the page shows. Before pushes were paced by the page, this run trailed by 4-13 s; the bound here is
-loose (a loaded CI machine draws slower), the pacing property is exact.
+loose (a loaded CI machine draws slower), the pacing property is exact. Stop ends the run within STOP_BOUND
+of the press.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from test_studio_stages_in_the_browser import SUBTASK2, choose, settle
 
 from benchmarks.studio import PRESS_CLOCK, page_generation
 
+STOP_BOUND = 1.0  # s from the press to the cancelled run
 LAG_BOUND = 2.0  # s; measured ~0.3 s median, ~0.5 s worst on this machine (benchmarks/studio.py)
 
 
@@ -69,9 +71,10 @@ def test_the_page_trails_a_run_by_well_under_a_second_and_stop_acts_at_once(page
     # Paced: a frame goes out only once every page has answered the probe after the previous push.
     pushed = studio.scene.frames_pushed - pushed0
     assert pushed <= studio.pacer.answered - answered0 + len(studio.server.get_clients()) + 1
-    # Stop acted on the generation the server was at when the page got the press (a few generations later at
-    # most), not seconds of queued generations later.
+    # Stop acted within a second of the press as the page's event records it (the benchmark measures ~0.04 s):
+    # not seconds of queued generations later.
     pressed = page.evaluate("() => window.__downAt") / 1000.0
     at_press = max(g for g, t in clock.reached.items() if t <= pressed)
+    within = max(g for g, t in clock.reached.items() if t <= pressed + STOP_BOUND)
     final = studio.session.study.result("subtask2").generation
-    assert at_press <= final <= at_press + 5, (at_press, final)
+    assert at_press <= final <= within + 1, (at_press, final, within)

@@ -1,0 +1,91 @@
+"""Pareto charts as PNG files, drawn on the server (plotly + kaleido, with Debian's chromium).
+
+    clm-charts RUN_DIR            # pareto-<k>_<stage>.png next to the CSVs of a `clm design --out RUN_DIR`
+    python -m studio.charts RUN_DIR
+
+``core`` never imports plotly, so ``clm design`` writes the data (result.json, CSVs) and this command, on the
+studio's side, draws it; the studio's Files panel serves the same PNG of the stage in view.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import plotly.graph_objects as go
+
+from core.analysis.targets import read_user_file
+from core.formats.files import atomic_write
+from core.optimize.pipeline import Pipeline
+from core.optimize.result import StageResult
+from studio.exports import slug
+from studio.figures import make_pareto_figure
+from studio.study import status_text
+
+WIDTH, HEIGHT = 1000, 800
+MAX_RESULT_BYTES = 512 * 2**20
+
+
+def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT) -> bytes:
+    """The figure as PNG bytes; ValueError naming what is missing when kaleido or its browser cannot run."""
+    try:
+        return fig.to_image(format="png", width=width, height=height, scale=1)
+    except Exception as exc:  # noqa: BLE001 - kaleido raises assorted errors when no browser can start
+        raise ValueError(f"cannot draw PNG charts here ({type(exc).__name__}: {exc}); they need the kaleido "
+                         "package and a chromium browser (apt-get install chromium)") from None
+
+
+def result_figure(r: StageResult, labels: dict[str, str] | None = None, target: str = "") -> go.Figure:
+    """A stage result's chart, titled with its mechanism, stage, status and target (readable on its own)."""
+    title = (f"{r.mechanism.title} · {r.name} · {status_text(r)} · {int(r.feasible.sum())} feasible of {r.pop}"
+             + (f" · target {target}" if target else ""))
+    return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels or {}, front=r.front,
+                              knees=r.shortlist.knees, best=r.shortlist.best, passed=r.picked, title=title)
+
+
+def target_text(settings: object) -> str:
+    """The target a stage was run against, from its settings (``cycloid L=300 H=100 T=2``), else ""."""
+    problem = settings.get("problem") if isinstance(settings, dict) else None
+    options = problem.get("options") if isinstance(problem, dict) else None
+    target = options.get("target") if isinstance(options, dict) else None
+    return str(target) if isinstance(target, str) and len(target) < 200 else ""
+
+
+def run_charts(run_dir: Path) -> list[Path]:
+    """Write ``pareto-<k>_<stage>.png`` for every stage with a result in ``run_dir/result.json``."""
+    data = json.loads(read_user_file(run_dir / "result.json", MAX_RESULT_BYTES, what="result.json"))
+    if not isinstance(data, dict) or data.get("format") != "clm-design":
+        raise ValueError(f"{run_dir / 'result.json'} is not a `clm design` result")
+    if not isinstance(data.get("pipeline"), dict):
+        raise ValueError(f"{run_dir / 'result.json'} has no pipeline (a baseline run has no Pareto front)")
+    pipe = Pipeline.from_dict(data["pipeline"])
+    written = []
+    for k, (spec, r) in enumerate(zip(pipe.stages, pipe.results, strict=True)):
+        if r is None or r.pop == 0:
+            continue
+        fig = result_figure(r, dict(spec.problem.labels), target_text(r.settings))
+        path = run_dir / f"pareto-{k}_{slug(r.name)}.png"
+        atomic_write(path, png(fig))
+        written.append(path)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="clm-charts", description="Draw the Pareto chart of every stage of a "
+                                 "`clm design --out DIR` run as DIR/pareto-<k>_<stage>.png.")
+    ap.add_argument("run_dir", type=Path, metavar="RUN_DIR")
+    args = ap.parse_args(argv)
+    try:
+        written = run_charts(args.run_dir)
+    except (OSError, ValueError) as exc:
+        print(f"clm-charts: error: {exc}", file=sys.stderr)
+        return 2
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

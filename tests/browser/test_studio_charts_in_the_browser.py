@@ -1,0 +1,47 @@
+"""The Pareto chart a collaborator can read (issue 13, items 6, 12 and 14), in the browser.
+
+Three objectives: a View choice shows the 3-D cloud or its projection onto two objectives; "Open large chart"
+floats a large copy that follows the view and closes; the chart's title names the mechanism, stage and target;
+the server draws the chart as PNG for download.
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+from typing import Any
+
+from playwright.sync_api import expect
+from test_studio_stages_in_the_browser import choose, expand, run_stage
+
+SUBTASK1 = "Subtask 1 → X1 (shape, position)"
+
+
+def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, studio: Any, tmp_path: Path) -> None:
+    r = run_stage(page, studio, SUBTASK1, "subtask1", pop=12, gens=2)
+    assert len(r.objectives) == 3
+    view = page.get_by_label("View", exact=True)
+    expect(view).to_be_visible()
+    a, b = r.objectives[0], r.objectives[2]
+    choose(page, "View", f"{a} vs {b}")
+    chart = page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask1 · complete")).first
+    expect(chart.locator(".scatterlayer .point").first).to_be_attached()  # 2-D: SVG points, not WebGL
+    title = chart.locator(".gtitle")
+    expect(title).to_contain_text("Stephenson-I six-bar · subtask1")
+    expect(title).to_contain_text("target cycloid")
+    expect(chart.locator(".xtitle")).to_contain_text(a)
+
+    page.get_by_role("button", name="Open large chart").click()
+    big = page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask1 · complete"))
+    expect(big).to_have_count(2)
+    assert big.nth(1).bounding_box()["width"] > 1.8 * big.nth(0).bounding_box()["width"]
+    page.get_by_role("button", name="Close", exact=True).click()
+    expect(big).to_have_count(1)
+
+    expand(page, "Session and export")
+    with page.expect_download(timeout=60_000) as dl:
+        page.get_by_role("button", name="Pareto chart (PNG)", exact=True).click()
+    data = Path(dl.value.path()).read_bytes()
+    assert dl.value.suggested_filename == "pareto-subtask1.png"
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", data[16:24]) == (1000, 800)
+    choose(page, "View", "3-D (all three)")
