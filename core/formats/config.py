@@ -12,7 +12,7 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import msgspec
 from msgspec import Struct
@@ -145,7 +145,8 @@ def _target(t: Target, base: Path) -> str:
 
 
 # Algorithm option types by name (any other option is a number >= 0).
-ALGORITHM_OPTIONS: dict[str, Any] = {"variant": str, "eliminate_duplicates": bool, "n_partitions": PosInt,
+ALGORITHM_OPTIONS: dict[str, Any] = {"variant": str, "operator": Literal["ga", "de"], "eliminate_duplicates": bool,
+                                     "n_partitions": PosInt,
                                      "F": NonNeg | list[NonNeg]}
 
 

@@ -177,6 +177,12 @@ def _imtcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) ->
     return IMTCMO(pop_size=spec.pop_size, seed=seed)
 
 
+def _cmoes(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.cmoes import CMOES
+
+    return CMOES(pop_size=spec.pop_size, seed=seed, operator=str(opts.get("operator", "ga")))
+
+
 def _moead_cmt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from core.optimize.evolve.moead_cmt import MOEADCMT
 
@@ -217,6 +223,7 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
                            {**_SBX30, "sbx_one_child": True}),
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
+    "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes, evals_per_generation=3.0),
     "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
     "moead_cmt": AlgorithmInfo("MOEA/D-CMT", (), _moead_cmt),
 }

@@ -30,75 +30,134 @@ def dominance(F: F64, cv: F64 | None = None) -> B:
     return D
 
 
-def distances(F: F64) -> F64:
-    """``(n, n)`` Euclidean distances between members, +inf on the diagonal."""
-    F = np.asarray(F, dtype=np.float64)
-    with np.errstate(invalid="ignore", over="ignore"):  # inf - inf (penalised members): NaN, then +inf below
-        diff = F[:, None, :] - F[None, :, :]
-        D = np.sqrt((diff * diff).sum(axis=2))
-    D = np.where(np.isnan(D), np.inf, D)
-    np.fill_diagonal(D, np.inf)
+@numba.njit(cache=True)
+def _distances(F: F64) -> F64:  # pragma: no cover - compiled
+    n, m = F.shape
+    D = np.empty((n, n))
+    for i in range(n):
+        D[i, i] = np.inf
+        for j in range(i + 1, n):
+            s = 0.0
+            for k in range(m):
+                d = F[i, k] - F[j, k]
+                s += d * d
+            v = np.sqrt(s)
+            if np.isnan(v):  # inf - inf (penalised members)
+                v = np.inf
+            D[i, j] = v
+            D[j, i] = v
     return D
+
+
+def distances(F: F64) -> F64:
+    """``(n, n)`` Euclidean distances between members, +inf on the diagonal (and where undefined)."""
+    return _distances(np.ascontiguousarray(F, dtype=np.float64).reshape(len(F), -1))
+
+
+@numba.njit(cache=True)
+def _strength(F: F64, c: F64, constrained: bool) -> F64:  # pragma: no cover - compiled
+    # R(i) = sum of S(j) over the members j that dominate i, S(j) = how many j dominates.
+    n, m = F.shape
+    dom = np.zeros((n, n), dtype=np.bool_)
+    S = np.zeros(n)
+    for i in range(n):
+        for j in range(n):
+            if i == j:
+                continue
+            if constrained and c[i] != c[j]:
+                d = c[i] < c[j]
+            else:
+                le, lt = True, False
+                for k in range(m):
+                    if F[i, k] > F[j, k]:
+                        le = False
+                        break
+                    if F[i, k] < F[j, k]:
+                        lt = True
+                d = le and lt
+            if d:
+                dom[i, j] = True
+                S[i] += 1.0
+    R = np.zeros(n)
+    for i in range(n):
+        for j in range(n):
+            if dom[i, j]:
+                R[j] += S[i]
+    return R
 
 
 def fitness(F: F64, cv: F64 | None = None) -> F64:
     """``(n,)`` SPEA2 fitness R(i) + 1 / (σ_i + 2); members with fitness < 1 are the non-dominated ones.
 
     S(i) counts whom i dominates, R(i) sums S over i's dominators, σ_i is the distance to the k-th nearest
-    other member with k = floor(sqrt(n)).
+    other member with k = floor(sqrt(n)). Dominance as :func:`dominance` (NaN objectives and violations count
+    as +inf).
     """
     n = len(F)
     if n == 0:
         return np.zeros(0)
-    D = dominance(F, cv)
-    S = D.sum(axis=1).astype(np.float64)
-    R = (D * S[:, None]).sum(axis=0)
+    Fa = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64)).reshape(n, -1)
+    c = np.zeros(n) if cv is None else np.where(np.isnan(cv), np.inf, np.asarray(cv, dtype=np.float64))
+    R = _strength(np.ascontiguousarray(Fa), np.ascontiguousarray(c), cv is not None)
     if n == 1:
         return R + 0.5
-    dist = np.sort(distances(F), axis=1)
     k = int(math.floor(math.sqrt(n)))
-    sigma = dist[:, min(k, n - 1) - 1]
+    sigma = np.partition(distances(F), min(k, n - 1) - 1, axis=1)[:, min(k, n - 1) - 1]
     with np.errstate(over="ignore"):
         return R + 1.0 / (sigma + 2.0)
 
 
 @numba.njit(cache=True)
+def _row_less(D: F64, order: NDArray[np.int64], alive: B, a: int, b: int) -> bool:  # pragma: no cover - compiled
+    # Member a's ascending distances to the alive members, lexicographically smaller than b's?
+    n = D.shape[0]
+    pa = pb = 0
+    while True:
+        while pa < n and not alive[order[a, pa]]:
+            pa += 1
+        while pb < n and not alive[order[b, pb]]:
+            pb += 1
+        if pa >= n or pb >= n:
+            return False
+        va, vb = D[a, order[a, pa]], D[b, order[b, pb]]
+        if va < vb:
+            return True
+        if va > vb:
+            return False
+        pa += 1
+        pb += 1
+
+
+@numba.njit(cache=True)
 def _truncate(D: F64, keep: int) -> B:  # pragma: no cover - compiled
+    # Each row's neighbours are sorted once; removed members are skipped when rows are read. Only members
+    # whose nearest alive distance is the smallest can have the lexicographically smallest row, so only they
+    # are compared (from their nearest neighbour on). Same result as re-sorting every row after each removal.
     r = D.shape[0]
-    S = np.empty((r, r))
+    order = np.empty((r, r), dtype=np.int64)
     for i in range(r):
-        S[i] = np.sort(D[i])
+        order[i] = np.argsort(D[i], kind="mergesort")
     alive = np.ones(r, dtype=np.bool_)
-    length = r
+    first = np.zeros(r, dtype=np.int64)  # position of each row's nearest alive neighbour in its order
     for _ in range(r - keep):
+        m = np.inf
+        for i in range(r):
+            if alive[i]:
+                while first[i] < r and not alive[order[i, first[i]]]:
+                    first[i] += 1
+                v = D[i, order[i, first[i]]] if first[i] < r else np.inf
+                if v < m:
+                    m = v
         best = -1
         for i in range(r):
             if not alive[i]:
                 continue
-            if best < 0:
+            v = D[i, order[i, first[i]]] if first[i] < r else np.inf
+            if v != m:
+                continue
+            if best < 0 or _row_less(D, order, alive, i, best):
                 best = i
-                continue
-            for c in range(length):
-                if S[i, c] < S[best, c]:
-                    best = i
-                    break
-                if S[i, c] > S[best, c]:
-                    break
         alive[best] = False
-        for i in range(r):
-            if not alive[i]:
-                continue
-            v = D[i, best]
-            lo, hi = 0, length - 1
-            while lo < hi:  # first position holding v in the sorted row
-                mid = (lo + hi) // 2
-                if S[i, mid] < v:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            for c in range(lo, length - 1):
-                S[i, c] = S[i, c + 1]
-        length -= 1
     return alive
 
 
