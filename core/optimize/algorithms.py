@@ -183,6 +183,12 @@ def _cmoes(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> 
     return CMOES(pop_size=spec.pop_size, seed=seed, operator=str(opts.get("operator", "ga")))
 
 
+def _mccmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.mccmo import MCCMO
+
+    return MCCMO(pop_size=spec.pop_size, seed=seed, operator=str(opts.get("operator", "ga")))
+
+
 def _moead_cmt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from core.optimize.evolve.moead_cmt import MOEADCMT
 
@@ -225,6 +231,7 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
     "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes, evals_per_generation=3.0),
     "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
+    "mccmo": AlgorithmInfo("MCCMO", ("operator",), _mccmo, evals_per_generation=2.0),
     "moead_cmt": AlgorithmInfo("MOEA/D-CMT", (), _moead_cmt),
 }
 
