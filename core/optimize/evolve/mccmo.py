@@ -120,10 +120,10 @@ class MCCMO(ArrayAlgorithm):
         self.n_con = max(int(p.n_ieq_constr), 1)
         self.Q: list[Sub] = []
         for i in range(self.n_con):
-            q = self._random()
-            fit = spea2.fitness(q.F)
+            fresh = self._random()
+            fit = spea2.fitness(fresh.F)
             o = np.argsort(fit, kind="stable")
-            self.Q.append(Sub(q.take(o), fit[o], (i,)))
+            self.Q.append(Sub(fresh.take(o), fit[o], (i,)))
         fit0 = spea2.fitness(p0.F)
         o = np.argsort(fit0, kind="stable")
         self.p0, self.fit0 = p0.take(o), fit0[o]
@@ -131,8 +131,8 @@ class MCCMO(ArrayAlgorithm):
         self.upf = self.dupf = self.reinit = False
         self.gen = 1
         self.h0 = {1: float(np.abs(self.p0.F).sum())}
-        for q in self.Q:
-            q.h[1] = float(q.pop.F.sum())
+        for sub in self.Q:
+            sub.h[1] = float(sub.pop.F.sum())
         self.merges = self.reinits = 0
         self._log(0)
 
