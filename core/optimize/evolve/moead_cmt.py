@@ -84,8 +84,9 @@ class MOEADCMT(ArrayAlgorithm):
         g_new = (np.abs(y.F[0] - self.z1) / W).max(axis=1)
         cv_old, cv_new = P.cv[pool].copy(), np.full(len(pool), y.cv[0])
         if cmax > self.cmin:
-            cv_old = np.where(cv_old > 0, (cv_old - self.cmin) / (cmax - self.cmin), cv_old)
-            cv_new = np.where(cv_new > 0, (cv_new - self.cmin) / (cmax - self.cmin), cv_new)
+            with np.errstate(invalid="ignore"):  # an infinite violation normalises to NaN, which never wins
+                cv_old = np.where(cv_old > 0, (cv_old - self.cmin) / (cmax - self.cmin), cv_old)
+                cv_new = np.where(cv_new > 0, (cv_new - self.cmin) / (cmax - self.cmin), cv_new)
         with np.errstate(invalid="ignore"):  # inf - inf for penalised members: NaN, which never wins below
             a = logistic(g_old - g_new, S_OBJ) * np.fmax(logistic(cv_old - cv_new, s_cv), 1e-4)
             b = logistic(g_new - g_old, S_OBJ) * np.fmax(logistic(cv_new - cv_old, s_cv), 1e-4)
