@@ -93,6 +93,7 @@ class Studio:
         self._inset_key: object = None
         self._last_push = 0.0
         self._study_dirty = False
+        self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
         self._last_start = -DOUBLE_CLICK
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
@@ -153,12 +154,30 @@ class Studio:
                 self._show_study(sv)
                 self.metrics.show_stage(sv, view)
                 self._last_push = time.monotonic()
+            if changed and not fit_camera:
+                fit_camera = self._outgrown()
             if fit_camera:
+                frames = self.scene.frames
+                self._fitted = None if frames is None else frames.composition.bounds.copy()
                 self.scene.fit_camera()
                 for client in self.server.get_clients().values():
                     self._fit_client(client)
         if changed or study_changed:
             self.autosave()
+
+    def _outgrown(self) -> bool:
+        """True when the views' extent changed enough that the camera should frame them again: they no longer
+        fit in what was framed, or they shrank to less than half of it (a Jansen pick 4x larger, a preset)."""
+        frames = self.scene.frames
+        if frames is None:
+            return False
+        b, old = frames.composition.bounds, self._fitted
+        if old is None:
+            return True
+        span = max(old[2] - old[0], old[3] - old[1], 1e-9)
+        outside = bool((b[:2] < old[:2] - 0.02 * span).any() or (b[2:] > old[2:] + 0.02 * span).any())
+        shrunk = max(b[2] - b[0], b[3] - b[1]) < 0.5 * span
+        return outside or shrunk
 
     def _show_study(self, sv: StudyView) -> None:
         self.stages.show(sv)

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.analysis.evaluate import Evaluation
+from core.analysis.targets import compound_cycloid
 from core.formats.design import check_params, design_from_dict, design_to_dict
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
@@ -62,6 +63,54 @@ def presets_for(mechanism: str) -> tuple[str, ...]:
 def preset_label(name: str) -> str:
     """Short label of a preset inside its mechanism's list (``stephenson1/X3`` -> ``X3``)."""
     return name.split("/", 1)[1] if "/" in name else name
+
+
+# Mechanisms the paper designs against its compound cycloid (L 300 mm, H 100 mm); the others (the walkers,
+# the four-bar example, RTCLM) get a cycloid scaled to their own path, so MSE compares shapes, not sizes.
+PAPER_TARGET = ("stephenson1", "stephenson3", "watt1")
+
+
+def preset_target(name: str, period: float = 2.0) -> TargetSpec:
+    """The target a preset is shown against: the paper's cycloid for the paper's mechanisms; else a compound
+    cycloid as long and as high as the preset's own foot path (rounded to 1 mm), placed on it (the shift,
+    flip, direction and start that fit it best, since MSE compares sample by sample), saying so."""
+    p = presets.get(name)
+    if p.mechanism.name in PAPER_TARGET:
+        return TargetSpec(period=period, origin="the paper's")
+    n = 360
+    sol = solve(p.mechanism, p.design().params, n, backend=BACKEND)
+    path = sol.point[0]
+    if not np.isfinite(path).all():
+        return TargetSpec(period=period, origin="the paper's (the preset's path does not close)")
+    span = path.max(axis=0) - path.min(axis=0)
+    length, height = max(round(float(span[0])), 1.0), max(round(float(span[1])), 1.0)
+    placed = place_cycloid(path, length, height)
+    note = f"scaled to the {name} path and placed on it"
+    if p.mechanism.name.startswith("rtclm"):
+        note += "; the RTCLM stages optimize their own objectives, not this target"
+    times = tuple(float(i * period / n) for i in range(n))
+    curve = Curve(f"cycloid {length:g} x {height:g} mm on {name}", tuple((float(x), float(y)) for x, y in placed),
+                  times, float(period))
+    return TargetSpec(length, height, period, curve, note)
+
+
+def place_cycloid(path: NDArray[np.float64], length: float, height: float) -> NDArray[np.float64]:
+    """The compound cycloid of this size, flipped and run either way, started at the sample and shifted by the
+    offset that bring it closest to ``path`` (``(n, 2)``, mm) in mean distance, sample by sample."""
+    n = len(path)
+    base = compound_cycloid(n, length, height)[0]
+    best, best_err = base, np.inf
+    for flip in (1.0, -1.0):
+        for step in (1, -1):
+            c = base * np.array([1.0, flip])
+            c = c[::step]
+            for k in range(n):
+                r = np.roll(c, k, axis=0)
+                r = r + (path - r).mean(axis=0)
+                err = float(np.hypot(*(path - r).T).mean())
+                if err < best_err:
+                    best, best_err = r, err
+    return best
 
 
 @dataclass(frozen=True)
@@ -226,10 +275,18 @@ class Session:
     # Design -------------------------------------------------------------------------------
 
     def load_preset(self, name: str) -> DesignView:
-        """Switch to a registered preset; ValueError (state unchanged) if the name is unknown."""
+        """Switch to a registered preset; ValueError (state unchanged) if the name is unknown.
+
+        A preset of another mechanism brings its own target (``preset_target``) unless the designer uploaded
+        the target; within one mechanism the target stays as it is.
+        """
         p = presets.get(name)
         with self.lock:
-            return self._commit(self._rebuild(p.design(), name))
+            v = self.view
+            target = None
+            if p.mechanism.name != v.design.mechanism.name and v.target.origin != "uploaded":
+                target = preset_target(name, v.target.period)
+            return self._commit(self._rebuild(p.design(), name, target))
 
     def select_mechanism(self, name: str) -> DesignView:
         """Switch topology: loads the mechanism's first preset (the registry gives no other design)."""
@@ -280,7 +337,7 @@ class Session:
         Editing the cycloid while an uploaded curve is the target goes back to the cycloid.
         """
         with self.lock:
-            target = replace(self.view.target, curve=None, **changes)
+            target = replace(self.view.target, curve=None, origin="set by hand", **changes)
             if target == self.view.target:
                 return self.view
             v = self.view

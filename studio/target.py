@@ -14,7 +14,7 @@ import hashlib
 import io
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -106,6 +106,7 @@ class TargetSpec:
     height: float = 100.0
     period: float = 2.0
     curve: Curve | None = None
+    origin: str = ""  # where it came from, for the Target panel ("the paper's", "scaled to the jansen path")
 
     def __post_init__(self) -> None:
         for name, unit in (("length", "mm"), ("height", "mm"), ("period", "s")):
@@ -123,9 +124,10 @@ class TargetSpec:
         return self.curve is None or self.curve.times is not None
 
     def label(self) -> str:
+        why = f" ({self.origin})" if self.origin and self.origin != "uploaded" else ""
         if self.curve is not None:
-            return f"curve {self.curve.name} ({len(self.curve.points)} points, T = {self.period:g} s)"
-        return f"compound cycloid L = {self.length:g} mm, H = {self.height:g} mm, T = {self.period:g} s"
+            return f"curve {self.curve.name} ({len(self.curve.points)} points, T = {self.period:g} s){why}"
+        return f"compound cycloid L = {self.length:g} mm, H = {self.height:g} mm, T = {self.period:g} s{why}"
 
     def points(self, n_samples: int) -> F64:
         """``(n_samples, 2)`` target in the design frame (mm), uniform in time (or arc length) over one cycle."""
@@ -148,25 +150,30 @@ class TargetSpec:
 
     def with_curve(self, curve: Curve | None) -> TargetSpec:
         period = curve.period if curve is not None else self.period
-        return TargetSpec(self.length, self.height, period, curve)
+        return TargetSpec(self.length, self.height, period, curve, "uploaded" if curve is not None else "")
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"L": float(self.length), "H": float(self.height), "T": float(self.period)}
         if self.curve is not None:
             out["curve"] = self.curve.to_dict()
+        if self.origin:
+            out["origin"] = self.origin
         return out
 
     @staticmethod
     def from_dict(data: object) -> TargetSpec:
         if not isinstance(data, dict):
             raise ValueError(f"target must be an object {{L, H, T}}, got {data!r}")
-        unknown = [k for k in data if k not in ("L", "H", "T", "curve")]
+        unknown = [k for k in data if k not in ("L", "H", "T", "curve", "origin")]
         if unknown:
-            raise ValueError(f"unknown target key {unknown[0]!r}; expected L, H, T (and curve)")
+            raise ValueError(f"unknown target key {unknown[0]!r}; expected L, H, T (and curve, origin)")
+        origin = data.get("origin", "")
+        if not isinstance(origin, str) or len(origin) > 200:
+            raise ValueError("target origin must be a short text")
         d = TargetSpec()
-        spec = TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period))
+        spec = TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period), None, origin)
         if data.get("curve") is not None:
-            spec = spec.with_curve(Curve.from_dict(data["curve"]))
+            spec = replace(spec.with_curve(Curve.from_dict(data["curve"])), origin=origin or "uploaded")
         return spec
 
 

@@ -95,3 +95,50 @@ def test_restoring_a_branch_restores_its_mechanism_and_design_with_the_pipeline(
     assert restored.picked == member
     np.testing.assert_allclose(s.view.design.params[0], restored.X[member])
     assert s.study.viewing == restored.name
+
+
+def test_the_camera_frames_the_views_again_when_a_design_outgrows_them():
+    from studio.app import Studio
+    from studio.state import Session
+
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        first = s._fitted.copy()
+        cam0 = np.array(s.server.initial_camera.position)
+        s.session.set_param(s.session.view.design.mechanism.params[0].name,
+                            float(s.session.view.design.params[0, 0]) * 1.0001)  # a small edit: no refit
+        s.refresh()
+        assert np.array_equal(s._fitted, first)
+        s.session.select_mechanism("jansen")  # a different size entirely: refit
+        s.refresh()
+        assert not np.array_equal(s._fitted, first)
+        assert not np.allclose(np.array(s.server.initial_camera.position), cam0)
+        b = s.scene.frames.composition.bounds
+        assert np.array_equal(s._fitted, b)
+    finally:
+        s.close()
+
+
+def test_each_mechanism_comes_with_a_target_of_its_own_size_and_says_so():
+    from studio.state import Session
+    from studio.target import Curve
+
+    s = Session.default()
+    assert "(the paper's)" not in s.view.target.label()  # the opening session: the plain default
+    for name in ("jansen", "klann"):
+        s.select_mechanism(name)
+        t = s.view.target
+        pts = s.view.solution.point[0]
+        span = pts.max(axis=0) - pts.min(axis=0)
+        assert (t.length, t.height) == (round(float(span[0])), round(float(span[1])))
+        assert f"scaled to the {name} path" in t.label()
+        mse = next(r.value for r in s.view.rows if r.key == "mse")
+        assert mse < 0.2 * max(t.length, t.height)  # was 206 and 111 mm against the 300 x 100 mm cycloid
+    s.select_mechanism("rtclm_primary")
+    assert "the RTCLM stages optimize their own objectives" in s.view.target.label()
+    s.select_mechanism("stephenson1")
+    assert s.view.target.label().endswith("(the paper's)") and s.view.target.length == 300.0
+    # An uploaded curve is the designer's: it stays when the mechanism changes.
+    s.set_curve(Curve("mine.csv", ((0.0, 0.0), (50.0, 0.0), (25.0, 20.0)), None, 2.0))
+    s.select_mechanism("jansen")
+    assert s.view.target.curve is not None and s.view.target.curve.name == "mine.csv"

@@ -60,6 +60,9 @@ def test_a_whole_session_keeps_its_state_straight(page, studio, ready):
     wait_for(lambda: studio.session.view.design.mechanism.name == "jansen", "Jansen in the editor")
     expect(page.get_by_text("No stage has run yet.")).to_be_visible()
     assert studio.session.study.pipeline is None
+    # Item 8: Jansen brings a target of its own size, and the Target panel says so.
+    assert "scaled to the jansen path" in studio.session.view.target.label()
+    expect(page.get_by_text(re.compile(r"Target: curve cycloid \d+ x \d+ mm on jansen"))).to_be_attached()
     labels = [b.label for b in studio.session.study.branches]
     assert len(labels) == 1 and f"subtask2 #{passed}" in labels[0] and " · h_s " in labels[0]
 
