@@ -177,6 +177,12 @@ def _imtcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) ->
     return IMTCMO(pop_size=spec.pop_size, seed=seed)
 
 
+def _cmoemt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.cmoemt import CMOEMT
+
+    return CMOEMT(pop_size=spec.pop_size, seed=seed, variant=str(opts.get("variant", "platemo")))
+
+
 def _cmoes(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from core.optimize.evolve.cmoes import CMOES
 
@@ -229,6 +235,7 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
                            {**_SBX30, "sbx_one_child": True}),
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
+    "cmoemt": AlgorithmInfo("CMOEMT", ("variant",), _cmoemt, evals_per_generation=2.0),
     "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes, evals_per_generation=3.0),
     "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
     "mccmo": AlgorithmInfo("MCCMO", ("operator",), _mccmo, evals_per_generation=2.0),
