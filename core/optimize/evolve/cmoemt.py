@@ -162,8 +162,8 @@ class CMOEMT(ArrayAlgorithm):
         pool1 = tournament((self.fit1,), 2 * h, rng)
         o1 = self.evaluate(self.repaired(ga(p1.X[pool1[:h]], p1.X[pool1[h:]], self.xl, self.xu, rng, half=True)))
         o2 = Arrays.concat(*self._task2())
-        pool3 = tournament((self.fit3,), 2 * h, rng)
-        o3 = self.evaluate(self.repaired(ga(self.p3.X[pool3[:h]], self.p3.X[pool3[h:]], self.xl, self.xu, rng,
+        mates3 = tournament((self.fit3,), 2 * h, rng)
+        o3 = self.evaluate(self.repaired(ga(self.p3.X[mates3[:h]], self.p3.X[mates3[h:]], self.xl, self.xu, rng,
                                            half=True)))
         P2 = Arrays(*(np.array(v) for v in (self.P2.X, self.P2.F, self.P2.G, self.P2.cv)))
         if self.variant == "author_repo":
