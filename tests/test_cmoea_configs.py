@@ -12,7 +12,7 @@ from core.optimize.algorithms import AlgorithmSpec
 from core.optimize.run import run_design
 
 CONFIGS = Path(__file__).resolve().parents[1] / "assets" / "configs"
-CMOEAS = ["cmoemt", "cmoes", "imtcmo", "mccmo", "moead_cmt"]
+CMOEAS = ["cmoemt", "cmoes", "drlos_emcmo", "imtcmo", "mccmo", "moead_cmt"]
 
 
 @pytest.mark.parametrize("algorithm", CMOEAS)

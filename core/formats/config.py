@@ -146,7 +146,8 @@ def _target(t: Target, base: Path) -> str:
 
 # Algorithm option types by name (any other option is a number >= 0).
 ALGORITHM_OPTIONS: dict[str, Any] = {"variant": str, "operator": Literal["ga", "de"], "eliminate_duplicates": bool,
-                                     "n_partitions": PosInt,
+                                     "n_partitions": PosInt, "reward": Literal["platemo", "improvement"],
+                                     "replay": Literal["platemo", "fifo"], "success": Literal["platemo", "size"],
                                      "F": NonNeg | list[NonNeg]}
 
 

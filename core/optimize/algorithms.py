@@ -183,6 +183,13 @@ def _cmoemt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) ->
     return CMOEMT(pop_size=spec.pop_size, seed=seed, variant=str(opts.get("variant", "platemo")))
 
 
+def _drlos_emcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+    from core.optimize.evolve.drlos_emcmo import DRLOSEMCMO
+
+    return DRLOSEMCMO(pop_size=spec.pop_size, seed=seed, reward=str(opts.get("reward", "platemo")),
+                      replay=str(opts.get("replay", "platemo")), success=str(opts.get("success", "platemo")))
+
+
 def _cmoes(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from core.optimize.evolve.cmoes import CMOES
 
@@ -237,6 +244,8 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
     "cmoemt": AlgorithmInfo("CMOEMT", ("variant",), _cmoemt, evals_per_generation=2.0),
     "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes, evals_per_generation=3.0),
+    "drlos_emcmo": AlgorithmInfo("DRLOS-EMCMO", ("reward", "replay", "success"), _drlos_emcmo,
+                                 evals_per_generation=1.5),
     "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
     "mccmo": AlgorithmInfo("MCCMO", ("operator",), _mccmo, evals_per_generation=2.0),
     "moead_cmt": AlgorithmInfo("MOEA/D-CMT", (), _moead_cmt),
