@@ -65,11 +65,14 @@ def candidates(result: StageResult) -> tuple[Candidate, ...]:
     sl = result.shortlist
     out: list[Candidate] = []
     seen: set[int] = set()
+    designs: set[bytes] = set()  # members with the same parameters are one design: listed once
 
     def add(i: int, kind: str, tag: str) -> None:
-        if i in seen:
+        key = np.ascontiguousarray(result.X[i]).tobytes()
+        if i in seen or key in designs:
             return
         seen.add(i)
+        designs.add(key)
         out.append(Candidate(i, kind, tag, f"{tag} · #{i} · {objective_text(result, i)}"))
 
     for j, i in enumerate(sl.knees):

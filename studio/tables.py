@@ -54,12 +54,27 @@ def box_html(box: Box, units: dict[str, str], title: str = "") -> str:
     return caption + f'<table class="clm-box" style="{STYLE}">{head}{"".join(rows)}</table>'
 
 
-def compare_html(rows: list[tuple[str, str, str]], start: str, candidate: str) -> str:
-    """Metric rows ``(label, start, candidate)`` side by side."""
+BETTER, WORSE = "color:#15803d", "color:#b91c1c"
+
+
+def compare_html(rows: list[tuple[str, str, str]], start: str, candidate: str,
+                 lower_better: frozenset[str] | set[str] = frozenset()) -> str:
+    """Metric rows ``(label, start, candidate)`` side by side; a candidate value is green where it is better
+    than the start's and red where it is worse, for the metrics in ``lower_better`` (by label)."""
+
+    def tone(label: str, a: str, b: str) -> str:
+        try:
+            x, y = float(a), float(b)
+        except ValueError:
+            return ""
+        if label not in lower_better or x == y:
+            return ""
+        return f";{BETTER}" if y < x else f";{WORSE}"
+
     body = "".join(
         f'<tr data-metric="{_e(label)}"><td style="padding:1px 6px 1px 0">{_e(label)}</td>'
         f'<td style="{NUM}" data-start="{_e(a)}">{_e(a)}</td>'
-        f'<td style="{NUM};font-weight:600" data-candidate="{_e(b)}">{_e(b)}</td></tr>'
+        f'<td style="{NUM}{tone(label, a, b)}" data-candidate="{_e(b)}">{_e(b)}</td></tr>'
         for label, a, b in rows
     )
     head = (f'<tr style="opacity:0.7"><th style="text-align:left">metric</th><th style="{NUM}">{_e(start)}</th>'

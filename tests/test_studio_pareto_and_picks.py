@@ -86,10 +86,21 @@ def test_the_passed_on_member_is_marked_when_another_is_picked() -> None:
 class FakeResult:
     """What ``candidates`` reads of a StageResult."""
 
-    def __init__(self, F: np.ndarray, cv: np.ndarray) -> None:
+    def __init__(self, F: np.ndarray, cv: np.ndarray, X: np.ndarray | None = None) -> None:
         self.F, self.cv = F, cv
+        self.X = np.arange(len(F), dtype=float)[:, None] if X is None else X  # distinct designs unless given
         self.objectives = tuple(f"f{k + 1}" for k in range(F.shape[1]))
         self.shortlist = decision.shortlist(F, cv)
+
+
+def test_members_that_are_the_same_design_are_listed_once():
+    F, cv = population(30, 3)
+    sl = decision.shortlist(F, cv)
+    X = np.arange(len(F), dtype=float)[:, None]
+    twin = next(i for i in sl.front if i != sl.knees[0])
+    X[twin] = X[sl.knees[0]]  # the knee and a front member are one design
+    cands = candidates(FakeResult(F, cv, X))  # type: ignore[arg-type]
+    assert sl.knees[0] in [c.member for c in cands] and twin not in [c.member for c in cands]
 
 
 @settings(max_examples=30, deadline=None)

@@ -142,3 +142,32 @@ def test_each_mechanism_comes_with_a_target_of_its_own_size_and_says_so():
     s.set_curve(Curve("mine.csv", ((0.0, 0.0), (50.0, 0.0), (25.0, 20.0)), None, 2.0))
     s.select_mechanism("jansen")
     assert s.view.target.curve is not None and s.view.target.curve.name == "mine.csv"
+
+
+def test_the_passed_on_ring_marks_only_what_was_passed_on():
+    import threading
+
+    from studio.chains import RunSettings, chain_for, find
+    from studio.panels.pareto import passed_on
+    from studio.runner import Runner
+    from studio.state import Session
+    from studio.study_view import study_view
+
+    s = Session.default()
+    s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
+    done = threading.Event()
+    runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
+    chain = chain_for(s.view.design.mechanism)
+    stage, view = find(chain, "subtask1"), s.view
+    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
+    assert done.wait(60)
+    runner.join(10)
+
+    def sv():
+        return study_view(s.study, s.view.design, chain, s.view.target)
+
+    r = s.study.result("subtask1")
+    assert r.picked is not None and passed_on(sv()) is None  # the automatic pick is not "passed on"
+    member = next(i for i in range(r.pop) if i != r.picked)
+    s.study.use_for_next("subtask1", member, chain)
+    assert passed_on(sv()) == member

@@ -50,8 +50,23 @@ def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figu
     title = (f"{r.mechanism.title} · {sv.viewing} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
              f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels, front=r.front,
-                              knees=r.shortlist.knees, best=r.shortlist.best, shown=sv.shown, passed=r.picked,
-                              title=title, axes=axes if len(r.objectives) >= 3 else None)
+                              knees=r.shortlist.knees, best=r.shortlist.best, shown=sv.shown,
+                              passed=passed_on(sv), title=title, axes=axes if len(r.objectives) >= 3 else None)
+
+
+def passed_on(sv: StudyView) -> int | None:
+    """The member of the stage in view that was passed on: the next stage ran from it, or the designer chose
+    "Use for next stage" (not merely the stage's automatic pick)."""
+    r = sv.result(sv.viewing)
+    if r is None or r.picked is None or sv.viewing not in sv.names:
+        return None
+    k = sv.names.index(sv.viewing)
+    if k + 1 >= len(sv.names):
+        return None
+    nxt = sv.results[k + 1]
+    ran_from_it = nxt is not None and nxt.parent_pick == r.picked
+    chosen = sv.from_pick and sv.next_stage == sv.names[k + 1]
+    return r.picked if ran_from_it or chosen else None
 
 
 THREE_D = "3-D (all three)"

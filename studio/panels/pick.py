@@ -32,6 +32,8 @@ if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
 NONE = "(no candidates yet)"
+# Report metrics where less is better (the others, such as width or y_min, are neither).
+LOWER_BETTER = ("mse", "h_s", "S", "I", "violation")
 
 
 class PickPanel:
@@ -87,6 +89,7 @@ class PickPanel:
         n = len(self._front)
         self.slider.max = max(n, 2)
         self.slider.disabled = running or n < 2
+        self.slider.visible = n >= 2  # a one-member front has nothing to slide over
         if sv.shown in self._front:
             set_value(self.slider, self._front.index(sv.shown) + 1)
         self.candidate.disabled = running
@@ -110,8 +113,11 @@ class PickPanel:
                 except ValueError:
                     start = {}
             self._start_cache = {id(r): start}
-        rows = comparison(r, sv.shown, start, compared_metrics(r, cons), labels)
-        return verdict_html(r, sv.shown, sv.viewing or "") + compare_html(rows, "start", f"#{sv.shown}")
+        names = compared_metrics(r, cons)
+        rows = comparison(r, sv.shown, start, names, labels)
+        upper = {c.metric for c in spec.problem.constraints if c.upper is not None} if spec is not None else set()
+        lower = {labels.get(n, n) for n in names if n in r.objectives or n in upper or n in LOWER_BETTER}
+        return verdict_html(r, sv.shown, sv.viewing or "") + compare_html(rows, "start", f"#{sv.shown}", lower)
 
     # Callbacks -------------------------------------------------------------------------------
 
