@@ -34,6 +34,7 @@ from studio.panels.pareto import ParetoPanel, pareto_figure
 from studio.panels.pick import PickPanel
 from studio.panels.playback import PlaybackPanel
 from studio.panels.stages import StagesPanel
+from studio.panels.studies import StudiesPanel
 from studio.panels.target import TargetPanel
 from studio.panels.walking import WalkingPanel
 from studio.runner import Runner
@@ -114,6 +115,7 @@ class Studio:
         self.history = HistoryPanel(self, order=8)
         self.bench = BenchPanel(self, order=9)
         self.files = FilesPanel(self, order=10)
+        self.studies = StudiesPanel(self, order=11)
         self.refresh(fit_camera=True)
         self.server.on_client_connect(self._on_connect)
         self.animator = Animator(self._tick, fps)

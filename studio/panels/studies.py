@@ -1,0 +1,133 @@
+"""Studies panel: the studies run with ``clm study`` under a folder, their box plots per case and metric, and
+any run's picked design loaded into the editor (running studies stays a CLI job)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import plotly.graph_objects as go
+import viser
+
+from studio import palette
+from studio.panels._inputs import set_value
+from studio.panels.pareto import CONFIG
+from studio.studies import StudyRun, find_studies, finished_runs, picked_design, study_rows
+
+if TYPE_CHECKING:
+    from studio.context import StudioContext as Studio
+
+NONE = "(none)"
+FIRST = ("mse", "S", "I", "h_s")  # offered first when a study has them
+
+
+def box_figure(runs: list[StudyRun], case: str, metric: str) -> go.Figure:
+    """One box per algorithm: the metric over the case's seeds (the paper's Fig. 11 / 19 view)."""
+    fig = go.Figure()
+    algorithms = list(dict.fromkeys(r.algorithm for r in runs if r.case == case))
+    for k, a in enumerate(algorithms):
+        ys = [r.metrics.get(metric) for r in runs if r.case == case and r.algorithm == a]
+        ys = [y for y in ys if isinstance(y, int | float)]
+        colour = palette.LEGS[k % len(palette.LEGS)]
+        fig.add_trace(go.Box(y=ys, name=a, boxpoints="all", jitter=0.3, marker={"color": palette.css(colour)},
+                             showlegend=False))
+    fig.update_layout(title={"text": f"{case}: {metric}", "font": {"size": 13}, "x": 0.0},
+                      margin={"l": 50, "r": 10, "t": 40, "b": 40}, plot_bgcolor="white")
+    fig.update_yaxes(showgrid=True, gridcolor="#e5e5e5", title_text=metric)
+    return fig
+
+
+class StudiesPanel:
+    """Folder, study, case and metric choices, a box plot, and runs to load into the editor."""
+
+    def __init__(self, studio: Studio, order: float) -> None:
+        self.studio = studio
+        gui = studio.server.gui
+        self._dirs: dict[str, Path] = {}
+        self._runs: list[StudyRun] = []
+        self._dir: Path | None = None
+        self.folder = gui.add_folder("Studies", order=order, expand_by_default=False)
+        with self.folder:
+            self.path = gui.add_text("Folder", "runs", hint="where `clm study --out` wrote its studies (this folder "
+                                                           "or one level below)")
+            self.scan = gui.add_button("Find studies", icon=viser.Icon.SEARCH)
+            self.study = gui.add_dropdown("Study", (NONE,), disabled=True)
+            self.summary = gui.add_markdown("")
+            self.case = gui.add_dropdown("Case", (NONE,), disabled=True)
+            self.metric = gui.add_dropdown("Metric", FIRST, initial_value="mse")
+            self.plot = gui.add_plotly(go.Figure(), aspect=0.8, config=CONFIG, visible=False)
+            self.run = gui.add_dropdown("Run", (NONE,), disabled=True, hint="a finished run: its picked design")
+            self.load = gui.add_button("Load its design", icon=viser.Icon.ARROW_RIGHT, disabled=True,
+                                       hint="the run's picked design goes into the editor (the study is not changed)")
+        self.scan.on_click(self._on_scan)
+        self.study.on_update(lambda e: self._on_study(e.client))
+        self.case.on_update(lambda _: self._draw())
+        self.metric.on_update(lambda _: self._draw())
+        self.load.on_click(self._on_load)
+
+    def _on_scan(self, event: viser.GuiEvent[Any]) -> None:
+        try:
+            dirs = find_studies(Path(str(self.path.value)).expanduser())
+        except (OSError, ValueError) as exc:
+            if event.client is not None:
+                self.studio.notify(event.client, "No studies", str(exc))
+            return
+        self._dirs = {d.name or str(d): d for d in dirs}
+        options = tuple(self._dirs) or (NONE,)
+        self.study.options = options
+        self.study.disabled = not dirs
+        if dirs:
+            set_value(self.study, options[0])
+            self._on_study(event.client)
+        elif event.client is not None:
+            self.studio.notify(event.client, "No studies", f"no study.sqlite in {self.path.value} or its folders",
+                               color="yellow")
+
+    def _on_study(self, client: viser.ClientHandle | None) -> None:
+        d = self._dirs.get(str(self.study.value))
+        if d is None:
+            return
+        try:
+            name, rows = study_rows(d)
+        except ValueError as exc:
+            if client is not None:
+                self.studio.notify(client, "Study not read", str(exc))
+            return
+        self._dir, self._runs = d, finished_runs(rows)
+        failed = sum(r["status"] == "failed" for r in rows)
+        self.summary.content = (f"**{name}**: {len(self._runs)} runs done, {failed} failed. Report: "
+                                f"`{d / 'report.html'}`.")
+        keys = list(dict.fromkeys(k for r in self._runs for k in r.metrics))
+        metrics = tuple(k for k in FIRST if k in keys) + tuple(k for k in keys if k not in FIRST)
+        self.metric.options = metrics or FIRST
+        set_value(self.metric, (metrics or FIRST)[0])
+        cases = tuple(dict.fromkeys(r.case for r in self._runs)) or (NONE,)
+        self.case.options = cases
+        self.case.disabled = not self._runs
+        set_value(self.case, cases[0])
+        labels = tuple(r.label for r in self._runs) or (NONE,)
+        self.run.options = labels
+        self.run.disabled = self.load.disabled = not self._runs
+        self._draw()
+
+    def _draw(self) -> None:
+        case, metric = str(self.case.value), str(self.metric.value)
+        if not self._runs or case == NONE:
+            self.plot.visible = False
+            return
+        self.plot.figure = box_figure(self._runs, case, metric)
+        self.plot.visible = True
+
+    def _on_load(self, event: viser.GuiEvent[Any]) -> None:
+        run = next((r for r in self._runs if r.label == self.run.value), None)
+        if run is None or self._dir is None:
+            return
+        try:
+            design = picked_design(self._dir, run)
+            with self.studio.session.lock:
+                self.studio.session.set_design(design)
+        except ValueError as exc:
+            if event.client is not None:
+                self.studio.notify(event.client, "Design not loaded", str(exc))
+            return
+        self.studio.refresh()

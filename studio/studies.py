@@ -1,0 +1,101 @@
+"""Finished studies (``clm study --out DIR``) as the Studies panel reads them: read-only, inside the study's own
+directory, size-capped. Pure functions of the files (no viser), tested without a browser."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from core.analysis.targets import read_user_file
+from core.kinematics.design import Design
+from core.optimize.pipeline import Pipeline
+
+MAX_RUN_BYTES = 256 * 2**20
+MAX_STUDIES = 200
+
+
+@dataclass(frozen=True)
+class StudyRun:
+    """One finished cell: case, algorithm, seed, its metrics, and its result file (relative to the study)."""
+
+    case: str
+    algorithm: str
+    seed: int
+    metrics: dict[str, float]
+    result_path: str
+
+    @property
+    def label(self) -> str:
+        m = self.metrics
+        shown = " · ".join(f"{k} {m[k]:.3g}" for k in ("mse", "S", "I", "h_s") if isinstance(m.get(k), int | float))
+        return f"{self.case} · {self.algorithm} · seed {self.seed}" + (f" · {shown}" if shown else "")
+
+
+def find_studies(folder: Path) -> list[Path]:
+    """Study directories (holding ``study.sqlite``) in ``folder`` or one level below it, sorted by name."""
+    if not folder.is_dir():
+        raise ValueError(f"{folder} is not a folder")
+    found = [folder] if (folder / "study.sqlite").is_file() else []
+    for d in sorted(folder.iterdir()):
+        if d.is_dir() and (d / "study.sqlite").is_file():
+            found.append(d)
+        if len(found) >= MAX_STUDIES:
+            break
+    return found
+
+
+def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
+    """(study name, every row) from ``study.sqlite``, opened read-only; ValueError if it is not a study."""
+    db_path = directory / "study.sqlite"
+    if not db_path.is_file():
+        raise ValueError(f"{directory} holds no study.sqlite")
+    try:
+        db = sqlite3.connect(f"file:{db_path}?mode=ro", uri=True)
+        try:
+            meta = dict(db.execute("SELECT name, value FROM meta").fetchall())
+            cur = db.execute("SELECT case_name, algorithm, seed, status, metrics, result_path FROM runs "
+                             "ORDER BY case_name, algorithm, seed")
+            rows = [dict(zip(("case", "algorithm", "seed", "status", "metrics", "result_path"), r, strict=True))
+                    for r in cur]
+        finally:
+            db.close()
+    except sqlite3.Error as exc:
+        raise ValueError(f"{db_path}: not a readable study ({exc})") from None
+    name = json.loads(meta["name"]) if "name" in meta else directory.name
+    for r in rows:
+        r["metrics"] = json.loads(r["metrics"]) if r["metrics"] else {}
+    return str(name), rows
+
+
+def flat_metrics(m: dict[str, Any]) -> dict[str, float]:
+    """A run's numbers: its pick's metrics (mse, S, I, h_s, ...) and the run's own (feasible ratio, time, ...)."""
+    out = {k: float(v) for k, v in (m.get("pick") or {}).items() if isinstance(v, int | float)}
+    out.update({k: float(v) for k, v in m.items() if isinstance(v, int | float) and not isinstance(v, bool)})
+    return out
+
+
+def finished_runs(rows: list[dict[str, Any]]) -> list[StudyRun]:
+    return [StudyRun(r["case"], r["algorithm"], int(r["seed"]), flat_metrics(r["metrics"] or {}), r["result_path"])
+            for r in rows if r["status"] == "done" and r["result_path"]]
+
+
+def picked_design(directory: Path, run: StudyRun) -> Design:
+    """The design a run picked in its last stage; only a file inside the study directory is read."""
+    root = directory.resolve()
+    path = (root / run.result_path).resolve()
+    if root not in path.parents:
+        raise ValueError(f"{run.result_path!r} is outside the study directory")
+    data = json.loads(read_user_file(path, MAX_RUN_BYTES, what="study run"))
+    if not isinstance(data, dict) or not isinstance(data.get("pipeline"), dict):
+        raise ValueError(f"{run.result_path}: not a run with a pipeline")
+    pipe = Pipeline.from_dict(data["pipeline"])
+    last = next((r for r in reversed(pipe.results) if r is not None and r.pop > 0), None)
+    if last is None:
+        raise ValueError(f"{run.result_path}: the run has no result to pick from")
+    i = last.picked if last.picked is not None else last.shortlist.first
+    if i is None:
+        raise ValueError(f"{run.result_path}: the run picked nothing")
+    return last.pick(i)

@@ -1,0 +1,76 @@
+"""The Studies panel's reading of finished studies (issue 12, item 6): found under a folder, read without
+writing, box plots per case and metric, and a run's picked design loaded into the editor."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.formats.study import load_study
+from core.optimize.pipeline import Pipeline
+from core.study.runner import run_study
+from studio.panels.studies import box_figure
+from studio.studies import StudyRun, find_studies, finished_runs, picked_design, study_rows
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = f"""
+name = "tiny"
+seeds = "1..2"
+[[algorithms]]
+name = "nsga2"
+pop_size = 12
+[[algorithms]]
+name = "cmoes"
+pop_size = 12
+[[cases]]
+name = "subtask2"
+config = "{ROOT / 'assets' / 'configs' / 'stephenson1_cycloid.toml'}"
+stages = ["subtask2"]
+start = "stephenson1/X1"
+budget = 120
+"""
+
+
+@pytest.fixture(scope="module")
+def studies(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("runs")
+    (root / "tiny.toml").write_text(TINY)
+    run_study(load_study(root / "tiny.toml"), str(root / "tiny"), workers=1, stream=None)
+    (root / "not-a-study").mkdir()
+    return root
+
+
+def test_studies_are_found_and_read_without_writing(studies):
+    dirs = find_studies(studies)
+    assert [d.name for d in dirs] == ["tiny"]
+    before = sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny").iterdir())
+    name, rows = study_rows(dirs[0])
+    assert name == "tiny" and len(rows) == 4 and {r["status"] for r in rows} == {"done"}
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny").iterdir()) == before
+    runs = finished_runs(rows)
+    assert {r.algorithm for r in runs} == {"nsga2", "cmoes"} and all("mse" in r.metrics for r in runs)
+    fig = box_figure(runs, "subtask2", "mse")
+    assert [t.name for t in fig.data] == ["cmoes", "nsga2"] and all(len(t.y) == 2 for t in fig.data)
+    with pytest.raises(ValueError, match="not a folder"):
+        find_studies(studies / "missing")
+    with pytest.raises(ValueError, match="holds no study.sqlite"):
+        study_rows(studies / "not-a-study")
+
+
+def test_a_runs_picked_design_comes_back_exactly(studies):
+    _, rows = study_rows(studies / "tiny")
+    run = finished_runs(rows)[0]
+    design = picked_design(studies / "tiny", run)
+    data = json.loads((studies / "tiny" / run.result_path).read_text())
+    last = Pipeline.from_dict(data["pipeline"]).results[-1]
+    assert np.array_equal(design.params[0], last.X[last.picked])
+    assert run.metrics["mse"] == pytest.approx(float(last.metrics["mse"][last.picked]))
+
+
+def test_a_run_file_outside_the_study_is_refused(studies):
+    bad = StudyRun("subtask2", "nsga2", 1, {}, "../tiny.toml")
+    with pytest.raises(ValueError, match="outside the study directory"):
+        picked_design(studies / "tiny", bad)
