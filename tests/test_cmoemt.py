@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from cmoea_common import check_repair_and_generations
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
@@ -96,15 +97,4 @@ def test_mw1_is_reached_in_two_of_three_seeds():
 
 
 def test_a_repair_and_a_generation_budget():
-    class Halve:
-        calls = 0
-
-        def _do(self, problem, X):
-            Halve.calls += 1
-            return np.clip(X * 0.5, problem.xl, problem.xu)
-
-    p = problem_by_name("mw3")
-    alg = CMOEMT(pop_size=20, repair=Halve(), seed=2)
-    res = minimize(p, alg, ("n_gen", 4), seed=2, copy_algorithm=False)
-    assert Halve.calls >= 4 and len(alg.trace) == 4
-    assert np.all(res.pop.get("X") <= 0.5 * p.xu + 1e-12)
+    check_repair_and_generations(lambda **kw: CMOEMT(pop_size=20, **kw), "mw3", 4)

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from cmoea_common import check_repair_and_generations
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
@@ -96,16 +97,5 @@ def test_reaches_a_feasible_population_at_20000_evaluations(name):
     assert (res.pop.get("CV")[:, 0] <= 0).mean() > 0.5
 
 
-def test_a_repair_is_applied_and_generation_budgets_work():
-    class Halve:
-        calls = 0
-
-        def _do(self, problem, X):
-            Halve.calls += 1
-            return np.clip(X * 0.5, problem.xl, problem.xu)
-
-    p = problem_by_name("ctp2")
-    alg = CMOES(pop_size=20, repair=Halve(), seed=3)
-    res = minimize(p, alg, ("n_gen", 6), seed=3, copy_algorithm=False)
-    assert Halve.calls >= 6 and len(alg.trace) == 6
-    assert np.all(res.pop.get("X") <= 0.5 * p.xu + 1e-12)
+def test_a_repair_and_a_generation_budget():
+    check_repair_and_generations(lambda **kw: CMOES(pop_size=20, **kw), "ctp2", 6)

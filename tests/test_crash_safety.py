@@ -116,6 +116,30 @@ def children(pid: int) -> set[int]:
     return out
 
 
+def kill_and_check_no_orphans(proc: subprocess.Popen, missing: str, settle: float) -> None:
+    """Wait for two child workers, let them work ``settle`` s, SIGKILL the parent: no child may outlive it 5 s."""
+    try:
+        deadline = time.monotonic() + 120
+        workers: set[int] = set()
+        while time.monotonic() < deadline and len(workers) < 2:
+            workers = {c for c in children(proc.pid) if alive(c)}
+            time.sleep(0.2)
+        assert len(workers) >= 2, missing
+        time.sleep(settle)
+        workers |= {c for c in children(proc.pid) if alive(c)}
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and any(alive(w) for w in workers):
+            time.sleep(0.1)
+        assert not any(alive(w) for w in workers), "workers outlived their killed parent"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        for w in children(proc.pid):
+            os.kill(w, signal.SIGKILL)
+
+
 def alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -131,25 +155,7 @@ def test_workers_exit_when_clm_design_is_killed(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "core.cli", "design", str(cfg), "--out", str(tmp_path / "o"),
                              "--quiet"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 120
-        workers: set[int] = set()
-        while time.monotonic() < deadline and len(workers) < 2:
-            workers = {c for c in children(proc.pid) if alive(c)}
-            time.sleep(0.2)
-        assert len(workers) >= 2, "the multi-start block did not start its workers"
-        time.sleep(1.0)  # let them get to work
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
-        deadline = time.monotonic() + 5
-        while time.monotonic() < deadline and any(alive(w) for w in workers):
-            time.sleep(0.1)
-        assert not any(alive(w) for w in workers), "workers outlived their killed parent"
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        for w in children(proc.pid):
-            os.kill(w, signal.SIGKILL)
+    kill_and_check_no_orphans(proc, "the multi-start block did not start its workers", settle=1.0)
 
 
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc (Linux)")
@@ -171,23 +177,4 @@ budget = 1000000
     proc = subprocess.Popen([sys.executable, "-m", "core.cli", "study", str(study), "--out", str(tmp_path / "o"),
                              "--workers", "2", "--quiet"], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 120
-        workers: set[int] = set()
-        while time.monotonic() < deadline and len(workers) < 2:
-            workers = {c for c in children(proc.pid) if alive(c)}
-            time.sleep(0.2)
-        assert len(workers) >= 2, "the study did not start its Dask workers"
-        time.sleep(3.0)  # let them take cells
-        workers |= {c for c in children(proc.pid) if alive(c)}
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
-        deadline = time.monotonic() + 5
-        while time.monotonic() < deadline and any(alive(w) for w in workers):
-            time.sleep(0.1)
-        assert not any(alive(w) for w in workers), "Dask workers outlived their killed parent"
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        for w in children(proc.pid):
-            os.kill(w, signal.SIGKILL)
+    kill_and_check_no_orphans(proc, "the study did not start its Dask workers", settle=3.0)

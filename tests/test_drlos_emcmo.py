@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from cmoea_common import check_repair_and_generations
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
@@ -102,15 +103,4 @@ def test_reaches_a_feasible_population_at_20000_evaluations(name):
 
 
 def test_a_repair_and_a_generation_budget():
-    class Halve:
-        calls = 0
-
-        def _do(self, problem, X):
-            Halve.calls += 1
-            return np.clip(X * 0.5, problem.xl, problem.xu)
-
-    p = problem_by_name("mw3")
-    alg = DRLOSEMCMO(pop_size=20, repair=Halve(), seed=2)
-    res = minimize(p, alg, ("n_gen", 5), seed=2, copy_algorithm=False)
-    assert Halve.calls >= 5 and len(alg.trace) == 5
-    assert np.all(res.pop.get("X") <= 0.5 * p.xu + 1e-12)
+    check_repair_and_generations(lambda **kw: DRLOSEMCMO(pop_size=20, **kw), "mw3", 5)

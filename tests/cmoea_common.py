@@ -1,0 +1,32 @@
+"""Checks every constrained MOEA's tests share (imported by tests/test_<algorithm>.py)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from pymoo.optimize import minimize
+
+from core.optimize.moea import problem_by_name
+
+
+class Halve:
+    """A repair that halves every variable (and counts its calls)."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def _do(self, problem: Any, X: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        return np.clip(X * 0.5, problem.xl, problem.xu)
+
+
+def check_repair_and_generations(make: Callable[..., Any], problem: str = "mw3", n_gen: int = 5) -> None:
+    """The algorithm applies the stage's repair to every member it evaluates and honours an n_gen budget."""
+    p = problem_by_name(problem)
+    repair = Halve()
+    alg = make(repair=repair, seed=2)
+    res = minimize(p, alg, ("n_gen", n_gen), seed=2, copy_algorithm=False)
+    assert repair.calls >= n_gen and len(alg.trace) == n_gen
+    assert np.all(res.pop.get("X") <= 0.5 * p.xu + 1e-12)
