@@ -67,8 +67,9 @@ class Sent:
 class ServerClock:
     """When the server reached each generation of the running stage (polled at 200 Hz)."""
 
-    def __init__(self, studio: Any) -> None:
+    def __init__(self, studio: Any, clock: Any = time.monotonic) -> None:
         self.studio = studio
+        self.clock = clock
         self.reached: dict[int, float] = {}
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
@@ -77,7 +78,7 @@ class ServerClock:
     def _run(self) -> None:
         while not self._stop.is_set():
             g = self.studio.session.study.status.generation
-            self.reached.setdefault(g, time.monotonic())
+            self.reached.setdefault(g, self.clock())
             time.sleep(0.005)
 
     def close(self) -> None:

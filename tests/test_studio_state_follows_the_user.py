@@ -32,24 +32,32 @@ def test_a_stage_with_feasible_members_just_says_complete():
     assert res.feasible.any() and status_text(res) == "complete"
 
 
-def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch():
+def session_after_subtask1():
+    """A default session whose subtask 1 ran (8 x 2, seed 3) as the studio's runner runs it; and its chain."""
     import threading
 
     from studio.chains import RunSettings, chain_for, find
     from studio.runner import Runner
     from studio.state import Session
-    from studio.study_view import study_view
 
     s = Session.default()
     s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
     done = threading.Event()
     runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
     chain = chain_for(s.view.design.mechanism)
-    stage = find(chain, "subtask1")
-    view = s.view
-    runner.start(lambda st: st.plan(stage, s.study.settings_for(stage), view.design, view.target, False, chain))
+    stage, view = find(chain, "subtask1"), s.view
+    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
     assert done.wait(60)
     runner.join(10)
+    return s, chain
+
+
+def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch():
+
+    from studio.chains import chain_for
+    from studio.study_view import study_view
+
+    s, chain = session_after_subtask1()
     s.study.next_stage, s.study.from_pick = "subtask2", True
     assert s.study.pipeline is not None and not s.study.branches
 
@@ -65,24 +73,11 @@ def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch(
 
 
 def test_restoring_a_branch_restores_its_mechanism_and_design_with_the_pipeline():
-    import threading
 
     import numpy as np
 
-    from studio.chains import RunSettings, chain_for, find
-    from studio.runner import Runner
-    from studio.state import Session
 
-    s = Session.default()
-    s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
-    done = threading.Event()
-    runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
-    chain = chain_for(s.view.design.mechanism)
-    stage = find(chain, "subtask1")
-    view = s.view
-    runner.start(lambda st: st.plan(stage, s.study.settings_for(stage), view.design, view.target, False, chain))
-    assert done.wait(60)
-    runner.join(10)
+    s, chain = session_after_subtask1()
     from dataclasses import replace
 
     s.study.pipeline.record(0, replace(s.study.pipeline.lineage[-1], picked=3))  # member 3 passed on
@@ -145,23 +140,11 @@ def test_each_mechanism_comes_with_a_target_of_its_own_size_and_says_so():
 
 
 def test_the_passed_on_ring_marks_only_what_was_passed_on():
-    import threading
 
-    from studio.chains import RunSettings, chain_for, find
     from studio.panels.pareto import passed_on
-    from studio.runner import Runner
-    from studio.state import Session
     from studio.study_view import study_view
 
-    s = Session.default()
-    s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
-    done = threading.Event()
-    runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
-    chain = chain_for(s.view.design.mechanism)
-    stage, view = find(chain, "subtask1"), s.view
-    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
-    assert done.wait(60)
-    runner.join(10)
+    s, chain = session_after_subtask1()
 
     def sv():
         return study_view(s.study, s.view.design, chain, s.view.target)

@@ -8,33 +8,15 @@ of the press.
 
 from __future__ import annotations
 
-import threading
 import time
-from typing import Any
 
 from playwright.sync_api import expect
 from test_studio_stages_in_the_browser import SUBTASK2, choose, settle
 
-from benchmarks.studio import PRESS_CLOCK, page_generation
+from benchmarks.studio import PRESS_CLOCK, ServerClock, page_generation
 
 STOP_BOUND = 1.0  # s from the press to the cancelled run
 LAG_BOUND = 2.0  # s; measured ~0.3 s median, ~0.5 s worst on this machine (benchmarks/studio.py)
-
-
-class Clock:
-    """When the server reached each generation (polled at 200 Hz)."""
-
-    def __init__(self, studio: Any) -> None:
-        self.studio = studio
-        self.reached: dict[int, float] = {}
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self.run, daemon=True)
-        self.thread.start()
-
-    def run(self) -> None:
-        while not self.stop.is_set():
-            self.reached.setdefault(self.studio.session.study.status.generation, time.time())
-            time.sleep(0.005)
 
 
 def test_the_page_trails_a_run_by_well_under_a_second_and_stop_acts_at_once(page, studio):
@@ -44,7 +26,7 @@ def test_the_page_trails_a_run_by_well_under_a_second_and_stop_acts_at_once(page
     settle(page, studio, "subtask2", 60, 2000)
     page.evaluate(PRESS_CLOCK)
     pushed0, answered0 = studio.scene.frames_pushed, studio.pacer.answered
-    clock = Clock(studio)
+    clock = ServerClock(studio, time.time)  # the page's press time is in the same clock
     page.get_by_role("button", name="Run", exact=True).click()
     lags: list[float] = []
     try:
@@ -64,7 +46,7 @@ def test_the_page_trails_a_run_by_well_under_a_second_and_stop_acts_at_once(page
     finally:
         studio.runner.stop()
         studio.runner.join(30)
-        clock.stop.set()
+        clock.close()
         studio.session.set_playing(False)
     print(f"lag over {len(lags)} samples: median {sorted(lags)[len(lags) // 2]:.2f} s, max {max(lags):.2f} s")
     assert max(lags) < LAG_BOUND
