@@ -78,5 +78,10 @@ class PlaybackPanel:
     def _on_angle(self, event: viser.GuiEvent[Any]) -> None:
         if event.client is None:
             return
-        pb = self.studio.session.scrub(math.radians(float(self.angle.value)))
+        deg = float(self.angle.value)
+        pb = self.studio.session.scrub(math.radians(deg))
         self.play.label = self._play_label(pb)
+        # The animation may have sent the slider a position after this page's edit left: send the typed angle
+        # again (viser sends only changes, and the server already holds it), so every page ends on it.
+        set_value(self.angle, deg + 1e-6)
+        set_value(self.angle, deg)
