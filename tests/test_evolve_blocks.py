@@ -56,6 +56,26 @@ def test_spea2_constraint_domination_orders_infeasible_by_violation():
     assert D.tolist() == [[False, False, False], [True, False, True], [True, False, False]]
 
 
+def truncate_by_definition(F, keep):
+    """SPEA2's truncation as written: re-sort every remaining member's distances after each removal and drop the
+    lexicographically smallest row (ties: the lowest index)."""
+    D = spea2.distances(F)
+    alive = list(range(len(F)))
+    while len(alive) > keep:
+        rows = [sorted(D[i, j] for j in alive) for i in alive]
+        alive.pop(min(range(len(alive)), key=lambda k: (rows[k], k)))
+    return np.isin(np.arange(len(F)), alive)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(2, 24).flatmap(lambda n: st.tuples(
+    arrays(np.float64, (n, 2), elements=st.sampled_from([0.0, 1.0, 2.0, 3.0, 5.0, np.inf])),
+    st.integers(1, n))))
+def test_spea2_truncation_equals_its_definition_with_ties_and_penalised_members(case):
+    F, keep = case  # a small grid: many equal distances, duplicates, and +inf (penalised) members
+    assert spea2.truncate(F, keep).tolist() == truncate_by_definition(F, keep).tolist()
+
+
 def test_spea2_truncation_drops_the_most_crowded_member():
     F = np.array([[0, 3], [1, 2], [1.1, 1.9], [3, 0]], dtype=float)
     # (1,2) and (1.1,1.9) are nearest each other; (1,2) is also nearer its next neighbour (sqrt 2 < 1.556).

@@ -108,56 +108,69 @@ def fitness(F: F64, cv: F64 | None = None) -> F64:
 
 
 @numba.njit(cache=True)
-def _row_less(D: F64, order: NDArray[np.int64], alive: B, a: int, b: int) -> bool:  # pragma: no cover - compiled
-    # Member a's ascending distances to the alive members, lexicographically smaller than b's?
-    n = D.shape[0]
-    pa = pb = 0
+def _next_value(D: F64, alive: B, row: int, after: float) -> tuple[float, int]:  # pragma: no cover - compiled
+    # The smallest distance of ``row`` to an alive member that is > ``after``, and how many alive members are at it.
+    v, count = np.inf, 0
+    for j in range(D.shape[0]):
+        if alive[j]:
+            d = D[row, j]
+            if d > after:
+                if d < v:
+                    v, count = d, 1
+                elif d == v:
+                    count += 1
+    return v, count
+
+
+@numba.njit(cache=True)
+def _row_less(D: F64, alive: B, a: int, b: int) -> bool:  # pragma: no cover - compiled
+    # Are a's ascending distances to the alive members lexicographically smaller than b's? Walked value by value
+    # (each value with its multiplicity), so no row is sorted: two rows nearly always differ at the 2nd value.
+    after = -np.inf
     while True:
-        while pa < n and not alive[order[a, pa]]:
-            pa += 1
-        while pb < n and not alive[order[b, pb]]:
-            pb += 1
-        if pa >= n or pb >= n:
+        va, ca = _next_value(D, alive, a, after)
+        vb, cb = _next_value(D, alive, b, after)
+        if va != vb:
+            return va < vb
+        if va == np.inf:  # both rows exhausted (or the rest is +inf): equal
             return False
-        va, vb = D[a, order[a, pa]], D[b, order[b, pb]]
-        if va < vb:
-            return True
-        if va > vb:
-            return False
-        pa += 1
-        pb += 1
+        if ca != cb:  # the row with more copies of va has va where the other already has a larger value
+            return ca > cb
+        after = va
+
+
+@numba.njit(cache=True)
+def _nearest(D: F64, alive: B, row: int) -> float:  # pragma: no cover - compiled
+    v = np.inf
+    for j in range(D.shape[0]):
+        if alive[j] and D[row, j] < v:
+            v = D[row, j]
+    return v
 
 
 @numba.njit(cache=True)
 def _truncate(D: F64, keep: int) -> B:  # pragma: no cover - compiled
-    # Each row's neighbours are sorted once; removed members are skipped when rows are read. Only members
-    # whose nearest alive distance is the smallest can have the lexicographically smallest row, so only they
-    # are compared (from their nearest neighbour on). Same result as re-sorting every row after each removal.
+    # Only members whose nearest alive distance is the smallest can have the lexicographically smallest row, so
+    # only they are compared. Each row's nearest alive distance is kept and recomputed only when the member at
+    # that distance is removed: O(r^2) in all, where sorting every row was O(r^2 log r).
     r = D.shape[0]
-    order = np.empty((r, r), dtype=np.int64)
-    for i in range(r):
-        order[i] = np.argsort(D[i], kind="mergesort")
     alive = np.ones(r, dtype=np.bool_)
-    first = np.zeros(r, dtype=np.int64)  # position of each row's nearest alive neighbour in its order
+    near = np.empty(r)
+    for i in range(r):
+        near[i] = _nearest(D, alive, i)
     for _ in range(r - keep):
         m = np.inf
         for i in range(r):
-            if alive[i]:
-                while first[i] < r and not alive[order[i, first[i]]]:
-                    first[i] += 1
-                v = D[i, order[i, first[i]]] if first[i] < r else np.inf
-                if v < m:
-                    m = v
+            if alive[i] and near[i] < m:
+                m = near[i]
         best = -1
         for i in range(r):
-            if not alive[i]:
-                continue
-            v = D[i, order[i, first[i]]] if first[i] < r else np.inf
-            if v != m:
-                continue
-            if best < 0 or _row_less(D, order, alive, i, best):
+            if alive[i] and near[i] == m and (best < 0 or _row_less(D, alive, i, best)):
                 best = i
         alive[best] = False
+        for i in range(r):
+            if alive[i] and D[i, best] == near[i]:
+                near[i] = _nearest(D, alive, i)
     return alive
 
 
