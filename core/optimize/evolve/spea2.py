@@ -123,11 +123,33 @@ def _next_value(D: F64, alive: B, row: int, after: float) -> tuple[float, int]: 
 
 
 @numba.njit(cache=True)
-def _row_less(D: F64, alive: B, a: int, b: int) -> bool:  # pragma: no cover - compiled
-    # Are a's ascending distances to the alive members lexicographically smaller than b's? Walked value by value
-    # (each value with its multiplicity), so no row is sorted: two rows nearly always differ at the 2nd value.
-    after = -np.inf
+def _sorted_less(D: F64, order: NDArray[np.int64], alive: B, a: int, b: int) -> bool:  # pragma: no cover
+    # The same comparison on rows sorted once (their dead members skipped while reading).
+    n = D.shape[0]
+    pa = pb = 0
     while True:
+        while pa < n and not alive[order[a, pa]]:
+            pa += 1
+        while pb < n and not alive[order[b, pb]]:
+            pb += 1
+        if pa >= n or pb >= n:
+            return False
+        va, vb = D[a, order[a, pa]], D[b, order[b, pb]]
+        if va != vb:
+            return va < vb
+        pa += 1
+        pb += 1
+
+
+@numba.njit(cache=True)
+def _row_less(D: F64, order: NDArray[np.int64], sorted_: B, alive: B, a: int, b: int,
+              walk: bool) -> bool:  # pragma: no cover - compiled
+    # Are a's ascending distances to the alive members lexicographically smaller than b's? With ``walk``, first
+    # walked value by value (each value with its multiplicity, O(r) a step), which nearly always decides by the
+    # 2nd value; rows still equal then, or without ``walk`` (many tied candidates: duplicates, grids), are sorted
+    # once and compared in order.
+    after = -np.inf
+    for _ in range(2 if walk else 0):
         va, ca = _next_value(D, alive, a, after)
         vb, cb = _next_value(D, alive, b, after)
         if va != vb:
@@ -137,6 +159,11 @@ def _row_less(D: F64, alive: B, a: int, b: int) -> bool:  # pragma: no cover - c
         if ca != cb:  # the row with more copies of va has va where the other already has a larger value
             return ca > cb
         after = va
+    for k in (a, b):
+        if not sorted_[k]:
+            order[k] = np.argsort(D[k], kind="mergesort")
+            sorted_[k] = True
+    return _sorted_less(D, order, alive, a, b)
 
 
 @numba.njit(cache=True)
@@ -155,6 +182,8 @@ def _truncate(D: F64, keep: int) -> B:  # pragma: no cover - compiled
     # that distance is removed: O(r^2) in all, where sorting every row was O(r^2 log r).
     r = D.shape[0]
     alive = np.ones(r, dtype=np.bool_)
+    order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_row_less)
+    sorted_ = np.zeros(r, dtype=np.bool_)
     near = np.empty(r)
     for i in range(r):
         near[i] = _nearest(D, alive, i)
@@ -163,9 +192,13 @@ def _truncate(D: F64, keep: int) -> B:  # pragma: no cover - compiled
         for i in range(r):
             if alive[i] and near[i] < m:
                 m = near[i]
+        tied = 0
+        for i in range(r):
+            if alive[i] and near[i] == m:
+                tied += 1
         best = -1
         for i in range(r):
-            if alive[i] and near[i] == m and (best < 0 or _row_less(D, alive, i, best)):
+            if alive[i] and near[i] == m and (best < 0 or _row_less(D, order, sorted_, alive, i, best, tied <= 4)):
                 best = i
         alive[best] = False
         for i in range(r):
