@@ -77,14 +77,18 @@ class MOEADCMT(ArrayAlgorithm):
 
     def _update_task1(self, y: Arrays, pool: NDArray[np.int64], s_cv: float) -> int:
         P, W = self.P1, self.W[pool]
-        self.z1 = np.minimum(self.z1, y.F[0])
+        # MATLAB's min skips NaN: a child with an undefined objective (pymoo's MW11 at x1 = sqrt(2)) must not
+        # turn the ideal point into NaN, which would stop every later replacement. Its own g is NaN: never wins.
+        self.z1 = np.fmin(self.z1, y.F[0])
         self.cmin = min(self.cmin, float(y.cv[0]))
         cmax = float(max(P.cv.max(), y.cv[0]))
         g_old = (np.abs(P.F[pool] - self.z1) / W).max(axis=1)
         g_new = (np.abs(y.F[0] - self.z1) / W).max(axis=1)
         cv_old, cv_new = P.cv[pool].copy(), np.full(len(pool), y.cv[0])
         if cmax > self.cmin:
-            with np.errstate(invalid="ignore"):  # an infinite violation normalises to NaN, which never wins
+            # An infinite violation normalises to NaN; the 1e-4 floor below (np.fmax, MATLAB's max) then
+            # compares that child on g alone, as PlatEMO's code treats a NaN violation.
+            with np.errstate(invalid="ignore"):
                 cv_old = np.where(cv_old > 0, (cv_old - self.cmin) / (cmax - self.cmin), cv_old)
                 cv_new = np.where(cv_new > 0, (cv_new - self.cmin) / (cmax - self.cmin), cv_new)
         with np.errstate(invalid="ignore"):  # inf - inf for penalised members: NaN, which never wins below
@@ -96,18 +100,23 @@ class MOEADCMT(ArrayAlgorithm):
 
     def _update_task2(self, y: Arrays, pool: NDArray[np.int64]) -> int:
         P, W = self.P2, self.W[pool]
-        self.z2 = np.minimum(self.z2, y.F[0])
+        self.z2 = np.fmin(self.z2, y.F[0])
         norm_w = np.linalg.norm(W, axis=1)
+        # A point on the ideal point (|d| = 0) has an undefined cosine: NaN in PlatEMO's code, so such a child
+        # replaces nothing and such a member is never replaced. One objective (our extension; PlatEMO's is
+        # for M >= 2) keeps the direction as on the weight line, else a new best could never enter P2.
+        degenerate = 1.0 if P.F.shape[1] == 1 else np.nan
 
         def pbi(F: F64) -> F64:
             d = F - self.z2
             nd = np.linalg.norm(d, axis=-1)
             d1 = (d * W).sum(axis=-1) / norm_w
             with np.errstate(invalid="ignore", divide="ignore"):
-                cos = np.where(nd > 0, d1 / nd, 1.0)
-            return d1 + THETA * nd * np.sqrt(np.maximum(0.0, 1 - cos**2))
+                cos = np.where(nd > 0, d1 / nd, degenerate)
+                return d1 + THETA * nd * np.sqrt(np.maximum(0.0, 1 - cos**2))
 
-        winners = pool[pbi(P.F[pool]) >= pbi(np.broadcast_to(y.F[0], (len(pool), y.F.shape[1])))]
+        with np.errstate(invalid="ignore"):
+            winners = pool[pbi(P.F[pool]) >= pbi(np.broadcast_to(y.F[0], (len(pool), y.F.shape[1])))]
         self._replace(P, winners, y)
         return len(winners)
 
