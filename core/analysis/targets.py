@@ -41,16 +41,27 @@ class Target:
     times: F64 | None
     period: float
     formula: Callable[[int], F64] | None = field(default=None, compare=False)
+    _samples: dict[int, F64] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def has_time(self) -> bool:
         return self.times is not None
 
     def sample(self, n_samples: int) -> F64:
-        """``(n_samples, 2)`` uniform in time from t = 0, or uniform in arc length from the first point."""
-        if self.formula is not None:
-            return self.formula(n_samples)
-        return resample(self.points, n_samples, self.times, self.period)
+        """``(n_samples, 2)`` uniform in time from t = 0, or uniform in arc length from the first point.
+
+        Read-only and kept per ``n_samples``: an optimizer evaluating one design at a time asks for the same
+        samples several times per design.
+        """
+        n = int(n_samples)
+        got = self._samples.get(n)
+        if got is None:
+            got = self.formula(n) if self.formula is not None else resample(self.points, n, self.times, self.period)
+            got = np.array(got, dtype=np.float64)
+            got.flags.writeable = False
+            if len(self._samples) < 16:
+                self._samples[n] = got
+        return got
 
 
 def compound_cycloid(n_samples: int, L: float = 300.0, H: float = 100.0) -> tuple[F64, F64]:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from typing import Any
 
 import numpy as np
@@ -198,7 +198,7 @@ class Mechanism:
     def n_params(self) -> int:
         return len(self.params)
 
-    @property
+    @cached_property
     def param_names(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.params)
 
@@ -223,7 +223,12 @@ class Mechanism:
         return np.concatenate([params, extra], axis=1), viol
 
     def compile(self) -> Program:
-        return _compile(self)
+        """The mechanism's step program, built once per mechanism (kept on the instance, then in a cache)."""
+        program = self.__dict__.get("_program")
+        if program is None:
+            program = _compile(self)
+            self.__dict__["_program"] = program  # not a field: equality and hashing ignore it
+        return program
 
     def bodies(self) -> tuple[tuple[str, ...], ...]:
         """Rigid bodies as tuples of point names (ground first), found from the steps."""

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from core.analysis.evaluate import Evaluation, evaluate
 from core.kinematics.design import Design
 from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions
-from core.optimize.objectives import ASSEMBLY_TIER, quantize, tiered
+from core.optimize.objectives import ASSEMBLY_TIER, quantize_all, tiered
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
 
 F64 = NDArray[np.float64]
@@ -106,7 +106,7 @@ def rtclm_metrics(params: F64, h6_target: float = H6_TARGET, h4_target: float = 
         out["dh4"] = np.abs(aux.h_m - h4_target)
     else:
         out["dh4"] = np.full(params.shape[0], np.nan)
-    return {k: quantize(v) for k, v in out.items()}
+    return quantize_all(out)
 
 
 def _eq30(suffix: str) -> tuple[Constraint, ...]:
