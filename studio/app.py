@@ -18,10 +18,10 @@ import viser
 from core.formats.session import parse_json
 from studio.address import url_for
 from studio.candidates import candidates
-from studio.chains import ChainStage, chain_for, find
+from studio.chains import ChainStage, chain_for, find, takes_target
 from studio.charts import png
 from studio.exports import design_json, drawing_export, figure_html, slug, trajectories_csv
-from studio.frames import DEFAULT_ASPECT, FPS
+from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE
 from studio.geometry import frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
 from studio.pacer import Pacer
@@ -90,6 +90,7 @@ class Studio:
         self._render_lock = threading.RLock()
         self._save_lock = threading.Lock()
         self._shown: DesignView | None = None
+        self._optimized_by: tuple[str, ...] | None = None
         self._study_key: object = None
         self._inset_key: object = None
         self._last_push = 0.0
@@ -140,15 +141,17 @@ class Studio:
         """Show the latest session state; refit every camera if asked (a new design to frame)."""
         with self._render_lock:
             view, pb, _ = self.session.snapshot()
-            changed = view is not self._shown
+            optimized_by = self.target_stages()
+            changed = view is not self._shown or optimized_by != self._optimized_by
             if changed:
-                self.scene.show(view, frame_index(pb.angle, view.n_samples))
+                shown = bool(optimized_by)
+                self.scene.show(view, frame_index(pb.angle, view.n_samples), shown)
                 self.mechanism.show(view)
                 self.metrics.show(view)
-                self.target.show(view)
+                self.target.show(view, optimized_by)
                 self.walking.show(view)
-                self.bench.show(view)
-                self._shown = view
+                self.bench.show(view, shown)
+                self._shown, self._optimized_by = view, optimized_by
             self.playback.show(pb)
             sv = self.study_view()
             study_changed = sv.key != self._study_key
@@ -166,6 +169,13 @@ class Studio:
                     self._fit_client(client)
         if changed or study_changed:
             self.autosave()
+
+    def target_stages(self) -> tuple[str, ...]:
+        """The stages of the editor's mechanism whose problem (as set in the Stages panel) optimizes the Target
+        panel's target; the target is drawn only if there is one (the RTCLM stages optimize h6 and h4)."""
+        with self.session.lock:
+            study = self.session.study
+            return tuple(st.name for st in self.chain() if takes_target(study.settings_for(st).problem))
 
     def _outgrown(self) -> bool:
         """True when the views' extent changed enough that the camera should frame them again: they no longer
@@ -195,12 +205,12 @@ class Studio:
             return
         box = frames.composition.inset
         r = sv.result(sv.viewing)
-        key = (tuple(np.round(box, 6)), id(r), sv.shown)
+        key = (tuple(np.round(box, 6)), frames.text_height, id(r), sv.shown)
         if key == self._inset_key:
             return
         self._inset_key = key
         if r is None or r.pop == 0:
-            self.inset.place(box, "after a run: its knee candidates (K1 ...) and best members")
+            self.inset.place(box, INSET_NOTE, frames.text_height)
             self.inset.show((), np.zeros((0, 2)), None)
             return
         spec = sv.specs.get(sv.viewing or "")
@@ -217,7 +227,7 @@ class Studio:
         pos = inset_positions(xy[members], box) if len(members) else np.zeros((0, 2))
         markers = tuple(InsetMarker(c.member, c.tag, c.kind, (float(pos[j, 0]), float(pos[j, 1])))
                         for j, c in enumerate(marks))
-        self.inset.place(box, axes + " (scaled)")
+        self.inset.place(box, axes + " (scaled)", frames.text_height)
         self.inset.show(markers, pos[len(marks):], sv.shown)
 
     def _fit_client(self, client: viser.ClientHandle) -> None:

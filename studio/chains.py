@@ -10,6 +10,7 @@ not registered are left out, and any registered problem can be run in a stage's 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 from core.kinematics.model import Mechanism
@@ -119,6 +120,18 @@ class RunSettings:
 
 def default_settings(stage: ChainStage) -> RunSettings:
     return RunSettings(stage.name, pop_size=stage.pop_size, n_gen=stage.n_gen)
+
+
+@functools.cache
+def takes_target(name: str) -> bool:
+    """True if the registered problem ``name`` optimizes against a target (takes a ``target`` option)."""
+    try:
+        make_problem(name, target=TargetSpec().option())
+    except ValueError as exc:
+        if "unknown option 'target'" in str(exc):
+            return False
+        raise
+    return True
 
 
 def build_problem(name: str, target: TargetSpec) -> ProblemSpec:

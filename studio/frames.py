@@ -6,7 +6,7 @@ Pure functions of a DesignView (no viser): ``build_frames`` and ``build_walk_sce
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,9 +16,11 @@ from studio import palette
 from studio.geometry import (
     EDGE_CRANK,
     EDGE_GROUND,
+    F64,
     SCENE_SCALE,
     Composition,
     Layout,
+    bounds,
     closed_polyline,
     compose,
     grid_lines,
@@ -26,6 +28,7 @@ from studio.geometry import (
     layout,
     link_edges,
     link_segments,
+    nice_step,
     to_scene,
 )
 from studio.state import DesignView
@@ -39,6 +42,91 @@ DEFAULT_ASPECT = 1.3
 FPS = 40.0
 # Lines and markers sit slightly above the grid so they never z-fight with it.
 Z_LINES, Z_MARKERS = 0.0005, 0.001
+
+DESIGN_TITLE = "Mechanism (design frame)"
+LEG_TITLE = "Bench trajectory (leg frame)"
+INSET_TITLE = "Candidates (click to pick)"
+INSET_NOTE = "after a run: its knee candidates\n(K1 ...) and best members"
+WALK_TITLE = "Walking (world frame): trunk, feet, obstacle a × b"
+# Labels are sized in the scene (mm), so the layout can keep every view's text clear of the others at any
+# zoom and window size: their height is the composition's size over TEXT_SCALE (about 12 px once framed).
+TEXT_SCALE = 50.0
+CHAR_WIDTH = 0.52  # a character's advance as a share of the label height (viser draws the system sans-serif)
+FEATURE_TEXT, SMALL_TEXT = 0.8, 0.85  # feature-point / pivot labels, scale-bar and note labels (share of h)
+
+
+LINE = 1.2  # line height as a share of the label height
+
+
+def text_width(text: str, height: float) -> float:
+    """Estimated width (mm) of a label ``height`` mm high (its longest line)."""
+    return CHAR_WIDTH * height * max(len(line) for line in text.split("\n"))
+
+
+def text_height(text: str, height: float) -> float:
+    """Estimated height (mm) of a label ``height`` mm high, all its lines."""
+    return LINE * height * (text.count("\n") + 1)
+
+
+@dataclass(frozen=True)
+class SceneText:
+    """A label the layout placed: its node key, text, anchor point (m, scene or its view's frame), anchor and
+    height (m); ``box`` is the area it covers (mm, scene coordinates)."""
+
+    key: str
+    text: str
+    position: tuple[float, float, float]
+    anchor: str
+    height: float
+    box: tuple[float, float, float, float]
+
+
+def _text(key: str, text: str, x: float, y: float, anchor: str, h: float,
+          offset: F64 | tuple[float, float] = (0.0, 0.0)) -> SceneText:
+    """A label at (x, y) mm in a view's frame (``offset`` places that frame in the scene)."""
+    w, th = text_width(text, h), text_height(text, h)
+    vert, horiz = anchor.split("-")
+    x0 = x if horiz == "left" else x - w if horiz == "right" else x - 0.5 * w
+    y0 = y if vert == "bottom" else y - th if vert == "top" else y - 0.5 * th
+    ox, oy = float(offset[0]), float(offset[1])
+    return SceneText(key, text, (x * SCENE_SCALE, y * SCENE_SCALE, 0.0), anchor, h * SCENE_SCALE,
+                     (x0 + ox, y0 + oy, x0 + w + ox, y0 + th + oy))
+
+
+def scale_bar(x0: float, y: float, span: float, h: float, key: str) -> tuple[F64, SceneText]:
+    """A millimetre scale bar under a view: a round length (about a fifth of ``span`` mm) from ``x0`` at height
+    ``y`` with end ticks, and its label (``50 mm``) right of it. Segments ``(3, 2, 2)`` mm, scene coordinates."""
+    length = nice_step(span, 5)
+    t = 0.35 * h
+    seg = np.array([[[x0, y], [x0 + length, y]], [[x0, y - t], [x0, y + t]],
+                    [[x0 + length, y - t], [x0 + length, y + t]]])
+    return seg, _text(key, f"{length:g} mm", x0 + length + 0.5 * h, y, "center-left", SMALL_TEXT * h)
+
+
+def _overlaps(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: float,
+                  offset: F64) -> tuple[SceneText, ...]:
+    """Feature-point labels in the leg view (``h`` mm high): points closer than a label's height print as one
+    (``t2=t5``); a label that would cover another goes below, right or left of its point instead."""
+    groups: list[tuple[list[str], tuple[float, float]]] = []
+    for name, xy in features:
+        for names, q in groups:
+            if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= h:
+                names.append(name)
+                break
+        else:
+            groups.append(([name], xy))
+    out: list[SceneText] = []
+    for k, (names, (x, y)) in enumerate(groups):
+        text = "=".join(sorted("=".join(names).split("="), key=lambda n: int(n[1:]) if n[1:].isdigit() else 0))
+        spots = [(x, y + 0.4 * h, "bottom-center"), (x, y - 0.4 * h, "top-center"),
+                 (x + 0.6 * h, y, "center-left"), (x - 0.6 * h, y, "center-right")]
+        tries = [_text(f"feature_{k}", text, sx, sy, a, h, offset) for sx, sy, a in spots]
+        out.append(next((t for t in tries if not any(_overlaps(t.box, o.box) for o in out)), tries[0]))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -65,6 +153,10 @@ class SceneFrames:
         composition: where the walking view and the candidates inset sit (mm).
         walk: the walking view's scene geometry, or None without a walking trajectory.
         grid: ``(k, 2, 3)`` the millimetre grid behind every view; grid_step: its spacing (mm).
+        texts: the views' titles, the walking metrics line and the scale bars' labels (scene coordinates).
+        feature_labels: the feature points' labels (leg-view local), merged or moved so none covers another.
+        scale_bars: ``(k, 2, 3)`` a millimetre scale bar under each view (scene coordinates).
+        text_height: the titles' height (m); the inset's labels use it too.
     """
 
     links: F32
@@ -88,6 +180,10 @@ class SceneFrames:
     walk: WalkScene | None = None
     grid: F32 = field(default_factory=lambda: np.zeros((0, 2, 3), dtype=np.float32))
     grid_step: float = 0.0
+    texts: tuple[SceneText, ...] = ()
+    feature_labels: tuple[SceneText, ...] = ()
+    scale_bars: F32 = field(default_factory=lambda: np.zeros((0, 2, 3), dtype=np.float32))
+    text_height: float = 0.0
 
     @property
     def n_samples(self) -> int:
@@ -176,8 +272,9 @@ def vertex_colours(rgb: NDArray[np.integer]) -> U8:
     return np.round(lin * 255.0).astype(np.uint8)
 
 
-def build_frames(view: DesignView) -> SceneFrames:
-    """Precompute everything the scene draws for a design view (pure; no server)."""
+def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
+    """Precompute everything the scene draws for a design view (pure; no server); without the target when no
+    stage of the mechanism optimizes it (``show_target`` False)."""
     mech = view.design.mechanism
     sol = view.solution
     assert sol.joints is not None, "the studio solves with joints=True"
@@ -188,7 +285,14 @@ def build_frames(view: DesignView) -> SceneFrames:
     link_colors = np.repeat(colours[kind_colour[:, 0]][:, None, :], 2, axis=1)
     is_ground = np.array([isinstance(s, Ground) for s in mech.steps])
     point, leg = sol.point[0], sol.leg[0]
-    lay = layout(np.concatenate([joints.reshape(-1, 2), view.target_design]), np.concatenate([leg, view.target_leg]))
+    none = np.zeros((0, 2))
+    target_design = view.target_design if show_target else none
+    target_leg = view.target_leg if show_target else none
+    design_pts = np.concatenate([joints.reshape(-1, 2), target_design])
+    leg_pts = np.concatenate([leg, target_leg])
+    wf = view.walking
+    lay, composition, texts, bars, h = _compose_views(design_pts, leg_pts, None if wf is None else wf.bounds,
+                                                      walk_text(view) if wf is not None else "")
     g = lay.leg
     pad = 0.06 * max(g[2] - g[0], g[3] - g[1])
     x0, y0, x1, y1 = g[0] - pad, g[1] - pad, g[2] + pad, g[3] + pad
@@ -214,8 +318,6 @@ def build_frames(view: DesignView) -> SceneFrames:
         foot, leg_foot = pose[:, 0], np.broadcast_to(view.design.output.apply(pivot), leg.shape)
     else:
         pose, foot, leg_foot = joints[hold], point[hold], leg[hold]
-    wf = view.walking
-    composition = compose(lay, None if wf is None else wf.bounds)
     grid, step = grid_lines(composition.bounds)
     return SceneFrames(
         links=_lift(to_scene(link_segments(pose, edges.pairs)), Z_LINES),
@@ -226,9 +328,9 @@ def build_frames(view: DesignView) -> SceneFrames:
         foot=_lift(to_scene(foot[:, None, :]), 2 * Z_MARKERS),
         leg_foot=_lift(to_scene(leg_foot[:, None, :]), 2 * Z_MARKERS),
         path=_lift(to_scene(closed_polyline(point)), Z_LINES),
-        target=_lift(to_scene(closed_polyline(view.target_design)), Z_LINES),
+        target=_lift(to_scene(closed_polyline(target_design)), Z_LINES),
         leg_path=_lift(to_scene(seg[keep]), Z_LINES),
-        leg_target=_lift(to_scene(closed_polyline(view.target_leg)), Z_LINES),
+        leg_target=_lift(to_scene(closed_polyline(target_leg)), Z_LINES),
         leg_path_colors=np.repeat(seg_colour[keep][:, None, :], 2, axis=1),
         leg_axes=to_scene(np.concatenate([border, axis])),
         features=_lift(to_scene(feats), Z_MARKERS),
@@ -239,4 +341,69 @@ def build_frames(view: DesignView) -> SceneFrames:
         walk=None if wf is None else build_walk_scene(wf, view),
         grid=_lift(to_scene(grid), 0.0),
         grid_step=step,
+        texts=texts,
+        feature_labels=feature_texts(view.features, FEATURE_TEXT * h, lay.leg_offset),
+        scale_bars=_lift(to_scene(bars), Z_LINES),
+        text_height=h * SCENE_SCALE,
     )
+
+
+def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_line: str
+                   ) -> tuple[Layout, Composition, tuple[SceneText, ...], F64, float]:
+    """Lay the views out from their own bounding boxes, titles and scale bars included: gaps wide enough that
+    no title, note or scale label reaches into the next view, the walking view low enough for its two title
+    lines, and bounds (for the camera) around all of it. The text height follows the composition's size, so
+    it is solved by a few fixed-point steps.
+
+    Returns:
+        the layout, the composition (bounds include every label), the labels, the scale bars ``(k, 2, 2)`` mm
+        and the text height (mm).
+    """
+    parts = walk_line.split(" · ")  # two lines: heights, then obstacle crossing
+    walk_line = " · ".join(parts[:2]) + ("\n" + " · ".join(parts[2:]) if len(parts) > 2 else "")
+    d, g = bounds(design_pts), bounds(leg_pts)
+    dw, lw = d[2] - d[0], g[2] - g[0]
+    pad = 0.06 * max(lw, g[3] - g[1])
+    h = max(dw, d[3] - d[1], lw, g[3] - g[1], 1.0) / TEXT_SCALE
+    for step in range(4):
+        small = SMALL_TEXT * h
+        bar_w = {k: nice_step(span, 5) + 0.5 * h + text_width(f"{nice_step(span, 5):g} mm", small)
+                 for k, span in (("design", dw), ("leg", lw + 2 * pad))}
+        gap1 = pad + 2.0 * h + max(0.0, text_width(DESIGN_TITLE, h) - dw, bar_w["design"] - dw)
+        gap2 = 2.0 * h + max(pad, text_width(LEG_TITLE, h) - lw - pad, bar_w["leg"] - lw - pad)
+        walk_gap = pad + 3.0 * small + text_height(INSET_NOTE, small) + 5.0 * h
+        lay = layout(design_pts, leg_pts, gap1)
+        comp = compose(lay, walk_bounds, gap2, walk_gap)
+        off = lay.leg_offset
+        legbox = np.array([g[0] - pad, g[1] - pad, g[2] + pad, g[3] + pad]) + np.concatenate([off, off])
+        inset = comp.inset
+        texts = [
+            _text("design_title", DESIGN_TITLE, d[0], d[3] + 0.6 * h, "bottom-left", h),
+            _text("leg_title", LEG_TITLE, legbox[0], legbox[3] + 0.6 * h, "bottom-left", h),
+            _text("inset_title", INSET_TITLE, inset[0], inset[3] + 0.6 * h, "bottom-left", h),
+            _text("inset_note", INSET_NOTE, inset[0], inset[1] - 0.6 * small, "top-left", small),
+        ]
+        bars = []
+        for key, x0, y, span in (("design", d[0], d[1] - 1.5 * small, dw),
+                                 ("leg", legbox[0], legbox[1] - 1.5 * small, legbox[2] - legbox[0])):
+            seg, label = scale_bar(x0, y, span, h, f"{key}_scale")
+            bars.append(seg)
+            texts.append(label)
+        if walk_bounds is not None:
+            w = np.asarray(walk_bounds, dtype=np.float64) + np.concatenate([comp.walk_offset, comp.walk_offset])
+            wpad = 0.04 * (w[2] - w[0])  # the ground line reaches this far past the feet
+            top = w[3] + 0.6 * h + text_height(walk_line, h) + 0.3 * h
+            texts += [_text("walk_title", WALK_TITLE, w[0] - wpad, top, "bottom-left", h),
+                      _text("walk_text", walk_line, w[0] - wpad, w[3] + 0.6 * h, "bottom-left", h)]
+            seg, label = scale_bar(w[0] - wpad, w[1] - 1.5 * small, w[2] - w[0], h, "walk_scale")
+            bars.append(seg)
+            texts.append(label)
+        boxes = np.array([t.box for t in texts] + [comp.bounds.tolist(), legbox.tolist()])
+        bars_all = np.concatenate(bars)
+        everything = np.concatenate([boxes[:, :2], boxes[:, 2:], bars_all.reshape(-1, 2)])
+        full = np.concatenate([everything.min(axis=0), everything.max(axis=0)])
+        h_next = max(full[2] - full[0], full[3] - full[1]) / TEXT_SCALE
+        if abs(h_next - h) <= 0.02 * h or step == 3:
+            break
+        h = h_next
+    return lay, replace(comp, bounds=full), tuple(texts), bars_all, h

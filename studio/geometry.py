@@ -183,13 +183,15 @@ class Composition:
     bounds: F64
 
 
-def compose(lay: Layout, walk_bounds: F64 | None, gap: float = 60.0) -> Composition:
-    """Place the walking view (if any) below the top views and a square inset right of the leg view.
+def compose(lay: Layout, walk_bounds: F64 | None, gap: float = 60.0, walk_gap: float | None = None) -> Composition:
+    """Place the walking view (if any) below the top views and the inset, and a square inset right of the leg view.
 
     Args:
         lay: the two top views.
         walk_bounds: ``(4,)`` bounds of the walking view in its own frame (mm), or None.
         gap: space between views (mm).
+        walk_gap: vertical space above the walking view (mm; default ``1.5 gap``): room for the labels under
+            the top views and the walking view's own title lines.
     """
     s = lay.scene
     leg = lay.leg + np.concatenate([lay.leg_offset, lay.leg_offset])
@@ -200,7 +202,8 @@ def compose(lay: Layout, walk_bounds: F64 | None, gap: float = 60.0) -> Composit
     offset = np.zeros(2)
     if walk_bounds is not None:
         w = np.asarray(walk_bounds, dtype=np.float64)
-        offset = np.array([s[0] - w[0], s[1] - 1.5 * gap - w[3]])
+        below = 1.5 * gap if walk_gap is None else walk_gap
+        offset = np.array([s[0] - w[0], min(s[1], inset[1]) - below - w[3]])
         parts.append(w + np.concatenate([offset, offset]))
     stack = np.stack(parts)
     bounds = np.concatenate([stack[:, :2].min(axis=0), stack[:, 2:].max(axis=0)])

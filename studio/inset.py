@@ -12,7 +12,7 @@ import viser
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.frames import FPS, Z_MARKERS, _lift
+from studio.frames import FPS, INSET_TITLE, SMALL_TEXT, Z_MARKERS, _lift
 from studio.geometry import (
     SCENE_SCALE,
     to_scene,
@@ -86,18 +86,24 @@ class CandidateInset:
                                               thickness_units="screen")
         self.front = scene.add_point_cloud("/candidates/front", np.zeros((1, 3), dtype=np.float32), palette.FEASIBLE,
                                            point_shape="circle", precision="float32", point_shading="flat")
-        self.title = scene.add_label("/candidates/title", "Candidates: click one to pick it", anchor="bottom-left")
-        self.note = scene.add_label("/candidates/note", "", anchor="top-left", font_screen_scale=0.8)
+        self.title = scene.add_label("/candidates/title", INSET_TITLE, anchor="bottom-left", font_size_mode="scene")
+        self.note = scene.add_label("/candidates/note", "", anchor="top-left", font_size_mode="scene")
+        self._text_height = 0.0
 
-    def place(self, box: NDArray[np.float64], axes: str) -> None:
-        """Draw the square ``[x0, y0, x1, y1]`` (mm) with its title and the axes' names."""
+    def place(self, box: NDArray[np.float64], axes: str, text_height: float) -> None:
+        """Draw the square ``[x0, y0, x1, y1]`` (mm) with its title and the axes' names, in labels
+        ``text_height`` m high (where the scene's layout left room for them)."""
         x0, y0, x1, y1 = box
+        h = text_height / SCENE_SCALE
         corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         with self.server.atomic():
             self.border.points = to_scene(np.stack([corners, np.roll(corners, -1, axis=0)], axis=1))
-            self.title.position = (x0 * SCENE_SCALE, (y1 + 0.03 * (y1 - y0)) * SCENE_SCALE, 0.0)
-            self.note.position = (x0 * SCENE_SCALE, (y0 - 0.03 * (y1 - y0)) * SCENE_SCALE, 0.0)
+            self.title.position = (x0 * SCENE_SCALE, (y1 + 0.6 * h) * SCENE_SCALE, 0.0)
+            self.title.font_scene_height = text_height
+            self.note.position = (x0 * SCENE_SCALE, (y0 - 0.6 * SMALL_TEXT * h) * SCENE_SCALE, 0.0)
+            self.note.font_scene_height = SMALL_TEXT * text_height
             self.note.text = axes
+        self._text_height = text_height
         self._radius = 0.022 * (x1 - x0) * SCENE_SCALE
 
     def show(self, markers: tuple[InsetMarker, ...], front: NDArray[np.float64], shown: int | None) -> None:
@@ -120,7 +126,8 @@ class CandidateInset:
                     h.on_click(self._clicked(m.member))
                     self._spheres[m.member] = h
                     self._labels.append(scene.add_label(f"/candidates/tag_{m.member}", m.tag, anchor="bottom-center",
-                                                        font_screen_scale=0.8,
+                                                        font_size_mode="scene",
+                                                        font_scene_height=0.8 * self._text_height,
                                                         position=(pos[0], pos[1] + 1.2 * self._radius, 0.0)))
                 self._markers = markers
             else:

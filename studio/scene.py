@@ -14,7 +14,7 @@ import numpy as np
 import viser
 
 from studio import palette
-from studio.frames import DEFAULT_ASPECT, F32, FOV, U8, SceneFrames, build_frames
+from studio.frames import DEFAULT_ASPECT, F32, FOV, U8, WALK_TITLE, SceneFrames, SceneText, build_frames
 from studio.geometry import (
     SCENE_SCALE,
     camera_pose,
@@ -31,7 +31,7 @@ def _set_segments(node: viser.LineSegmentsHandle, segments: F32, colors: U8 | No
         node.points = segments
 
 
-WALK_TITLE = "Walking (world frame): trunk, feet, obstacle a × b"
+__all__ = ["WALK_TITLE", "MechanismScene"]
 
 
 class MechanismScene:
@@ -55,7 +55,12 @@ class MechanismScene:
         # Millimetre paper: plain lines sized to the views (viser's shader grid costs ~150 ms a frame under
         # software WebGL), with its spacing written in a corner as the scale.
         self.grid = scene.add_line_segments("/grid", empty_seg, palette.GRID, thickness=1.0, thickness_units="screen")
-        self.grid_label = scene.add_label("/grid_label", "", anchor="top-left", font_screen_scale=0.8)
+        self.grid_label = scene.add_label("/grid_label", "", anchor="top-left", font_size_mode="scene")
+        # Every view's title, the walking metrics and the scale bars' labels, placed by the layout (in the scene's
+        # units, so they keep clear of each other at any zoom); one millimetre scale bar under each view.
+        self._texts: dict[str, viser.LabelHandle] = {}
+        self.scale_bars = scene.add_line_segments("/scale_bars", empty_seg, palette.PIVOT, thickness=2.0,
+                                                  thickness_units="screen")
         self.path = scene.add_line_segments("/design/path", empty_seg, palette.PATH, thickness=2.0,
                                             thickness_units="screen")
         self.target = scene.add_line_segments("/design/target", empty_seg, palette.TARGET, thickness=1.5,
@@ -68,7 +73,6 @@ class MechanismScene:
                                             precision="float32", point_shading="flat")
         self.foot = scene.add_point_cloud("/design/foot", one, palette.FOOT, point_shape="circle",
                                           precision="float32", point_shading="flat")
-        self.design_title = scene.add_label("/design/title", "Mechanism (design frame)", anchor="bottom-left")
         self.leg = scene.add_frame("/leg", show_axes=False)
         self.leg_axes = scene.add_line_segments("/leg/axes", empty_seg, palette.FRAME, thickness=1.0,
                                                 thickness_units="screen")
@@ -80,8 +84,6 @@ class MechanismScene:
                                                   precision="float32", point_shading="flat")
         self.leg_foot = scene.add_point_cloud("/leg/foot", one, palette.FOOT, point_shape="circle",
                                               precision="float32", point_shading="flat")
-        self.leg_title = scene.add_label("/leg/title", "Bench trajectory (leg frame): stance, swing, target",
-                                         anchor="bottom-left")
         self.walk = scene.add_frame("/walk", show_axes=False)
         self.walk_ground = scene.add_line_segments("/walk/ground", empty_seg, palette.FRAME, thickness=1.5,
                                                    thickness_units="screen")
@@ -93,24 +95,26 @@ class MechanismScene:
                                                  thickness_units="screen")
         self.walk_feet = scene.add_point_cloud("/walk/feet", one, palette.FOOT, point_shape="circle",
                                                precision="float32", point_shading="flat")
-        self.walk_title = scene.add_label("/walk/title", WALK_TITLE,
-                                          anchor="bottom-left")
 
     @property
     def frames(self) -> SceneFrames | None:
         return self._frames
 
-    def show(self, view: DesignView, index: int = 0) -> SceneFrames:
-        """Redraw the static geometry of a new design view, then its crank sample ``index``."""
-        frames = build_frames(view)
+    def show(self, view: DesignView, index: int = 0, show_target: bool = True) -> SceneFrames:
+        """Redraw the static geometry of a new design view (with its target if a stage optimizes it), then its
+        crank sample ``index``."""
+        frames = build_frames(view, show_target)
         lay = frames.layout
         with self._lock, self.server.atomic():
             self._frames = frames
             self._index = -1
             _set_segments(self.grid, frames.grid)
-            b = frames.composition.bounds * SCENE_SCALE  # under the views' lower-left corner, inside the frame
+            b = frames.composition.bounds * SCENE_SCALE  # in the views' lower-left corner, inside the frame
             self.grid_label.position = (float(b[0]), float(b[1]), 0.0)
             self.grid_label.text = f"grid {frames.grid_step:g} mm"
+            self.grid_label.font_scene_height = 0.7 * frames.text_height
+            _set_segments(self.scale_bars, frames.scale_bars)
+            self._show_texts(frames.texts)
             _set_segments(self.path, frames.path)
             _set_segments(self.target, frames.target)
             self.links.colors = frames.link_colors
@@ -119,8 +123,6 @@ class MechanismScene:
                                (self.leg_features, 0.5)):
                 node.point_size = frames.marker * size
             self.pivots.points = frames.pivots
-            top = lay.design[3] + 0.04 * (lay.scene[3] - lay.scene[1])
-            self.design_title.position = (lay.design[0] * SCENE_SCALE, top * SCENE_SCALE, 0.0)
             self.leg.position = (lay.leg_offset[0] * SCENE_SCALE, lay.leg_offset[1] * SCENE_SCALE, 0.0)
             self.leg_axes.points = frames.leg_axes
             _set_segments(self.leg_target, frames.leg_target)
@@ -128,9 +130,6 @@ class MechanismScene:
             self.leg_features.visible = len(frames.features) > 0
             if len(frames.features):
                 self.leg_features.points = frames.features
-            g = lay.leg
-            pad = 0.06 * max(g[2] - g[0], g[3] - g[1])
-            self.leg_title.position = ((g[0] - pad) * SCENE_SCALE, (g[3] + 1.4 * pad) * SCENE_SCALE, 0.0)
             self._show_walk(frames)
             self._show_labels(frames)
             self._draw(index)
@@ -138,8 +137,7 @@ class MechanismScene:
 
     def _show_walk(self, frames: SceneFrames) -> None:
         w = frames.walk
-        for node in (self.walk_ground, self.walk_trails, self.walk_obstacle, self.walk_body, self.walk_feet,
-                     self.walk_title):
+        for node in (self.walk_ground, self.walk_trails, self.walk_obstacle, self.walk_body, self.walk_feet):
             node.visible = w is not None
         if w is None:
             return
@@ -153,9 +151,24 @@ class MechanismScene:
         self.walk_body.colors = w.body_colors
         self.walk_feet.point_size = frames.marker * 1.1
         self.walk_feet.colors = w.feet_colors
-        # One line, title then metrics: two labels overlapped each other or the trunk at some zooms.
-        self.walk_title.position = w.title_at
-        self.walk_title.text = f"{WALK_TITLE}  |  {w.text}" if w.text else WALK_TITLE
+
+    def _show_texts(self, texts: tuple[SceneText, ...]) -> None:
+        """Place the layout's labels: existing nodes are moved, missing ones made, unused ones hidden."""
+        used = set()
+        for t in texts:
+            if t.key.startswith("inset_"):  # the candidates inset draws its own title and note (the layout's room)
+                continue
+            used.add(t.key)
+            node = self._texts.get(t.key)
+            if node is None:
+                self._texts[t.key] = self.server.scene.add_label(
+                    f"/texts/{t.key}", t.text, position=t.position, anchor=t.anchor,  # type: ignore[arg-type]
+                    font_size_mode="scene", font_scene_height=t.height)
+                continue
+            node.text, node.position, node.font_scene_height, node.visible = t.text, t.position, t.height, True
+        for key, node in self._texts.items():
+            if key not in used:
+                node.visible = False
 
     def _show_labels(self, frames: SceneFrames) -> None:
         """Static labels: ground pivots (design view) and feature points (leg view)."""
@@ -163,14 +176,15 @@ class MechanismScene:
             label.remove()
         off = 0.6 * frames.marker
         scene = self.server.scene
+        small = 0.8 * frames.text_height
         self._labels = [
-            scene.add_label(f"/design/pivot_labels/{name}", name, anchor="top-left",
-                            position=(float(p[0]) + off, float(p[1]) - off, 0.0))
+            scene.add_label(f"/design/pivot_labels/{name}", name, anchor="top-left", font_size_mode="scene",
+                            font_scene_height=small, position=(float(p[0]) + off, float(p[1]) - off, 0.0))
             for name, p in zip(frames.pivot_names, frames.pivots, strict=True)
         ] + [
-            scene.add_label(f"/leg/feature_labels/{k}", name, anchor="bottom-center", font_screen_scale=0.85,
-                            position=(float(p[0]), float(p[1]) + 0.5 * off, 0.0))
-            for k, (name, p) in enumerate(zip(frames.feature_names, frames.features, strict=True))
+            scene.add_label(f"/leg/feature_labels/{k}", t.text, anchor=t.anchor,  # type: ignore[arg-type]
+                            font_size_mode="scene", font_scene_height=t.height, position=t.position)
+            for k, t in enumerate(frames.feature_labels)
         ]
 
     def _draw(self, index: int) -> None:

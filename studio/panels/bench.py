@@ -25,9 +25,10 @@ class BenchPanel:
             self.plot = gui.add_plotly(self._figure(view), aspect=0.62, config={"displayModeBar": False})
 
     @staticmethod
-    def _figure(view: DesignView) -> go.Figure:
-        return make_bench_figure(view.solution.leg[0], view.target_leg, stance=view.stance,
+    def _figure(view: DesignView, show_target: bool = True) -> go.Figure:
+        return make_bench_figure(view.solution.leg[0], view.target_leg if show_target else None, stance=view.stance,
                                  features=dict(view.features))
 
-    def show(self, view: DesignView) -> None:
-        self.plot.figure = self._figure(view)
+    def show(self, view: DesignView, show_target: bool = True) -> None:
+        """Redraw the chart; the target only when a stage of the mechanism optimizes it."""
+        self.plot.figure = self._figure(view, show_target)

@@ -117,7 +117,8 @@ class ParetoPanel:
 
     def show(self, sv: StudyView) -> None:
         r = sv.result(sv.viewing)
-        key = (id(r), sv.shown, sv.viewing, None if r is None else r.picked)
+        # The passed-on member too: "Use for next stage" on the shown pick changes only the ring.
+        key = (id(r), sv.shown, sv.viewing, None if r is None else r.picked, passed_on(sv))
         if key == self._key:
             return
         if r is not None and sv.status.running and sv.status.stage == sv.viewing:

@@ -57,13 +57,20 @@ class TargetPanel:
         """Drop pending rejections of invalid entries (the server is going away)."""
         self._numbers.cancel_all()
 
-    def show(self, view: DesignView) -> None:
+    def show(self, view: DesignView, optimized_by: tuple[str, ...] | None = None) -> None:
+        """Mirror the target; ``optimized_by``: the stages of the mechanism that optimize it (None: not known)."""
         t = view.target
         for key, h in self.inputs.items():
             set_value(h, float(getattr(t, key)))
         self.cycloid.disabled = not t.is_curve
         note = "" if t.has_time else " (no times: compared at the best cyclic shift)"
-        self.status.content = f"Target: {t.label()}{note}."
+        line = f"Target: {t.label()}{note}."
+        if optimized_by is not None:
+            mech = view.design.mechanism.title
+            line += (f"  \nOptimized by {', '.join(optimized_by)}." if optimized_by else
+                     f"  \nNot shown: no stage of the {mech} optimizes a target (its stages have objectives of their "
+                     "own); MSE in Metrics is still measured against it.")
+        self.status.content = line
 
     def _on_upload(self, event: viser.GuiEvent[Any]) -> None:
         if event.client is None:
