@@ -221,3 +221,22 @@ def test_the_stage_result_keeps_the_algorithms_trace_through_json(algorithm: str
         assert all("eps" in row for row in res.trace)
     back = StageResult.from_json(res.to_json())
     assert back.trace == res.trace
+
+
+@pytest.mark.parametrize("algorithm", ["nsga2", "cmoes", "mccmo"])
+def test_an_evaluation_budget_ends_the_stage_within_one_generation(algorithm: str) -> None:
+    # CMOES spends 3N a generation in its first stage and less later; MCCMO more or less as its populations wake.
+    # Whatever the rate, the stage ends at the end of the generation that spends max_evals, before n_gen binds.
+    calls: list[Progress] = []
+    s = spec("path_box", algorithm, pop=12, n_gen=1000, max_evals=300)
+    res = Stage(s, X0, callback=calls.append).run()
+    assert res.status == "complete" and calls[-1].generation < 1000
+    evals = [p.n_evals for p in calls]
+    assert evals[-2] < 300 <= evals[-1] <= 300 + 3 * 12
+    assert calls[-1].fraction == 1.0 and all(0 < p.fraction <= 1 for p in calls)
+    assert StageSpec.from_dict(s.to_dict()).max_evals == 300
+
+
+def test_the_generation_limit_still_binds_first_when_it_is_smaller() -> None:
+    res = Stage(spec(n_gen=3, pop=10, max_evals=10**6), X0).run()
+    assert res.generation == 3 and res.n_evals == 30

@@ -229,3 +229,17 @@ def test_seed_ranges():
     assert parse_seeds([3, 1]) == (3, 1)
     with pytest.raises(ValueError, match="listed twice"):
         parse_seeds([1, 1])
+
+
+@pytest.mark.parametrize("algorithm", ["cmoes", "mccmo"])
+def test_every_algorithm_gets_the_budget_in_evaluations(tmp_path: Path, algorithm: str):
+    # Converting the budget into generations at a nominal rate gave CMOES half of it on subtask 1 and MCCMO
+    # three quarters; now every cell ends within one generation (at most 3N) after the budget.
+    from core.study.cell import run_cell
+
+    study = load_study(write(tmp_path, TINY.replace('"spea2"', f'"{algorithm}"').replace("budget = 100",
+                                                                                      "budget = 400")))
+    cell = next(c for c in study.cells() if c["algorithm"]["name"] == algorithm and c["seed"] == 1)
+    record = run_cell(dict(cell, threads=1))
+    assert record["status"] == "done", record.get("error")
+    assert 400 <= record["metrics"]["n_eval"] < 400 + 3 * 20

@@ -291,7 +291,7 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
         except ValueError as e:
             raise _fail(f"{key}.problem", f"{prob} places designs analytically, but {e}") from None
     return StageConfig(t.name, prob, s, d, t.n_gen, pick, alg, options, stop, tuple(t.fixed), t.seed_start,
-                       pick_where)
+                       pick_where, max_evals=t.max_evals)
 
 
 def _starts(stages: list[StageConfig], raw: list[Stage]) -> list[StageConfig]:

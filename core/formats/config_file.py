@@ -67,6 +67,7 @@ class Stage(Struct, forbid_unknown_fields=True, frozen=True):
     problem: str | None = None
     box: Literal["global", "subtask1", "subtask2", "subtask3"] | Box = "global"
     n_gen: PosInt = 100
+    max_evals: PosInt | None = None
     pick: str | Annotated[int, Meta(ge=0)] = "knee"
     pick_where: dict[str, Any] | None = None
     starts: Starts_ | None = None

@@ -70,7 +70,6 @@ class AlgorithmInfo:
     options: tuple[str, ...]
     build: Build
     defaults: Mapping[str, Any] = field(default_factory=dict)
-    evals_per_generation: float = 1.0  # function evaluations per generation, in units of the population size
 
 
 def reference_directions(n_obj: int, n_max: int, n_partitions: int | None = None) -> NDArray[np.float64]:
@@ -242,12 +241,11 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
                            {**_SBX30, "sbx_one_child": True}),
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
-    "cmoemt": AlgorithmInfo("CMOEMT", ("variant",), _cmoemt, evals_per_generation=2.0),
-    "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes, evals_per_generation=3.0),
-    "drlos_emcmo": AlgorithmInfo("DRLOS-EMCMO", ("reward", "replay", "success"), _drlos_emcmo,
-                                 evals_per_generation=1.5),
-    "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo, evals_per_generation=2.0),
-    "mccmo": AlgorithmInfo("MCCMO", ("operator",), _mccmo, evals_per_generation=2.0),
+    "cmoemt": AlgorithmInfo("CMOEMT", ("variant",), _cmoemt),
+    "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes),
+    "drlos_emcmo": AlgorithmInfo("DRLOS-EMCMO", ("reward", "replay", "success"), _drlos_emcmo),
+    "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo),
+    "mccmo": AlgorithmInfo("MCCMO", ("operator",), _mccmo),
     "moead_cmt": AlgorithmInfo("MOEA/D-CMT", (), _moead_cmt),
 }
 

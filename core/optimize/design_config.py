@@ -45,6 +45,7 @@ class StageConfig:
     seed_start: bool = True
     pick_where: tuple[Constraint, ...] = ()
     starts: Starts | None = None
+    max_evals: int | None = None
 
     def problem_spec(self) -> ProblemSpec:
         """The stage's problem with relative limits replaced by non-binding placeholders."""
@@ -54,6 +55,7 @@ class StageConfig:
         """The :class:`StageSpec` with resolved options (default: ``options`` as given, which must be numbers)."""
         prob = make_problem(self.problem, **dict(self.options if options is None else options))
         return StageSpec(self.name, prob, s=self.s, d=self.d, algorithm=self.algorithm, n_gen=self.n_gen, seed=seed,
+                         max_evals=self.max_evals,
                          fixed=self.fixed, seed_start=self.seed_start, stop_below=self.stop_below,
                          pick=self.pick)
 

@@ -57,6 +57,9 @@ class StageSpec:
             mechanism's global bounds.
         algorithm: pymoo algorithm, population and options.
         n_gen: generations (the first one evaluates the initial population).
+        max_evals: function evaluations; the stage ends at whichever of ``n_gen`` and ``max_evals`` comes
+            first (None: generations only). Algorithms spend N to 3N evaluations a generation, so a budget
+            that is fair across them is one in evaluations (studies).
         seed: seed of the algorithm and of the initial sample.
         fixed: parameters held at the start value.
         seed_start: put the start design into the initial population (the rest is uniform
@@ -73,6 +76,7 @@ class StageSpec:
     algorithm: AlgorithmSpec = field(default_factory=AlgorithmSpec)
     n_gen: int = 100
     seed: int = 0
+    max_evals: int | None = None
     fixed: tuple[str, ...] = ()
     seed_start: bool = True
     stop_below: tuple[float, ...] | None = None
@@ -95,6 +99,9 @@ class StageSpec:
                 raise ValueError(f"stage {self.name!r}: stop_below needs {self.problem.n_obj} values")
         if not isinstance(self.n_gen, int) or isinstance(self.n_gen, bool) or self.n_gen < 1:
             raise ValueError(f"stage {self.name!r}: n_gen must be an integer >= 1, got {self.n_gen!r}")
+        if self.max_evals is not None and (not isinstance(self.max_evals, int) or isinstance(self.max_evals, bool)
+                                           or self.max_evals < 1):
+            raise ValueError(f"stage {self.name!r}: max_evals must be an integer >= 1 or None, got {self.max_evals!r}")
         validate(self.algorithm)
 
     def box(self, start: Design) -> Box:
@@ -114,6 +121,7 @@ class StageSpec:
             "d": self.d,
             "algorithm": self.algorithm.to_dict(),
             "n_gen": self.n_gen,
+            "max_evals": self.max_evals,
             "seed": self.seed,
             "fixed": list(self.fixed),
             "seed_start": self.seed_start,
@@ -133,6 +141,7 @@ class StageSpec:
             d=float(d.get("d", 0.0)),
             algorithm=AlgorithmSpec.from_dict(d.get("algorithm", {})),
             n_gen=int(d.get("n_gen", 100)),
+            max_evals=None if d.get("max_evals") is None else int(d["max_evals"]),
             seed=int(d.get("seed", 0)),
             fixed=tuple(d.get("fixed", ())),
             seed_start=bool(d.get("seed_start", True)),
@@ -147,7 +156,8 @@ class Progress:
 
     Attributes:
         stage, index: stage name and position in the pipeline.
-        generation, n_gen: generations completed and planned; ``fraction`` = their ratio.
+        generation, n_gen: generations completed and planned; ``fraction`` = their ratio, or the share
+            of ``max_evals`` spent when that is larger.
         elapsed: compute time of this stage so far (s), pauses between steps excluded.
         n_evals: designs evaluated so far.
         X: ``(pop, n_params)`` current population's parameter vectors (mm, rad).
@@ -175,10 +185,14 @@ class Progress:
     feasible: NDArray[np.bool_]
     objectives: tuple[str, ...]
     chain: int | None = None
+    max_evals: int | None = None
 
     @property
     def fraction(self) -> float:
-        return self.generation / self.n_gen
+        done = self.generation / self.n_gen
+        if self.max_evals:
+            done = max(done, self.n_evals / self.max_evals)
+        return min(1.0, done)
 
     @cached_property
     def shortlist(self) -> decision.Shortlist:
@@ -241,10 +255,20 @@ class Stage:
         repair = BoxRepair(self.problem) if self.spec.problem.repair is not None else None
         alg = make_algorithm(self.spec.algorithm, self.spec.problem.n_obj, self.spec.seed, repair)
         alg.initialization.sampling = self.initial_population(int(alg.pop_size))
-        alg.setup(self.problem, termination=("n_gen", self.spec.n_gen), seed=self.spec.seed, verbose=False)
+        alg.setup(self.problem, termination=self.termination(), seed=self.spec.seed, verbose=False)
         self.algorithm = alg
         self.times.append(time.perf_counter() - t)
         self.status = "running"
+
+    def termination(self) -> Any:
+        """pymoo's termination: ``n_gen`` generations, or whichever of them and ``max_evals`` comes first."""
+        if self.spec.max_evals is None:
+            return ("n_gen", self.spec.n_gen)
+        from pymoo.termination import get_termination
+        from pymoo.termination.collection import TerminationCollection
+
+        return TerminationCollection(get_termination("n_gen", self.spec.n_gen),
+                                     get_termination("n_eval", self.spec.max_evals))
 
     def has_next(self) -> bool:
         """True while generations remain and the stage has not stopped or been cancelled."""
@@ -276,6 +300,7 @@ class Stage:
             stage=self.spec.name, index=self.index, generation=self.generation, n_gen=self.spec.n_gen,
             elapsed=self.elapsed, n_evals=int(self.algorithm.evaluator.n_eval), X=X, F=F, G=G, cv=cv,
             feasible=decision.usable(F, cv), objectives=self.spec.problem.objectives,
+            max_evals=self.spec.max_evals,
         )
         if self.callback is not None:
             self.callback(progress)
@@ -295,7 +320,8 @@ class Stage:
         """
         if callback is not None:
             self.callback = callback
-        if self.status == "cancelled" and self.generation < self.spec.n_gen:
+        if self.status == "cancelled" and (self.algorithm.has_next() if self.algorithm is not None
+                                           else self.generation < self.spec.n_gen):
             self.status = "running" if self.algorithm is not None else "not started"
         while self.has_next():
             if cancel is not None and cancel.is_set():

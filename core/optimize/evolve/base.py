@@ -150,13 +150,15 @@ class ArrayAlgorithm(Algorithm):
 
     def budget(self, per_generation: int, initial: int) -> int:
         """The evaluations this run may spend: the ``n_eval`` termination's, or generations x ``per_generation``
-        plus the ``initial`` population(s) for an ``n_gen`` one (schedules such as an epsilon need it)."""
-        t = self.termination
-        if getattr(t, "n_max_evals", None) is not None:
-            return int(t.n_max_evals)
-        if getattr(t, "n_max_gen", None) is not None:
-            return int(initial + (int(t.n_max_gen) - 1) * per_generation)
-        return int(initial + 100 * per_generation)
+        plus the ``initial`` population(s) for an ``n_gen`` one, the smaller for both (a collection); schedules
+        such as an epsilon need it."""
+        budgets = []
+        for t in getattr(self.termination, "terminations", (self.termination,)):  # a collection: the first to end
+            if getattr(t, "n_max_evals", None) is not None:
+                budgets.append(int(t.n_max_evals))
+            elif getattr(t, "n_max_gen", None) is not None:
+                budgets.append(int(initial + (int(t.n_max_gen) - 1) * per_generation))
+        return min(budgets) if budgets else int(initial + 100 * per_generation)
 
     def log(self, **values: float) -> None:
         """Append this generation's trace row (generation and evaluations added)."""
