@@ -92,6 +92,19 @@ def page_generation(page: Any) -> int | None:
     return int(m.group(1)) if m else None
 
 
+def field(page: Any, label: str) -> Any:
+    """The input of the GUI row labelled ``label`` (exactly), e.g. ``field(page, "r4 [mm]")``.
+
+    The studio's number fields are viser text inputs, whose ``<label for=...>`` names an id the
+    input does not have, so ``page.get_by_label`` cannot find them; this looks for the label and
+    takes the input in its row (dropdowns and sliders' number boxes are found the same way).
+    """
+    assert '"' not in label, label
+    return page.locator(f'xpath=//label[normalize-space(.)="{label}"]'
+                        '/ancestor::div[contains(@class, "mantine-Flex-root")][1]'
+                        '//input[not(@type="hidden")]')
+
+
 def ready(page: Any, timeout: float = 60.0) -> None:
     page.wait_for_selector('table.clm-metrics tr[data-key="mse"] td[data-value]', timeout=timeout * 1000)
 
@@ -132,8 +145,8 @@ def measure(quick: bool) -> dict[str, float]:
             deadline = time.monotonic() + 30
             while studio.session.study.next_stage != STAGE and time.monotonic() < deadline:
                 time.sleep(0.05)
-            page.get_by_label("Population", exact=True).fill(str(pop))
-            page.get_by_label("Generations", exact=True).fill(str(gens))
+            field(page, "Population").fill(str(pop))
+            field(page, "Generations").fill(str(gens))
             while time.monotonic() < deadline:
                 s = studio.session.study.settings.get(STAGE)
                 if s is not None and (s.pop_size, s.n_gen) == (pop, gens):

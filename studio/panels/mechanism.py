@@ -14,7 +14,8 @@ import viser
 
 from core.kinematics import mechanisms, presets
 from core.kinematics.model import Mechanism
-from studio.panels._inputs import ValidatedNumbers, set_value
+from core.kinematics.params import Param
+from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
 from studio.state import DesignView, assembly_reason, preset_label, presets_for
 
 if TYPE_CHECKING:
@@ -28,8 +29,12 @@ def param_label(name: str, unit: str) -> str:
     return f"{name} [{unit}]"
 
 
-def _step(kind: str) -> float:
-    return 0.001 if kind == "angle" else 0.01
+def param_form(p: Param) -> NumberForm:
+    """What a parameter's field takes; the model checks the bounds (``studio.state.check_value``) and assembly."""
+    if p.kind == "angle":
+        return NumberForm(text=f"an angle in {p.unit} (any finite number; angles are periodic)")
+    what = "a length" if p.kind == "length" else "a number"
+    return NumberForm(text=f"{what} in {p.unit} within its bounds [{p.lo:g}, {p.hi:g}] that keeps the design assembled")
 
 
 class MechanismPanel:
@@ -40,9 +45,9 @@ class MechanismPanel:
         gui = studio.server.gui
         self._titles = {m.title: name for name, m in mechanisms.MECHANISMS.items()}
         view = studio.session.view
-        self._numbers = ValidatedNumbers(studio)
+        self._numbers = NumberFields(studio)
         self._mechanism: Mechanism | None = None
-        self._inputs: dict[str, viser.GuiNumberHandle[Any]] = {}
+        self._inputs: dict[str, NumberField] = {}
         self.folder = gui.add_folder("Mechanism", order=order)
         with self.folder:
             self.topology = gui.add_dropdown("Topology", tuple(self._titles), initial_value=view.design.mechanism.title,
@@ -76,7 +81,7 @@ class MechanismPanel:
         return None
 
     def _build_inputs(self, mech: Mechanism, values: dict[str, float]) -> None:
-        self._numbers.cancel_all()
+        self._numbers.clear()
         gui = self.studio.server.gui
         self.params_folder.remove()
         with self.folder:
@@ -84,12 +89,9 @@ class MechanismPanel:
         self._inputs = {}
         with self.params_folder:
             for p in mech.params:
-                bounds = "periodic" if p.kind == "angle" else f"bounds [{p.lo:g}, {p.hi:g}] {p.unit}"
-                h = gui.add_number(param_label(p.name, p.unit), float(values[p.name]), step=_step(p.kind),
-                                   hint=f"{p.doc} ({p.kind}; {bounds})")
-                self._inputs[p.name] = h
-                self._numbers.bind(p.name, h, apply=self._setter(p.name), current=self._getter(p.name),
-                                   what=param_label(p.name, p.unit))
+                self._inputs[p.name] = self._numbers.add(
+                    p.name, param_label(p.name, p.unit), float(values[p.name]), form=param_form(p), hint=p.doc,
+                    apply=self._setter(p.name), current=self._getter(p.name))
         self._mechanism = mech
 
     def _setter(self, name: str) -> Callable[[float], object]:
@@ -114,8 +116,8 @@ class MechanismPanel:
             self.preset.options = options
         set_value(self.preset, self._preset_value(view))
         self.reset.disabled = view.preset is None or not view.edited
-        for name, h in self._inputs.items():
-            set_value(h, float(values[name]))
+        for name, field in self._inputs.items():
+            field.show(float(values[name]))
         self.status.content = self._status(view)
 
     @staticmethod

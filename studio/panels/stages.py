@@ -17,7 +17,7 @@ import viser
 from core.optimize.algorithms import ALGORITHMS
 from core.optimize.problem import problem_names
 from studio.chains import MAX_GEN, MAX_POP, RunSettings, find
-from studio.panels._inputs import ValidatedNumbers, set_value
+from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
 from studio.study_view import StudyView
 from studio.tables import box_html
 
@@ -45,11 +45,11 @@ class StagesPanel:
                                             hint="any registered problem can run in this stage's place")
             self.algorithm = gui.add_dropdown("Algorithm", tuple(ALGORITHMS), initial_value="nsga2",
                                               hint=", ".join(f"{k}: {v.title}" for k, v in ALGORITHMS.items()))
-            self.pop_size = gui.add_number("Population", 40, min=2, max=MAX_POP, step=1, hint="members per generation")
-            self.n_gen = gui.add_number("Generations", 30, min=1, max=MAX_GEN, step=1,
-                                        hint="generations (the first evaluates the initial population)")
-            self.seed = gui.add_number("Seed", 1, min=0, max=2**31 - 1, step=1,
-                                       hint="seed of the algorithm and the initial sample")
+            self._numbers = NumberFields(studio)
+            self.pop_size = self._number("pop_size", "Population", 40, 2, MAX_POP, "members per generation")
+            self.n_gen = self._number("n_gen", "Generations", 30, 1, MAX_GEN,
+                                      "generations (the first evaluates the initial population)")
+            self.seed = self._number("seed", "Seed", 1, 0, 2**31 - 1, "seed of the algorithm and the initial sample")
             self.constraints = gui.add_html("")
             with gui.add_folder("Search box", expand_by_default=False):
                 self.box = gui.add_html("")
@@ -63,10 +63,6 @@ class StagesPanel:
         self.start.on_update(self._on_start)
         self.problem.on_update(self._on_choice)
         self.algorithm.on_update(self._on_choice)
-        self._numbers = ValidatedNumbers(studio)
-        for key, number, what in (("pop_size", self.pop_size, "Population"), ("n_gen", self.n_gen, "Generations"),
-                                  ("seed", self.seed, "Seed")):
-            self._numbers.bind(key, number, apply=self._setter(key), current=self._getter(key), what=what)
         self.run.on_click(self._on_run)
         self.stop.on_click(self._on_stop)
 
@@ -89,9 +85,9 @@ class StagesPanel:
                 self.problem.options = names
             set_value(self.problem, s.problem)
             set_value(self.algorithm, s.algorithm)
-            set_value(self.pop_size, s.pop_size)
-            set_value(self.n_gen, s.n_gen)
-            set_value(self.seed, s.seed)
+            self.pop_size.show(s.pop_size)
+            self.n_gen.show(s.n_gen)
+            self.seed.show(s.seed)
         running = sv.status.running
         for h in (self.stage, self.start, self.problem, self.algorithm, self.pop_size, self.n_gen, self.seed):
             h.disabled = running or not sv.chain
@@ -166,8 +162,13 @@ class StagesPanel:
             session.study.touch()
             return new
 
-    def _setter(self, key: str) -> Callable[[float], object]:
-        return lambda v: self._change(**{key: _whole(v)})
+    def _number(self, key: str, label: str, value: int, lo: int, hi: int, hint: str) -> NumberField:
+        """A whole-number field of the selected stage's settings."""
+        return self._numbers.add(key, label, value, form=NumberForm(whole=True, lo=lo, hi=hi), hint=hint,
+                                 apply=self._setter(key), current=self._getter(key))
+
+    def _setter(self, key: str) -> Callable[[int], object]:
+        return lambda v: self._change(**{key: int(v)})
 
     def _getter(self, key: str) -> Callable[[], float]:
         def get() -> float:
@@ -175,7 +176,7 @@ class StagesPanel:
             session = self.studio.session
             with session.lock:
                 if name is None:
-                    return float(getattr(self.pop_size, "value", 0))
+                    return float(getattr(RunSettings(problem="-"), key))
                 return float(getattr(session.study.settings_for(find(self.studio.chain(), name)), key))
 
         return get
@@ -206,8 +207,3 @@ class StagesPanel:
         self.studio.runner.stop()
         self.studio.refresh()
 
-
-def _whole(v: object) -> int:
-    if isinstance(v, bool) or not isinstance(v, int | float) or v != int(v):
-        raise ValueError(f"expected a whole number, got {v!r}")
-    return int(v)

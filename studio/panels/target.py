@@ -12,34 +12,34 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
-from studio.panels._inputs import ValidatedNumbers, set_value
+from studio.panels._inputs import NumberField, NumberFields, NumberForm
 from studio.state import DesignView
 from studio.target import Curve
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
-FIELDS = (("length", "L [mm]", "step length of the arch"), ("height", "H [mm]", "height of the arch"),
-          ("period", "T [s]", "period of one step cycle (one crank revolution)"))
+FIELDS = (("length", "L [mm]", "mm", "step length of the arch"), ("height", "H [mm]", "mm", "height of the arch"),
+          ("period", "T [s]", "s", "period of one step cycle (one crank revolution)"))
 
 
 class TargetPanel:
-    """Number inputs for the cycloid (editing one returns to the cycloid), a CSV upload, and a status line."""
+    """Number fields for the cycloid (editing one returns to the cycloid), a CSV upload, and a status line."""
 
     def __init__(self, studio: Studio, order: float) -> None:
         self.studio = studio
         gui = studio.server.gui
         target = studio.session.view.target
-        self._numbers = ValidatedNumbers(studio)
-        self.inputs: dict[str, viser.GuiNumberHandle[Any]] = {}
+        self._numbers = NumberFields(studio)
+        self.inputs: dict[str, NumberField] = {}
         self.folder = gui.add_folder("Target", order=order, expand_by_default=False)
         with self.folder:
             self.status = gui.add_markdown("")
-            for key, label, hint in FIELDS:
-                h = gui.add_number(label, float(getattr(target, key)), step=0.01 if key == "period" else 1.0,
-                                   hint=hint + " (compound cycloid; editing returns to it)")
-                self.inputs[key] = h
-                self._numbers.bind(key, h, apply=self._setter(key), current=self._getter(key), what=f"target {label}")
+            for key, label, unit, hint in FIELDS:
+                self.inputs[key] = self._numbers.add(
+                    key, label, float(getattr(target, key)), form=NumberForm(lo=0.0, lo_open=True, unit=unit),
+                    apply=self._setter(key), current=self._getter(key), what=f"target {label}",
+                    hint=hint + "; compound cycloid, editing returns to it")
             self.upload = gui.add_upload_button("Upload CSV curve", icon=viser.Icon.UPLOAD, mime_type=".csv,text/csv",
                                                 hint="a closed curve: rows x,y or x,y,t (mm, s), optional header")
             self.cycloid = gui.add_button("Back to the compound cycloid", disabled=True)
@@ -60,8 +60,8 @@ class TargetPanel:
     def show(self, view: DesignView, optimized_by: tuple[str, ...] | None = None) -> None:
         """Mirror the target; ``optimized_by``: the stages of the mechanism that optimize it (None: not known)."""
         t = view.target
-        for key, h in self.inputs.items():
-            set_value(h, float(getattr(t, key)))
+        for key, field in self.inputs.items():
+            field.show(float(getattr(t, key)))
         self.cycloid.disabled = not t.is_curve
         note = "" if t.has_time else " (no times: compared at the best cyclic shift)"
         line = f"Target: {t.label()}{note}."
@@ -73,14 +73,25 @@ class TargetPanel:
         self.status.content = line
 
     def _on_upload(self, event: viser.GuiEvent[Any]) -> None:
+        """Load an uploaded CSV as the target, or say why the file is not one (the target unchanged).
+
+        viser's upload button tells the page "File uploaded successfully." by itself once the
+        transfer is complete, whatever the server makes of the file, and the studio cannot take that
+        back; so the refusal says the file arrived and what is wrong with it as a curve.
+        """
         if event.client is None:
             return
         f = self.upload.value
+        name = f.name or "upload.csv"
         try:
-            curve = Curve.from_csv(f.content, f.name or "upload.csv")
+            curve = Curve.from_csv(f.content, name)
             self.studio.session.set_curve(curve)
         except ValueError as exc:
-            self.studio.notify(event.client, "Target curve not loaded", f"{exc}. The target is unchanged.")
+            problem = str(exc).removeprefix(f"{name}: ")
+            kept = self.studio.session.view.target.label()
+            self.studio.notify(event.client, "Target curve not loaded",
+                               f"{name} was uploaded but is not a target curve: {problem}. "
+                               f"The target is unchanged: {kept}.")
             return
         self.studio.refresh(fit_camera=True)
 

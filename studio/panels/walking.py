@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 from studio.frames import walk_text
-from studio.panels._inputs import ValidatedNumbers, set_value
+from studio.panels._inputs import NumberFields, NumberForm, set_value
 from studio.state import DesignView
 
 if TYPE_CHECKING:
@@ -25,20 +25,22 @@ class WalkingPanel:
         self.studio = studio
         gui = studio.server.gui
         walk = studio.session.view.walk
-        self._numbers = ValidatedNumbers(studio)
+        self._numbers = NumberFields(studio)
         self.folder = gui.add_folder("Walking and obstacle", order=order, expand_by_default=False)
         with self.folder:
             self.robot = gui.add_dropdown("Robot", tuple(ROBOTS), initial_value=self._robot_label(walk.layout),
                                           hint="legs drawn in the walking view")
-            self.a = gui.add_number("Obstacle a [mm]", float(walk.a), min=0.0, step=1.0, hint="obstacle length")
-            self.b = gui.add_number("Obstacle b [mm]", float(walk.b), min=0.0, step=1.0, hint="obstacle height")
+            self.a = self._numbers.add("a", "Obstacle a [mm]", float(walk.a), form=NumberForm(lo=0.0, unit="mm"),
+                                       apply=self._setter("a"), current=self._getter("a"), what="obstacle a",
+                                       hint="obstacle length")
+            self.b = self._numbers.add("b", "Obstacle b [mm]", float(walk.b), form=NumberForm(lo=0.0, unit="mm"),
+                                       apply=self._setter("b"), current=self._getter("b"), what="obstacle b",
+                                       hint="obstacle height")
             self.place = gui.add_slider("Obstacle place [%]", 0.0, 100.0, 1.0, 100.0 * float(walk.place),
                                         hint="where the obstacle stands within one stride")
             self.status = gui.add_markdown("")
         self.robot.on_update(self._on_robot)
         self.place.on_update(self._on_place)
-        for key, h in (("a", self.a), ("b", self.b)):
-            self._numbers.bind(key, h, apply=self._setter(key), current=self._getter(key), what=f"obstacle {key}")
         self.show(studio.session.view)
 
     @staticmethod
@@ -57,8 +59,8 @@ class WalkingPanel:
     def show(self, view: DesignView) -> None:
         w = view.walk
         set_value(self.robot, self._robot_label(w.layout))
-        set_value(self.a, float(w.a))
-        set_value(self.b, float(w.b))
+        self.a.show(float(w.a))
+        self.b.show(float(w.b))
         set_value(self.place, round(100.0 * float(w.place)))
         if view.walking is None:
             self.status.content = "No walking trajectory: the bench trajectory is not well defined."

@@ -13,8 +13,10 @@ from typing import Any
 
 from playwright.sync_api import Error as PlaywrightError
 from playwright.sync_api import expect
+from test_studio_stages_in_the_browser import field
 
 from core.kinematics import presets
+from studio.panels._inputs import format_number
 
 ROOT = Path(__file__).resolve().parents[2]
 X3 = presets.get("stephenson1/X3")
@@ -24,9 +26,9 @@ X3 = presets.get("stephenson1/X3")
 # the browser renders WebGL in software.)
 SHOWN_JS = """() => {
   const got = {};
-  for (const l of document.querySelectorAll('label[for]')) {
-    const el = document.getElementById(l.htmlFor);
-    if (el && el.tagName === 'INPUT') got[l.textContent] = el.value;
+  for (const l of document.querySelectorAll('label[for]')) {  // the input in each label's row
+    const el = l.closest('.mantine-Flex-root')?.querySelector('input:not([type="hidden"])');
+    if (el) got[l.textContent] = el.value;
   }
   for (const td of document.querySelectorAll('table.clm-metrics tr[data-key] td[data-value]'))
     got['metric ' + td.parentElement.dataset.key] = td.dataset.value;
@@ -41,7 +43,7 @@ def shown(page: Any) -> dict[str, str]:
 
 def expected_of(view: Any) -> dict[str, str]:
     """What a page must show for a session view: every parameter input and every metric."""
-    exp = {f"{p.name} [{p.unit}]": f"{view.values[p.name]:g}" for p in view.design.mechanism.params}
+    exp = {f"{p.name} [{p.unit}]": format_number(view.values[p.name]) for p in view.design.mechanism.params}
     exp.update({f"metric {r.key}": r.text() for r in view.rows})
     return exp
 
@@ -58,8 +60,8 @@ def expect_design_of(page: Any, view: Any, timeout: float = 20_000) -> None:
 
 
 def param_input(page: Any, name: str, unit: str = "mm") -> Any:
-    """The number input of a design parameter, found by its label (``r4 [mm]``)."""
-    return page.get_by_label(f"{name} [{unit}]", exact=True)
+    """The entry field of a design parameter, found by its label (``r4 [mm]``)."""
+    return field(page, f"{name} [{unit}]")
 
 
 def crank_angle(page: Any) -> float:
@@ -110,11 +112,11 @@ def test_editing_a_parameter_re_solves_and_updates_the_metrics(page: Any, studio
 def test_an_invalid_entry_is_refused_with_a_notification_and_the_design_kept(page: Any, studio: Any) -> None:
     before = studio.session.view
     expect_design_of(page, before)
-    field = param_input(page, "r4")
+    r4 = param_input(page, "r4")
     for typed, reason in (("-5", "must be > 0"), ("500", "does not assemble")):
-        field.fill(typed)
+        r4.fill(typed)
         expect(notification(page, "r4 [mm] not applied", reason)).to_be_visible()
-        expect(field).to_have_value(f"{X3.values[7]:g}")
+        expect(r4).to_have_value(format_number(X3.values[7]))
         assert studio.session.view is before
     expect_design_of(page, before)
 
@@ -139,7 +141,7 @@ def test_choosing_another_preset_loads_it(page: Any, studio: Any) -> None:
     expect_design_of(page, studio.session.view)
     page.get_by_label("Preset", exact=True).click()
     page.get_by_role("option", name="X0", exact=True).click()
-    expect(param_input(page, "r4")).to_have_value(f"{presets.get('stephenson1/X0').values[7]:g}")
+    expect(param_input(page, "r4")).to_have_value(format_number(presets.get("stephenson1/X0").values[7]))
     view = studio.session.view
     assert view.preset == "stephenson1/X0"
     expect_design_of(page, view)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import expect
 
+from benchmarks.studio import field
 from core.formats.design import design_from_dict
 from studio.candidates import candidates
 from studio.chains import chain_for, find
@@ -54,10 +55,10 @@ def settle(page: Any, studio: Any, stage: str, pop: int, gens: int) -> None:
     """
     wait_for(lambda: studio.session.study.next_stage == stage, f"{stage} to be chosen")
     default = studio.session.study.settings_for(find(chain_for(studio.session.view.design.mechanism), stage))
-    expect(page.get_by_label("Population", exact=True)).to_have_value(str(default.pop_size))
-    expect(page.get_by_label("Generations", exact=True)).to_have_value(str(default.n_gen))
-    page.get_by_label("Population", exact=True).fill(str(pop))
-    page.get_by_label("Generations", exact=True).fill(str(gens))
+    expect(field(page, "Population")).to_have_value(str(default.pop_size))
+    expect(field(page, "Generations")).to_have_value(str(default.n_gen))
+    field(page, "Population").fill(str(pop))
+    field(page, "Generations").fill(str(gens))
 
     def ready() -> bool:
         st = studio.session.study
@@ -95,8 +96,9 @@ def param_values(page: Any) -> dict[str, str]:
     return page.evaluate("""() => {
       const got = {};
       for (const l of document.querySelectorAll('label[for]')) {
-        const el = document.getElementById(l.htmlFor);
-        if (el && el.tagName === 'INPUT' && l.textContent.endsWith('[mm]')) got[l.textContent] = el.value;
+        // A text input is not the label's target: take the input in the label's row.
+        const el = l.closest('.mantine-Flex-root')?.querySelector('input:not([type="hidden"])');
+        if (el && l.textContent.endsWith('[mm]')) got[l.textContent] = el.value;
       }
       return got;
     }""")
@@ -146,7 +148,7 @@ def test_controls_are_disabled_while_a_stage_runs_and_stop_keeps_the_partial_res
     settle(page, studio, "subtask2", pop=8, gens=5000)
     page.get_by_role("button", name="Run", exact=True).click()
     expect(page.get_by_role("button", name="Run", exact=True)).to_be_disabled()
-    expect(page.get_by_label("Population", exact=True)).to_be_disabled()
+    expect(field(page, "Population")).to_be_disabled()
     stop = page.get_by_role("button", name="Stop", exact=True)
     expect(stop).to_be_enabled()
     stop.click()
@@ -197,7 +199,7 @@ def test_a_session_downloads_and_loads_back(page: Any, studio: Any, tmp_path: Pa
     dl.value.save_as(path)
     assert json.loads(path.read_text()) == saved
     # Change the state, then load the file back.
-    page.get_by_label("r4 [mm]", exact=True).fill("129")
+    field(page, "r4 [mm]").fill("129")
     wait_for(lambda: studio.session.view.values["r4"] == 129.0, "the edit to reach the server")
     with studio.session.lock:
         studio.session.study.keep_branch("test")

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 from playwright.sync_api import expect
-from test_studio_stages_in_the_browser import choose, expand, wait_for
+from test_studio_stages_in_the_browser import choose, expand, field, wait_for
 
 RTCLM = "RTCLM, primary mode (Watt-I six-bar driven at A)"
 # Everything drawn in the scene is darker than this (links, paths, text); the grid and frames are lighter.
@@ -53,9 +53,9 @@ def close_notices(page: Any) -> None:
 
 def open_target_panel(page: Any) -> None:
     """Open the (collapsed by default) Target panel, unless an earlier test left it open."""
-    if not page.get_by_label("L [mm]", exact=True).is_visible():
+    if not field(page, "L [mm]").is_visible():
         expand(page, "Target")
-    expect(page.get_by_label("L [mm]", exact=True)).to_be_visible()
+    expect(field(page, "L [mm]")).to_be_visible()
 
 
 def bench(page: Any) -> dict[str, Any]:
