@@ -18,6 +18,7 @@ from core.kinematics.mechanisms.rtclm import (
     derive,
     first_loop,
     first_loop_shortfall,
+    switching_angle,
     switching_state,
 )
 from core.kinematics.model import Attach, Crank, Dyad, Ground, Mechanism
@@ -127,6 +128,14 @@ def test_switching_angle_is_a_root_and_right_leg_is_the_rear_one(x: np.ndarray) 
     _, e, _ = first_loop(x, s["phi"])
     assert abs(e[0, 0, 1] - e[0, 1, 1]) < 1e-9 * (1.0 + np.abs(e).max())
     assert e[0, 0, 0] <= e[0, 1, 0]
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.lists(first_loop_designs(), min_size=2, max_size=6))
+def test_the_switching_angle_of_a_batch_equals_each_designs_own(rows: list[np.ndarray]) -> None:
+    batch = switching_angle(np.concatenate(rows))
+    alone = np.array([switching_angle(r)[0] for r in rows])
+    assert np.array_equal(batch, alone, equal_nan=True)
 
 
 @pytest.mark.parametrize("name", WORKING)
