@@ -129,6 +129,27 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     return tuple(out)
 
 
+def marker_texts(markers: tuple[tuple[str, tuple[float, float]], ...], h: float,
+                 r: float) -> tuple[SceneText | None, ...]:
+    """Labels of the candidate spheres (tag, centre in mm; radius ``r`` mm), ``h`` mm high, in the markers' order
+    (K1 first): above the sphere, else below, right or left of it, wherever it covers no other label or sphere;
+    None where no spot is free (the sphere stays, and the Pick panel lists it)."""
+    discs = [(x - r, y - r, x + r, y + r) for _, (x, y) in markers]
+    out: list[SceneText | None] = []
+    placed: list[tuple[float, float, float, float]] = []
+    for k, (tag, (x, y)) in enumerate(markers):
+        g = r + 0.15 * h
+        spots = [(x, y + g, "bottom-center"), (x, y - g, "top-center"), (x + g, y, "center-left"),
+                 (x - g, y, "center-right")]
+        tries = [_text(f"tag_{k}", tag, sx, sy, a, h) for sx, sy, a in spots]
+        others = placed + [d for j, d in enumerate(discs) if j != k]
+        got = next((t for t in tries if not any(_overlaps(t.box, o) for o in others)), None)
+        out.append(got)
+        if got is not None:
+            placed.append(got.box)
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class SceneFrames:
     """Scene-ready geometry of one design (metres, float32).

@@ -12,7 +12,7 @@ import viser
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.frames import FPS, INSET_TITLE, SMALL_TEXT, Z_MARKERS, _lift
+from studio.frames import FPS, INSET_TITLE, SMALL_TEXT, Z_MARKERS, _lift, marker_texts
 from studio.geometry import (
     SCENE_SCALE,
     to_scene,
@@ -116,7 +116,9 @@ class CandidateInset:
                     label.remove()
                 self._spheres, self._labels = {}, []
                 scene = self.server.scene
-                for m in markers:
+                tags = marker_texts(tuple((m.tag, m.xy) for m in markers), 0.8 * self._text_height / SCENE_SCALE,
+                                    self._radius / SCENE_SCALE)
+                for m, tag in zip(markers, tags, strict=True):
                     pos = (m.xy[0] * SCENE_SCALE, m.xy[1] * SCENE_SCALE, 2 * Z_MARKERS)
                     # Toon material, no shadows: the standard (PBR) shader takes ~3.5 s to compile under
                     # software WebGL, and the page would freeze the first time candidates appear.
@@ -125,10 +127,11 @@ class CandidateInset:
                                             cast_shadow=False, receive_shadow=False)
                     h.on_click(self._clicked(m.member))
                     self._spheres[m.member] = h
-                    self._labels.append(scene.add_label(f"/candidates/tag_{m.member}", m.tag, anchor="bottom-center",
-                                                        font_size_mode="scene",
-                                                        font_scene_height=0.8 * self._text_height,
-                                                        position=(pos[0], pos[1] + 1.2 * self._radius, 0.0)))
+                    if tag is not None:  # no free spot: the sphere alone (the Pick panel lists it)
+                        self._labels.append(scene.add_label(f"/candidates/tag_{m.member}", tag.text,
+                                                            anchor=tag.anchor,  # type: ignore[arg-type]
+                                                            font_size_mode="scene", font_scene_height=tag.height,
+                                                            position=tag.position))
                 self._markers = markers
             else:
                 for m in markers:

@@ -251,3 +251,21 @@ def test_feature_points_that_would_print_over_each_other_share_one_label():
 
     names = [n for n, _ in Session.default("stephenson1/X3").view.features]
     assert names == ["t1=t4", "t2=t5", "t3", "t6=t7=t8"]  # t4 is 8 mm from t1 on a 300 mm stance
+
+
+def test_candidate_labels_never_cover_each_other_or_another_sphere():
+    from studio.frames import _overlaps, marker_texts
+
+    # Three spheres nearly on top of each other at the front's end, one alone (the README picture's K6, best I, K8).
+    markers = (("K1", (0.0, 0.0)), ("K6", (50.0, 0.0)), ("best I", (53.0, 0.5)), ("K8", (56.0, 0.0)))
+    r, h = 2.0, 4.0
+    got = marker_texts(markers, h, r)
+    assert got[0] is not None and got[0].text == "K1"
+    placed = [t for t in got if t is not None]
+    assert len(placed) >= 3
+    discs = [(x - r, y - r, x + r, y + r) for _, (x, y) in markers]
+    for i, t in enumerate(got):
+        if t is None:
+            continue
+        assert not any(_overlaps(t.box, o.box) for o in placed if o is not t)
+        assert not any(_overlaps(t.box, d) for j, d in enumerate(discs) if j != i)
