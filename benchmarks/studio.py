@@ -92,6 +92,27 @@ def page_generation(page: Any) -> int | None:
     return int(m.group(1)) if m else None
 
 
+def choose(page: Any, label: str, option: str) -> None:
+    """Open a dropdown and click an option; open it again if a click during a layout shift missed.
+
+    A chart that appears above a dropdown moves it while Playwright clicks (seen in CI: the list
+    never opened), and a person would simply click again.
+    """
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    box = page.get_by_label(label, exact=True)
+    want = page.get_by_role("option", name=option, exact=True)
+    for _ in range(3):
+        box.scroll_into_view_if_needed()
+        box.click()
+        try:
+            want.wait_for(state="visible", timeout=5000)
+            break
+        except PlaywrightTimeout:
+            page.keyboard.press("Escape")
+    want.click()
+
+
 def field(page: Any, label: str) -> Any:
     """The input of the GUI row labelled ``label`` (exactly), e.g. ``field(page, "r4 [mm]")``.
 
@@ -140,8 +161,7 @@ def measure(quick: bool) -> dict[str, float]:
             out["idle: messages/s"], bps = frames.rate(t0, time.monotonic())
             out["idle: kB/s"] = bps / 1e3
 
-            page.get_by_label("Stage", exact=True).click()
-            page.get_by_role("option", name=STAGE_TITLE, exact=True).click()
+            choose(page, "Stage", STAGE_TITLE)
             deadline = time.monotonic() + 30
             while studio.session.study.next_stage != STAGE and time.monotonic() < deadline:
                 time.sleep(0.05)

@@ -13,7 +13,7 @@ from typing import Any
 
 from playwright.sync_api import Error as PlaywrightError
 from playwright.sync_api import expect
-from test_studio_stages_in_the_browser import field
+from test_studio_stages_in_the_browser import choose, field
 
 from core.kinematics import presets
 from studio.panels._inputs import format_number
@@ -139,8 +139,7 @@ def test_two_pages_stay_consistent_and_a_reload_gets_the_current_state(
 
 def test_choosing_another_preset_loads_it(page: Any, studio: Any) -> None:
     expect_design_of(page, studio.session.view)
-    page.get_by_label("Preset", exact=True).click()
-    page.get_by_role("option", name="X0", exact=True).click()
+    choose(page, "Preset", "X0")
     expect(param_input(page, "r4")).to_have_value(format_number(presets.get("stephenson1/X0").values[7]))
     view = studio.session.view
     assert view.preset == "stephenson1/X0"

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import expect
 
-from benchmarks.studio import field
+from benchmarks.studio import choose, field
 from core.formats.design import design_from_dict
 from studio.candidates import candidates
 from studio.chains import chain_for, find
@@ -33,11 +33,6 @@ def wait_for(predicate: Any, what: str, timeout: float = 30.0) -> None:
     while not predicate():
         assert time.monotonic() < deadline, f"timed out waiting for {what}"
         time.sleep(0.05)
-
-
-def choose(page: Any, label: str, option: str) -> None:
-    page.get_by_label(label, exact=True).click()
-    page.get_by_role("option", name=option, exact=True).click()
 
 
 def expand(page: Any, folder: str) -> None:
