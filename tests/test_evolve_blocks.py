@@ -56,6 +56,25 @@ def test_spea2_constraint_domination_orders_infeasible_by_violation():
     assert D.tolist() == [[False, False, False], [True, False, True], [True, False, False]]
 
 
+def fitness_by_definition(F, cv=None):
+    """SPEA2's fitness as written, from the (n, n) dominance and distance matrices."""
+    D = spea2.dominance(F, cv)
+    S = D.sum(axis=1)
+    R = (D * S[:, None]).sum(axis=0)
+    k = int(math.floor(math.sqrt(len(F))))
+    sigma = np.sort(spea2.distances(F), axis=1)[:, k - 1]
+    return R + 1.0 / (sigma + 2.0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(2, 30).flatmap(lambda n: st.tuples(
+    arrays(np.float64, (n, 3), elements=st.sampled_from([0.0, 0.5, 1.0, 2.0, 3.0, np.inf, np.nan])),
+    st.one_of(st.none(), arrays(np.float64, (n,), elements=st.sampled_from([0.0, 0.0, 1.0, 2.5, np.nan]))))))
+def test_spea2_fitness_equals_its_definition_with_ties_and_penalised_members(case):
+    F, cv = case  # one fused pass (no distance matrix, a heap per row) must give the definition's numbers
+    assert spea2.fitness(F, cv).tolist() == fitness_by_definition(F, cv).tolist()
+
+
 def truncate_by_definition(F, keep):
     """SPEA2's truncation as written: re-sort every remaining member's distances after each removal and drop the
     lexicographically smallest row (ties: the lowest index)."""

@@ -55,35 +55,68 @@ def distances(F: F64) -> F64:
 
 
 @numba.njit(cache=True)
-def _strength(F: F64, c: F64, constrained: bool) -> F64:  # pragma: no cover - compiled
-    # R(i) = sum of S(j) over the members j that dominate i, S(j) = how many j dominates.
+def _push(heap: F64, r: int, v: float) -> None:  # pragma: no cover - compiled
+    # Replace the largest value of row r's max-heap (heap[r, 0]) with a smaller v and sift it down. (A row
+    # index, not a row view: a view costs a reference count each call.)
+    k = heap.shape[1]
+    p = 0
+    while True:
+        c = 2 * p + 1
+        if c >= k:
+            break
+        if c + 1 < k and heap[r, c + 1] > heap[r, c]:
+            c += 1
+        if heap[r, c] <= v:
+            break
+        heap[r, p] = heap[r, c]
+        p = c
+    heap[r, p] = v
+
+
+@numba.njit(cache=True)
+def _fitness(F: F64, c: F64, constrained: bool, k: int) -> F64:  # pragma: no cover - compiled
+    # One pass over the pairs i < j: who dominates whom (branch-free counts; 1: i over j, 2: j over i, kept
+    # row-wise), S(i) = how many i dominates, and each row's k smallest squared distances in a max-heap (its
+    # root is the k-th); then R(j) = sum of S over j's dominators. No (n, n) distance matrix is built
+    # (np.partition over one was the largest cost of a CMOES generation, whose pools reach 800 members).
     n, m = F.shape
-    dom = np.zeros((n, n), dtype=np.bool_)
+    who = np.zeros((n, n), dtype=np.int8)
     S = np.zeros(n)
+    near = np.full((n, k), np.inf)
     for i in range(n):
-        for j in range(n):
-            if i == j:
-                continue
+        for j in range(i + 1, n):
             if constrained and c[i] != c[j]:
-                d = c[i] < c[j]
+                ij, ji = c[i] < c[j], c[j] < c[i]
             else:
-                le, lt = True, False
-                for k in range(m):
-                    if F[i, k] > F[j, k]:
-                        le = False
-                        break
-                    if F[i, k] < F[j, k]:
-                        lt = True
-                d = le and lt
-            if d:
-                dom[i, j] = True
-                S[i] += 1.0
+                lt, gt = 0, 0
+                for q in range(m):
+                    lt += F[i, q] < F[j, q]
+                    gt += F[i, q] > F[j, q]
+                ij, ji = gt == 0 and lt > 0, lt == 0 and gt > 0
+            who[i, j] = 1 if ij else (2 if ji else 0)
+            S[i] += ij
+            S[j] += ji
+            s = 0.0  # squared distance; sqrt is monotone, so it is taken of the k-th only
+            for q in range(m):
+                d = F[i, q] - F[j, q]
+                s += d * d
+            if np.isnan(s):  # inf - inf (penalised members)
+                s = np.inf
+            if s < near[i, 0]:
+                _push(near, i, s)
+            if s < near[j, 0]:
+                _push(near, j, s)
     R = np.zeros(n)
     for i in range(n):
-        for j in range(n):
-            if dom[i, j]:
+        for j in range(i + 1, n):
+            if who[i, j] == 1:
                 R[j] += S[i]
-    return R
+            elif who[i, j] == 2:
+                R[i] += S[j]
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = R[i] + 1.0 / (np.sqrt(near[i, 0]) + 2.0)
+    return out
 
 
 def fitness(F: F64, cv: F64 | None = None) -> F64:
@@ -98,13 +131,10 @@ def fitness(F: F64, cv: F64 | None = None) -> F64:
         return np.zeros(0)
     Fa = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64)).reshape(n, -1)
     c = np.zeros(n) if cv is None else np.where(np.isnan(cv), np.inf, np.asarray(cv, dtype=np.float64))
-    R = _strength(np.ascontiguousarray(Fa), np.ascontiguousarray(c), cv is not None)
     if n == 1:
-        return R + 0.5
+        return np.full(1, 0.5)
     k = int(math.floor(math.sqrt(n)))
-    sigma = np.partition(distances(F), min(k, n - 1) - 1, axis=1)[:, min(k, n - 1) - 1]
-    with np.errstate(over="ignore"):
-        return R + 1.0 / (sigma + 2.0)
+    return _fitness(np.ascontiguousarray(Fa), np.ascontiguousarray(c), cv is not None, min(k, n - 1))
 
 
 @numba.njit(cache=True)
