@@ -131,17 +131,42 @@ def _one(job: tuple[str, str, int, int]) -> tuple[str, str, int, float, float]:
     return prob, name, seed, r["igd"], r["hv"]
 
 
-def quality(names: list[str], problems: list[str], seeds: range, evals: int, jobs: int = 1) -> list[list[str]]:
+def quality(names: list[str], problems: list[str], seeds: range, evals: int, jobs: int = 1,
+            cache: Path | None = None) -> list[list[str]]:
     """Median IGD / HV per problem and algorithm with the rank-sum verdict on IGD against the reference;
-    printed, and returned as rows of cells (problem first)."""
+    printed, and returned as rows of cells (problem first). With ``cache`` (a JSON-lines file), each finished
+    run is appended to it as it ends and runs found in it are not run again: a long table survives an
+    interruption and can be grown problem by problem."""
+    import json
+
     work = [(p, n, evals, s) for p in problems for n in names for s in seeds]
-    if jobs > 1:
+    known: dict[tuple[str, str, int, int], tuple[float, float]] = {}
+    if cache is not None and cache.exists():
+        for line in cache.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                known[(r["problem"], r["algorithm"], r["evals"], r["seed"])] = (float(r["igd"]), float(r["hv"]))
+    todo = [w for w in work if (w[0], w[1], w[2], w[3]) not in known]
+    print(f"{len(work) - len(todo)} of {len(work)} runs found in the cache, {len(todo)} to run", flush=True)
+
+    def keep(r: tuple[str, str, int, float, float]) -> None:
+        prob, name, seed, ig, hv = r
+        known[(prob, name, evals, seed)] = (ig, hv)
+        if cache is not None:
+            with cache.open("a") as fh:
+                fh.write(json.dumps({"problem": prob, "algorithm": name, "evals": evals, "seed": seed,
+                                     "igd": ig, "hv": hv}) + "\n")
+
+    if jobs > 1 and todo:
         import multiprocessing as mp
 
         with mp.get_context("fork").Pool(jobs) as pool:
-            done = pool.map(_one, work, chunksize=1)
+            for r in pool.imap_unordered(_one, todo, chunksize=1):
+                keep(r)
     else:
-        done = [_one(w) for w in work]
+        for w in todo:
+            keep(_one(w))
+    done = [(p, n, s, *known[(p, n, e, s)]) for p, n, e, s in work]
     got: dict[tuple[str, str], tuple[list[float], list[float]]] = {}
     for prob, name, _, ig, hv in done:
         got.setdefault((prob, name), ([], []))
@@ -196,6 +221,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--evals", type=int, default=None, help="evaluations per run (default 50 000; 5 000 --quick)")
     ap.add_argument("--jobs", type=int, default=1, help="runs in parallel processes")
     ap.add_argument("--markdown", type=Path, default=None, help="write the table into this file's markers")
+    ap.add_argument("--cache", type=Path, default=None,
+                    help="JSON-lines file of finished runs: appended as runs end, found runs are not run again")
     args = ap.parse_args(argv)
     names = [REFERENCE] + [n for n in args.algorithms.split(",") if n and n != REFERENCE]
     n_gen = 20 if args.quick else 100
@@ -216,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
         problems = [p for p in PROBLEMS if not p.startswith("zdt")]
     seeds = args.seeds or (3 if args.quick else 10)
     evals = args.evals or (5000 if args.quick else 50_000)
-    rows = quality(names, problems, range(1, seeds + 1), evals, args.jobs)
+    rows = quality(names, problems, range(1, seeds + 1), evals, args.jobs, args.cache)
     if args.markdown is not None:
         write_markdown(args.markdown, names, rows, seeds, evals)
     return 0
