@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -36,10 +37,22 @@ def in_region(F: F64, R: F64) -> NDArray[np.bool_]:
     F = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64))
     if len(R) == 0 or len(F) == 0:
         return np.ones(len(F), dtype=bool)
-    R = np.asarray(R, dtype=np.float64)
-    le = (R[:, None, :] <= F[None, :, :]).all(axis=2)
-    lt = (R[:, None, :] < F[None, :, :]).any(axis=2)
-    return np.asarray(~(le & lt).any(axis=0), dtype=bool)
+    return _in_region(np.ascontiguousarray(F), np.ascontiguousarray(R, dtype=np.float64))
+
+
+@numba.njit(cache=True)
+def _in_region(F: F64, R: F64) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    out = np.ones(F.shape[0], dtype=np.bool_)
+    for i in range(F.shape[0]):
+        for r in range(R.shape[0]):
+            lt, gt = 0, 0
+            for q in range(F.shape[1]):
+                lt += R[r, q] < F[i, q]
+                gt += not R[r, q] <= F[i, q]  # NaN in R: not <=, so never dominating
+            if gt == 0 and lt > 0:
+                out[i] = False
+                break
+    return out
 
 
 def even_search(pool: Arrays, R: F64, n: int, tau: float, max_cv: float) -> tuple[Arrays, F64, Arrays, F64, int]:

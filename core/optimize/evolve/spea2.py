@@ -196,44 +196,85 @@ def _row_less(D: F64, order: NDArray[np.int64], sorted_: B, alive: B, a: int, b:
     return _sorted_less(D, order, alive, a, b)
 
 
-@numba.njit(cache=True)
-def _nearest(D: F64, alive: B, row: int) -> float:  # pragma: no cover - compiled
-    v = np.inf
-    for j in range(D.shape[0]):
-        if alive[j] and D[row, j] < v:
-            v = D[row, j]
-    return v
+LEVELS = 3  # distinct smallest distances each row keeps during truncation
 
 
 @numba.njit(cache=True)
-def _truncate(D: F64, keep: int) -> B:  # pragma: no cover - compiled
-    # Only members whose nearest alive distance is the smallest can have the lexicographically smallest row, so
-    # only they are compared. Each row's nearest alive distance is kept and recomputed only when the member at
-    # that distance is removed: O(r^2) in all, where sorting every row was O(r^2 log r).
+def _fill(D: F64, alive: B, row: int, near: F64, start: int) -> None:  # pragma: no cover - compiled
+    # near[row, 2j], near[row, 2j + 1] for j >= start: the next distinct smallest distances of ``row`` to alive
+    # members after level start - 1's value, and how many alive members are at each (+inf, 0: none).
+    after = -np.inf if start == 0 else near[row, 2 * start - 2]
+    for j in range(start, near.shape[1] // 2):
+        v, c = _next_value(D, alive, row, after) if after < np.inf else (np.inf, 0)
+        near[row, 2 * j], near[row, 2 * j + 1] = v, c
+        after = v
+
+
+@numba.njit(cache=True)
+def _same_point(F: F64, a: int, b: int) -> bool:  # pragma: no cover - compiled
+    for q in range(F.shape[1]):
+        if F[a, q] != F[b, q]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _less(D: F64, F: F64, order: NDArray[np.int64], sorted_: B, alive: B, near: F64, a: int,
+          b: int) -> bool:  # pragma: no cover - compiled
+    # Is a's row lexicographically smaller than b's? Their first distinct values and counts decide nearly
+    # always (more copies of an equal value = smaller); two copies of one point have equal rows (their
+    # distances to every other member are the same numbers); anything else is compared on rows sorted once.
+    for j in range(near.shape[1] // 2):
+        va, vb = near[a, 2 * j], near[b, 2 * j]
+        if va != vb:
+            return va < vb
+        if va == np.inf:  # the rest of both rows is +inf
+            return False
+        if near[a, 2 * j + 1] != near[b, 2 * j + 1]:
+            return near[a, 2 * j + 1] > near[b, 2 * j + 1]
+    if _same_point(F, a, b):
+        return False
+    return _row_less(D, order, sorted_, alive, a, b, False)
+
+
+@numba.njit(cache=True)
+def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
+    # Each alive row keeps its LEVELS smallest distinct distances to alive members and their counts; a removal
+    # updates the rows it touches (a count drops; a level whose count reaches zero is dropped and the last
+    # level found again by one scan). Only rows with the smallest first value are candidates, compared by
+    # :func:`_less`: O(r^2) in all, where comparing whole rows made exact duplicates (CMOES's unions) and
+    # mutual nearest neighbours cost a sort per row.
     r = D.shape[0]
     alive = np.ones(r, dtype=np.bool_)
     order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_row_less)
     sorted_ = np.zeros(r, dtype=np.bool_)
-    near = np.empty(r)
+    near = np.empty((r, 2 * LEVELS))
     for i in range(r):
-        near[i] = _nearest(D, alive, i)
+        _fill(D, alive, i, near, 0)
     for _ in range(r - keep):
         m = np.inf
         for i in range(r):
-            if alive[i] and near[i] < m:
-                m = near[i]
-        tied = 0
-        for i in range(r):
-            if alive[i] and near[i] == m:
-                tied += 1
+            if alive[i] and near[i, 0] < m:
+                m = near[i, 0]
         best = -1
         for i in range(r):
-            if alive[i] and near[i] == m and (best < 0 or _row_less(D, order, sorted_, alive, i, best, tied <= 4)):
+            if alive[i] and near[i, 0] == m and (best < 0 or _less(D, F, order, sorted_, alive, near, i, best)):
                 best = i
         alive[best] = False
         for i in range(r):
-            if alive[i] and D[i, best] == near[i]:
-                near[i] = _nearest(D, alive, i)
+            if not alive[i]:
+                continue
+            d = D[i, best]
+            for j in range(LEVELS):
+                if d == near[i, 2 * j]:
+                    near[i, 2 * j + 1] -= 1
+                    if near[i, 2 * j + 1] == 0:
+                        for q in range(2 * j, 2 * LEVELS - 2):
+                            near[i, q] = near[i, q + 2]
+                        _fill(D, alive, i, near, LEVELS - 1)
+                    break
+                if d < near[i, 2 * j]:
+                    break
     return alive
 
 
@@ -243,7 +284,8 @@ def truncate(F: F64, keep: int) -> B:
     n = len(F)
     if keep >= n:
         return np.ones(n, dtype=bool)
-    return _truncate(np.ascontiguousarray(distances(F)), int(keep))
+    F = np.ascontiguousarray(F, dtype=np.float64).reshape(n, -1)
+    return _truncate(np.ascontiguousarray(distances(F)), F, int(keep))
 
 
 def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> tuple[NDArray[np.int64], F64, B]:
