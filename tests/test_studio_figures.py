@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from hypothesis import strategies as st
 
 from core.kinematics import mechanisms, presets
 from core.kinematics.model import Ground
-from studio.figures import make_bench_figure
+from studio.bench_svg import bench_svg, ticks
 from studio.frames import build_frames
 from studio.geometry import (
     EDGE_CRANK,
@@ -168,41 +169,62 @@ def test_scene_frames_follow_the_solution(x3_view) -> None:
     assert f.layout.leg_offset[0] + f.layout.leg[0] > f.layout.design[2]
 
 
-def test_bench_figure_draws_the_closed_path_and_the_target_with_mm_axes(x3_view) -> None:
+SVG = "{http://www.w3.org/2000/svg}"
+
+
+def bench_curves(svg: str) -> tuple[ET.Element, dict[str, list[np.ndarray]]]:
+    """The chart's root and its polylines by name, each an ``(n, 2)`` array in mm."""
+    root = ET.fromstring(svg)
+    curves: dict[str, list[np.ndarray]] = {}
+    for el in root.iter(f"{SVG}polyline"):
+        pts = np.array([[float(v) for v in p.split(",")] for p in el.get("points", "").split()])
+        curves.setdefault(el.get("data-name", ""), []).append(pts)
+    return root, curves
+
+
+def test_bench_chart_draws_the_closed_path_and_the_target_with_mm_axes(x3_view) -> None:
     leg, tgt = x3_view.solution.leg[0], x3_view.target_leg
-    fig = make_bench_figure(leg, tgt)
-    by_name = {t.name: t for t in fig.data}
-    path, target = by_name["bench trajectory"], by_name["target"]
-    assert len(path.x) == len(leg) + 1 and (path.x[0], path.y[0]) == (path.x[-1], path.y[-1])
-    np.testing.assert_allclose(np.c_[target.x[:-1], target.y[:-1]], tgt)
-    assert "mm" in fig.layout.xaxis.title.text and "mm" in fig.layout.yaxis.title.text
-    assert fig.layout.yaxis.scaleanchor == "x"  # equal scales: the path is not distorted
+    root, curves = bench_curves(bench_svg(leg, tgt))
+    (path,), (target,) = curves["bench trajectory"], curves["target"]
+    assert len(path) == len(leg) + 1 and np.array_equal(path[0], path[-1])
+    np.testing.assert_allclose(path[:-1], leg, atol=5e-4)  # written with 3 decimals (1 um)
+    np.testing.assert_allclose(target[:-1], tgt, atol=5e-4)
+    texts = [t.text for t in root.iter(f"{SVG}text")]
+    assert "x, leg frame (mm)" in texts and "y (mm)" in texts
+    # Equal scales: one transform with the same factor across and up (y flipped).
+    (g,) = [g for g in root.iter(f"{SVG}g") if g.get("transform", "").startswith("matrix")]
+    a, b, c, d = (float(v) for v in g.get("transform", "")[7:-1].split()[:4])
+    assert b == c == 0.0 and a == -d > 0
 
 
 @given(split=st.integers(1, 89), shift=st.integers(0, 89))
 @settings(max_examples=40, deadline=None)
-def test_bench_figure_colours_stance_and_swing_covering_every_sample_once(split: int, shift: int) -> None:
+def test_bench_chart_colours_stance_and_swing_covering_every_sample_once(split: int, shift: int) -> None:
     n = 90
     theta = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    leg = np.stack([np.cos(theta), np.sin(theta)], -1)
+    leg = 100.0 * np.stack([np.cos(theta), np.sin(theta)], -1)
     stance = np.roll(np.arange(n) < split, shift)
-    fig = make_bench_figure(leg, None, stance=stance)
-    by_name = {t.name: t for t in fig.data}
+    _, curves = bench_curves(bench_svg(leg, None, stance=stance))
     for name, mask in (("stance", stance), ("swing", ~stance)):
-        xs = np.array([v for v in by_name[name].x if v is not None], dtype=float)
-        ys = np.array([v for v in by_name[name].y if v is not None], dtype=float)
-        drawn = {int(np.argmin(np.hypot(leg[:, 0] - x, leg[:, 1] - y))) for x, y in zip(xs, ys, strict=True)}
-        # One contiguous arc: its own samples plus the joint to the first sample of the other phase.
+        (arc,) = curves[name]  # one contiguous arc per phase
+        drawn = {int(np.argmin(np.hypot(*(leg - p).T))) for p in arc}
+        # Its own samples plus the joint to the first sample of the other phase.
         assert set(np.flatnonzero(mask)) <= drawn
         assert len(drawn) == mask.sum() + 1
 
 
-def test_bench_figure_labels_feature_points_and_marks_the_foot() -> None:
-    leg = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
-    fig = make_bench_figure(leg, features={"t1": (0.0, 0.0), "t2": (1.0, 0.0)}, foot=(1.0, 1.0))
-    by_name = {t.name: t for t in fig.data}
-    assert list(by_name["feature points"].text) == ["t1", "t2"]
-    assert (by_name["foot"].x[0], by_name["foot"].y[0]) == (1.0, 1.0)
+def test_bench_chart_labels_feature_points_and_leaves_gaps_where_the_path_breaks() -> None:
+    leg = np.array([[0.0, 0.0], [10.0, 0.0], [np.nan, np.nan], [10.0, 10.0], [0.0, 10.0]])
+    root, curves = bench_curves(bench_svg(leg, features={"t1": (0.0, 0.0), "t2=t5": (10.0, 0.0)}))
+    labels = [t.text for t in root.iter(f"{SVG}text") if t.get("class") == "label"]
+    assert labels == ["t1", "t2=t5"]
+    assert len(curves["bench trajectory"]) == 2  # the unassembled sample splits the path
+
+
+def test_chart_ticks_are_round_and_inside_the_range():
+    assert ticks(0.0, 300.0) == [0.0, 100.0, 200.0, 300.0]
+    assert ticks(48.6, 50.6) == [49.0, 49.5, 50.0, 50.5]
+    assert ticks(1.0, 1.0) == []
 
 
 def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
@@ -237,13 +259,15 @@ def test_a_flat_bench_path_still_gets_a_chart_with_height_and_equal_scales():
     # An RTCLM-like path: 200 mm long, 2 mm high (the chart used to collapse to zero height).
     x = np.linspace(-100.0, 100.0, 90)
     leg = np.stack([x, 48.6 + 2.0 * (x / 100.0) ** 2], axis=1)
-    from studio.figures import MIN_ASPECT, equal_aspect_ranges, make_bench_figure
+    from studio.figures import MIN_ASPECT, equal_aspect_ranges
 
     xr, yr = equal_aspect_ranges([leg])
     assert yr[1] - yr[0] >= MIN_ASPECT * (xr[1] - xr[0]) - 1e-9
     assert xr[0] < -100.0 and xr[1] > 100.0 and yr[0] < 48.6 and yr[1] > 50.6
-    fig = make_bench_figure(leg, None)
-    assert list(fig.layout.yaxis.range) == yr and fig.layout.yaxis.scaleanchor == "x"
+    root, _ = bench_curves(bench_svg(leg, None))
+    assert [float(v) for v in root.get("data-y", "").split(",")] == pytest.approx(yr, rel=1e-5)
+    (plot,) = [r for r in root.iter(f"{SVG}rect") if r.get("class") == "plot"]
+    assert float(plot.get("height", 0)) >= MIN_ASPECT * float(plot.get("width", 1)) - 0.1
 
 
 def test_feature_points_that_would_print_over_each_other_share_one_label():

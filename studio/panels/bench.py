@@ -1,12 +1,10 @@
-"""Bench-trajectory chart: the leg-frame foot path against the target, with axes in mm."""
+"""Bench-trajectory chart: the leg-frame foot path against the target, with axes in mm (inline SVG)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import plotly.graph_objects as go
-
-from studio.figures import make_bench_figure
+from studio.bench_svg import bench_svg
 from studio.state import DesignView
 
 if TYPE_CHECKING:
@@ -14,21 +12,22 @@ if TYPE_CHECKING:
 
 
 class BenchPanel:
-    """A plotly chart of the bench trajectory, redrawn when the design or target changes."""
+    """The bench trajectory drawn on the server as SVG, redrawn when the design or target changes."""
 
     def __init__(self, studio: Studio, order: float) -> None:
         gui = studio.server.gui
         view = studio.session.view
         self.folder = gui.add_folder("Bench trajectory (leg frame)", order=order)
         with self.folder:
-            # viser 1.1.1 draws the chart ``width * aspect`` tall (height / width, despite its docstring).
-            self.plot = gui.add_plotly(self._figure(view), aspect=0.62, config={"displayModeBar": False})
+            self.plot = gui.add_html(self._svg(view))
 
     @staticmethod
-    def _figure(view: DesignView, show_target: bool = True) -> go.Figure:
-        return make_bench_figure(view.solution.leg[0], view.target_leg if show_target else None, stance=view.stance,
-                                 features=dict(view.features))
+    def _svg(view: DesignView, show_target: bool = True) -> str:
+        return bench_svg(view.solution.leg[0], view.target_leg if show_target else None, stance=view.stance,
+                         features=dict(view.features))
 
     def show(self, view: DesignView, show_target: bool = True) -> None:
         """Redraw the chart; the target only when a stage of the mechanism optimizes it."""
-        self.plot.figure = self._figure(view, show_target)
+        svg = self._svg(view, show_target)
+        if svg != self.plot.content:
+            self.plot.content = svg

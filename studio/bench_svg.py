@@ -1,0 +1,157 @@
+"""The bench-trajectory chart as an inline SVG, drawn on the server: arrays in, markup out.
+
+The side panel's one chart that every page shows at once. As a plotly chart it made each page load and
+evaluate plotly.js (4.8 MB, ~1.5 s of a software-rendered page) before anything else of the studio
+appeared; as SVG it costs a few kB and draws with the page. Equal scales in mm, a minimum height for flat
+paths (``studio.figures.equal_aspect_ranges``), stance and swing in their colours, the target dashed,
+feature points labelled. Curves are drawn in mm under one transform (their ``points`` are mm), so a test
+or a person reading the markup sees the data, not pixels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from html import escape
+
+import numpy as np
+from numpy.typing import NDArray
+
+from studio import palette
+from studio.figures import _arc, _runs, equal_aspect_ranges
+
+F64 = NDArray[np.float64]
+WIDTH = 320.0  # viewBox width (px); the chart scales to the panel's width
+LEFT, RIGHT, TOP, BOTTOM = 46.0, 10.0, 30.0, 36.0
+MAX_ASPECT = 1.1  # a tall path is drawn narrower rather than taller than this (height / width)
+FONT = "font-family:sans-serif;font-size:11px;fill:#444"
+
+
+def ticks(lo: float, hi: float, count: int = 5) -> list[float]:
+    """Round values (1, 2 or 5 x 10^k apart) inside [lo, hi], about ``count`` of them."""
+    span = hi - lo
+    if not (math.isfinite(span) and span > 0):
+        return []
+    raw = span / count
+    mag = 10.0 ** math.floor(math.log10(raw))
+    step = next(m * mag for m in (1.0, 2.0, 5.0, 10.0) if m * mag >= raw)
+    first = math.ceil(lo / step) * step
+    out = [round(first + k * step, 10) for k in range(int((hi - first) / step + 1e-9) + 1)]
+    return out if len(out) >= 2 or count > 20 else ticks(lo, hi, count + 1)  # two at least: a scale
+
+
+def _label(v: float) -> str:
+    return f"{v:g}" if abs(v) >= 1 or v == 0 else f"{v:.2g}"
+
+
+def _points(arc: F64) -> list[str]:
+    """``points`` attributes of the finite stretches of an ``(n, 2)`` polyline (mm)."""
+    out, cur = [], []
+    for x, y in arc:
+        if np.isfinite(x) and np.isfinite(y):
+            cur.append(f"{x:.3f},{y:.3f}")
+        elif cur:
+            out.append(" ".join(cur))
+            cur = []
+    if cur:
+        out.append(" ".join(cur))
+    return [p for p in out if " " in p]
+
+
+def bench_svg(
+    leg: F64,
+    target_leg: F64 | None = None,
+    *,
+    stance: NDArray[np.bool_] | None = None,
+    features: Mapping[str, tuple[float, float]] | None = None,
+) -> str:
+    """The bench trajectory in the leg frame (mm) with the target overlaid, as ``<svg>`` markup.
+
+    Args:
+        leg: ``(n_samples, 2)`` foot path in the leg frame (mm); NaN samples leave gaps.
+        target_leg: ``(n_target, 2)`` target in the leg frame (mm), or None.
+        stance: ``(n_samples,)`` True on the stance half-cycle (stance and swing in two colours), or None.
+        features: feature points by label (``{"t1=t4": (x, y), ...}``, mm).
+
+    The ``<svg class="clm-bench">`` carries ``data-x`` and ``data-y`` (the axis ranges, mm); each curve is a
+    ``<polyline data-name=...>`` (``bench trajectory``, ``stance``, ``swing``, ``target``) in mm.
+    """
+    leg = np.asarray(leg, dtype=np.float64).reshape(-1, 2)
+    tgt = None if target_leg is None else np.asarray(target_leg, dtype=np.float64).reshape(-1, 2)
+    xr, yr = equal_aspect_ranges([leg, *(() if tgt is None else (tgt,))])
+    if xr is None or yr is None:
+        xr, yr = [0.0, 1.0], [0.0, 1.0]
+    pw = WIDTH - LEFT - RIGHT
+    aspect = (yr[1] - yr[0]) / (xr[1] - xr[0])
+    ph = pw * min(aspect, MAX_ASPECT)
+    k = ph / (yr[1] - yr[0])  # px per mm, the same across and up
+    pw_used = k * (xr[1] - xr[0])
+    x0 = LEFT + 0.5 * (pw - pw_used)
+    height = TOP + ph + BOTTOM
+
+    def px(x: float, y: float) -> tuple[float, float]:
+        return x0 + (x - xr[0]) * k, TOP + (yr[1] - y) * k
+
+    out = [f'<svg class="clm-bench" xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {WIDTH:g} {height:.1f}" '
+           f'width="100%" data-x="{xr[0]:.6g},{xr[1]:.6g}" data-y="{yr[0]:.6g},{yr[1]:.6g}" '
+           'style="display:block">',
+           f'<rect class="plot" x="{x0:.2f}" y="{TOP:.2f}" width="{pw_used:.2f}" height="{ph:.2f}" fill="white" '
+           'stroke="#ccc"/>']
+    for v in ticks(xr[0], xr[1]):
+        x, _ = px(v, yr[0])
+        out.append(f'<line x1="{x:.2f}" y1="{TOP:.2f}" x2="{x:.2f}" y2="{TOP + ph:.2f}" stroke="#e5e5e5"/>')
+        out.append(f'<text class="xtick" x="{x:.2f}" y="{TOP + ph + 13:.2f}" text-anchor="middle" '
+                   f'style="{FONT}">{_label(v)}</text>')
+    for v in ticks(yr[0], yr[1], count=max(2, min(5, int(ph / 28)))):
+        _, y = px(xr[0], v)
+        out.append(f'<line x1="{x0:.2f}" y1="{y:.2f}" x2="{x0 + pw_used:.2f}" y2="{y:.2f}" stroke="#e5e5e5"/>')
+        out.append(f'<text class="ytick" x="{x0 - 5:.2f}" y="{y + 4:.2f}" text-anchor="end" '
+                   f'style="{FONT}">{_label(v)}</text>')
+    out.append(f'<text x="{x0 + pw_used / 2:.2f}" y="{height - 6:.2f}" text-anchor="middle" style="{FONT}">'
+               'x, leg frame (mm)</text>')
+    out.append(f'<text x="12" y="{TOP + ph / 2:.2f}" text-anchor="middle" style="{FONT}" '
+               f'transform="rotate(-90 12 {TOP + ph / 2:.2f})">y (mm)</text>')
+
+    curves: list[tuple[str, F64, palette.RGB, str]] = []  # name, polyline (mm), colour, dash
+    if tgt is not None:
+        curves.append(("target", np.concatenate([tgt, tgt[:1]]), palette.TARGET, "6 4"))
+    if stance is None:
+        curves.append(("bench trajectory", np.concatenate([leg, leg[:1]]), palette.PATH, ""))
+    else:
+        mask = np.asarray(stance, dtype=bool)
+        for name, m, colour in (("stance", mask, palette.STANCE), ("swing", ~mask, palette.SWING)):
+            for s, e in _runs(m):
+                curves.append((name, _arc(leg, s, e), colour, ""))
+    # Curves in mm: y up, one scale; strokes and dashes stay in px.
+    out.append(f'<g transform="matrix({k:.6g} 0 0 {-k:.6g} {x0 - xr[0] * k:.6g} {TOP + yr[1] * k:.6g})">')
+    for name, arc, colour, dash in curves:
+        for pts in _points(arc):
+            out.append(f'<polyline data-name="{name}" points="{pts}" fill="none" stroke="{palette.css(colour)}" '
+                       f'stroke-width="{2 if name == "target" else 2.5}" vector-effect="non-scaling-stroke"'
+                       + (f' stroke-dasharray="{dash}"' if dash else "") + "/>")
+    out.append("</g>")
+    for name, (fx, fy) in (features or {}).items():
+        if not (np.isfinite(fx) and np.isfinite(fy)):
+            continue
+        x, y = px(fx, fy)
+        out.append(f'<circle class="feature" cx="{x:.2f}" cy="{y:.2f}" r="3.5" fill="black"/>')
+        out.append(f'<text class="label" x="{x:.2f}" y="{y - 7:.2f}" text-anchor="middle" '
+                   f'style="{FONT};fill:#222">{escape(name)}</text>')
+
+    kinds: list[tuple[str, palette.RGB | None, str]] = [
+        ("target", palette.TARGET, "6 4"), ("stance", palette.STANCE, ""), ("swing", palette.SWING, ""),
+        ("bench trajectory", palette.PATH, "")]
+    legend = [kind for kind in kinds if any(cn == kind[0] for cn, *_ in curves)]
+    if features:
+        legend.append(("feature points", None, ""))
+    lx = 8.0
+    for name, swatch, dash in legend:
+        if swatch is None:
+            out.append(f'<circle cx="{lx + 9:.1f}" cy="12" r="3.5" fill="black"/>')
+        else:
+            out.append(f'<line x1="{lx:.1f}" y1="12" x2="{lx + 18:.1f}" y2="12" stroke="{palette.css(swatch)}" '
+                       f'stroke-width="2.5"' + (f' stroke-dasharray="{dash}"' if dash else "") + "/>")
+        out.append(f'<text x="{lx + 22:.1f}" y="16" style="{FONT}">{escape(name)}</text>')
+        lx += 28 + 6.2 * len(name)
+    out.append("</svg>")
+    return "".join(out)
