@@ -3,7 +3,7 @@ core/optimize/evolve/fronts/dascmop{1..9}.pf. Run: python scripts/make_dascmop_f
 
 How they are derived, from pymoo's own code (pymoo/problems/multi/dascmop.py):
 - Every objective is s(x) + g, where x = x1 (DAS-CMOP1-6) or (x1, x2) (DAS-CMOP7-9) and g >= 0 is the
-  distance function of the other variables, which can take any value in [0, 7] whatever x is.
+  distance function of the other variables, which can take any value in [0, 7] (at least) whatever x is.
 - The constraints are: a diversity constraint on x alone; d <= g <= e (d = 0.5, e = d - ln 0.5); and
   "stay outside" ellipses (1-6) or spheres (7-9) in objective space.
 - For a fixed x, a larger g is dominated by a smaller one, so only the smallest feasible g*(x) counts.
@@ -12,6 +12,8 @@ How they are derived, from pymoo's own code (pymoo/problems/multi/dascmop.py):
 - The front is the non-dominated set of s(x) + g*(x) over a fine grid of x (the grid has the ends of the
   diversity intervals as nodes), thinned by farthest-point sampling that starts from each objective's
   minimum and maximum.
+At this difficulty the spheres of 7-9 never reach the region g >= d, so those fronts lie at g = d; in 2/5
+and 3/6 the ellipse centred at (1, 0.5) lifts parts of the front to g of up to 0.533.
 """
 
 from __future__ import annotations
