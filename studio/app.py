@@ -50,6 +50,9 @@ STUDY_PUSH_PERIOD = 0.15
 # A Run click this soon after a run started is the second click of a double click (even if that
 # run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
+# After a page first reports its camera (it has drawn), the first chart is created this much later (s): with it
+# viser sends plotly.js, which the page then compiles while idle instead of before drawing (studio/panels/_lazy.py).
+PLOTLY_AFTER = 0.5
 
 
 class StudioServer(viser.ViserServer):
@@ -251,6 +254,9 @@ class Studio:
             if np.allclose(cam.position, self.server.initial_camera.position, atol=1e-4):
                 fitted.set()
                 self._fit_client(client)
+                # The page has drawn: now plotly.js (with the first chart) can follow without holding it up.
+                if not self.pareto.plot.created:
+                    threading.Timer(PLOTLY_AFTER, self.pareto.plot.ensure).start()
 
         client.camera.on_update(on_camera)
 

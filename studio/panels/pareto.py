@@ -16,6 +16,7 @@ import viser
 
 from studio.charts import target_text
 from studio.figures import make_pareto_figure, make_trace_figure
+from studio.panels._lazy import LazyPlotly
 from studio.study import status_text
 from studio.study_view import StudyView
 
@@ -99,12 +100,13 @@ class ParetoPanel:
             self.caption = gui.add_markdown("No stage has run yet.")
             self.view = gui.add_dropdown("View", (THREE_D,), visible=False,
                                          hint="three objectives: the 3-D cloud, or its projection onto two of them")
-            # viser 1.1.1 draws the chart ``width * aspect`` tall.
-            self.plot = gui.add_plotly(go.Figure(), aspect=0.95, config=CONFIG, visible=False)
             self.open_large = gui.add_button("Open large chart", icon=viser.Icon.ARROWS_MAXIMIZE, visible=False,
                                              hint="the chart in a large window you can move (Close in it)")
-            # The algorithm's own log: feasible ratios (and epsilon, task odds) over evaluations.
-            self.trace = gui.add_plotly(go.Figure(), aspect=0.5, config=CONFIG, visible=False)
+        # Created on first use (plotly.js is sent with the first chart): between View and the button, and the
+        # algorithm's own log (feasible ratios, epsilon, task odds over evaluations) after it. viser 1.1.1
+        # draws a chart ``width * aspect`` tall.
+        self.plot = LazyPlotly(gui, self.folder, (self.view.order + self.open_large.order) / 2, 0.95, CONFIG)
+        self.trace = LazyPlotly(gui, self.folder, self.open_large.order + 0.5, 0.5, CONFIG)
         self.view.on_update(lambda _: self._redraw())
         self.open_large.on_click(lambda _: self._open_large())
 

@@ -11,6 +11,7 @@ import viser
 
 from studio import palette
 from studio.panels._inputs import set_value
+from studio.panels._lazy import LazyPlotly
 from studio.panels.pareto import CONFIG
 from studio.studies import StudyRun, find_studies, finished_runs, picked_design, study_rows
 
@@ -55,10 +56,10 @@ class StudiesPanel:
             self.summary = gui.add_markdown("")
             self.case = gui.add_dropdown("Case", (NONE,), disabled=True)
             self.metric = gui.add_dropdown("Metric", FIRST, initial_value="mse")
-            self.plot = gui.add_plotly(go.Figure(), aspect=0.8, config=CONFIG, visible=False)
             self.run = gui.add_dropdown("Run", (NONE,), disabled=True, hint="a finished run: its picked design")
             self.load = gui.add_button("Load its design", icon=viser.Icon.ARROW_RIGHT, disabled=True,
                                        hint="the run's picked design goes into the editor (the study is not changed)")
+        self.plot = LazyPlotly(gui, self.folder, (self.metric.order + self.run.order) / 2, 0.8, CONFIG)  # on first use
         self.scan.on_click(self._on_scan)
         self.study.on_update(lambda e: self._on_study(e.client))
         self.case.on_update(lambda _: self._draw())
