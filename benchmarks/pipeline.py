@@ -119,9 +119,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rtclm-case", type=int, default=1, choices=range(1, 6), help="RTCLM case (default 1)")
     ap.add_argument("--skip-rtclm", "--no-rtclm", dest="skip_rtclm", action="store_true",
                     help="run the Stephenson-I design only")
+    ap.add_argument("--config", type=Path, default=CONFIGS / "stephenson1_cycloid.toml",
+                    help="the Stephenson-I design's configuration (default: the shipped one)")
     args = ap.parse_args(argv)
     seeds = [int(s) for s in args.seeds.split(",")]
-    s1 = load_config(CONFIGS / "stephenson1_cycloid.toml")
+    s1 = load_config(args.config)
     rt = load_config(CONFIGS / f"rtclm_case{args.rtclm_case}.toml")
     if args.quick:
         s1, rt, seeds = quick(s1), quick(rt), seeds[:1]
