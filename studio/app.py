@@ -50,9 +50,9 @@ STUDY_PUSH_PERIOD = 0.15
 # A Run click this soon after a run started is the second click of a double click (even if that
 # run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
-# After a page first reports its camera (it has drawn), the first chart is created this much later (s): with it
-# viser sends plotly.js, which the page then compiles while idle instead of before drawing (studio/panels/_lazy.py).
-PLOTLY_AFTER = 0.5
+# A page gets its plotly charts this long after it first reports its camera (it has drawn), or after it connected
+# if it reports none (s): with them viser sends it plotly.js, compiled once the page is up (studio/panels/_lazy.py).
+PLOTLY_AFTER, PLOTLY_LATEST = 0.5, 3.0
 
 
 class StudioServer(viser.ViserServer):
@@ -254,11 +254,18 @@ class Studio:
             if np.allclose(cam.position, self.server.initial_camera.position, atol=1e-4):
                 fitted.set()
                 self._fit_client(client)
-                # The page has drawn: now plotly.js (with the first chart) can follow without holding it up.
-                if not self.pareto.plot.created:
-                    threading.Timer(PLOTLY_AFTER, self.pareto.plot.ensure).start()
+                # The page has drawn: now its charts (and with them plotly.js) can follow without holding it up.
+                threading.Timer(PLOTLY_AFTER, self._attach_charts, (client,)).start()
 
         client.camera.on_update(on_camera)
+        threading.Timer(PLOTLY_LATEST, self._attach_charts, (client,)).start()  # a page that reports no camera
+
+    def _attach_charts(self, client: viser.ClientHandle) -> None:
+        """Give a page that has drawn its plotly charts (studio/panels/_lazy.py); once per page."""
+        if client.client_id not in self.server.get_clients():
+            return
+        for chart in (*self.pareto.charts(), self.studies.plot):
+            chart.attach(client)
 
     def _tick(self, dt: float) -> None:
         pb = self.session.advance(dt)

@@ -1,9 +1,10 @@
-"""A plotly chart created when it is first needed.
+"""A plotly chart that each page gets only once it has drawn.
 
-viser sends plotly.js (4.8 MB) to every page with the first plotly element; a page compiles it before
-it draws what follows (~1.5 s on software rendering). Charts the opening page does not show are
-therefore created on first use, and :meth:`LazyPlotly.ensure` lets the studio create one (hidden) once
-a page has drawn, so plotly.js arrives after the page is ready and before the first run needs it.
+viser sends plotly.js (4.8 MB) with a GUI's first plotly element, and a page compiles it (~1.5 s on
+software rendering) before it draws anything else of the same batch. A server-wide chart would put
+plotly.js into every page's first batch; so the chart is one client-scoped element per page, nested in
+the server's folder, created when :meth:`LazyPlotly.attach` says the page has drawn. The page is ready
+first; plotly.js and the chart follow. The figure and visibility live here and go to every page.
 """
 
 from __future__ import annotations
@@ -17,35 +18,44 @@ import viser
 
 
 class LazyPlotly:
-    """``gui.add_plotly(...)`` at ``order`` in ``folder``, deferred until a figure is set or :meth:`ensure`."""
+    """A chart at ``order`` in ``folder``: one ``client.gui.add_plotly`` per attached page."""
 
-    def __init__(self, gui: viser.GuiApi, folder: viser.GuiFolderHandle, order: float, aspect: float,
+    def __init__(self, server: viser.ViserServer, folder: viser.GuiFolderHandle, order: float, aspect: float,
                  config: Mapping[str, Any]) -> None:
-        self._gui, self._folder, self._order, self._aspect, self._config = gui, folder, order, aspect, config
-        self._handle: viser.GuiPlotlyHandle | None = None
+        self._folder, self._order, self._aspect, self._config = folder, order, aspect, dict(config)
+        self._figure: go.Figure | None = None
         self._visible = False
-        self._lock = threading.Lock()
+        self._handles: dict[int, viser.GuiPlotlyHandle] = {}
+        self._lock = threading.RLock()
+        server.on_client_disconnect(self._forget)
 
-    @property
-    def created(self) -> bool:
-        return self._handle is not None
-
-    def ensure(self) -> viser.GuiPlotlyHandle:
-        """The chart, created hidden and empty if it was not yet."""
+    def attach(self, client: viser.ClientHandle) -> None:
+        """Give this page the chart (its current figure and visibility), once."""
         with self._lock:
-            if self._handle is None:
-                with self._folder:
-                    self._handle = self._gui.add_plotly(go.Figure(), aspect=self._aspect, config=dict(self._config),
-                                                        order=self._order, visible=self._visible)
-            return self._handle
+            if client.client_id in self._handles:
+                return
+            with self._folder:
+                self._handles[client.client_id] = client.gui.add_plotly(
+                    self._figure if self._figure is not None else go.Figure(), aspect=self._aspect,
+                    config=self._config, order=self._order, visible=self._visible)
+
+    def attached(self, client: viser.ClientHandle) -> bool:
+        return client.client_id in self._handles
+
+    def _forget(self, client: viser.ClientHandle) -> None:
+        with self._lock:
+            self._handles.pop(client.client_id, None)
 
     @property
     def figure(self) -> go.Figure | None:
-        return None if self._handle is None else self._handle.figure
+        return self._figure
 
     @figure.setter
     def figure(self, fig: go.Figure) -> None:
-        self.ensure().figure = fig
+        with self._lock:
+            self._figure = fig
+            for h in list(self._handles.values()):
+                h.figure = fig
 
     @property
     def visible(self) -> bool:
@@ -53,8 +63,7 @@ class LazyPlotly:
 
     @visible.setter
     def visible(self, value: bool) -> None:
-        self._visible = bool(value)
-        if self._handle is not None:
-            self._handle.visible = self._visible
-        elif self._visible:
-            self.ensure()
+        with self._lock:
+            self._visible = bool(value)
+            for h in list(self._handles.values()):
+                h.visible = self._visible

@@ -93,8 +93,7 @@ class ParetoPanel:
         self._key: object = None
         self._drawn_at = 0.0
         self._sv: StudyView | None = None
-        self._large: viser.PanelHandle | None = None
-        self._large_plot: viser.GuiPlotlyHandle | None = None
+        self._large: dict[int, tuple[viser.PanelHandle, viser.GuiPlotlyHandle]] = {}  # per page that opened it
         self.folder = gui.add_folder("Pareto front", order=order)
         with self.folder:
             self.caption = gui.add_markdown("No stage has run yet.")
@@ -105,10 +104,11 @@ class ParetoPanel:
         # Created on first use (plotly.js is sent with the first chart): between View and the button, and the
         # algorithm's own log (feasible ratios, epsilon, task odds over evaluations) after it. viser 1.1.1
         # draws a chart ``width * aspect`` tall.
-        self.plot = LazyPlotly(gui, self.folder, (self.view.order + self.open_large.order) / 2, 0.95, CONFIG)
-        self.trace = LazyPlotly(gui, self.folder, self.open_large.order + 0.5, 0.5, CONFIG)
+        self.plot = LazyPlotly(studio.server, self.folder, (self.view.order + self.open_large.order) / 2, 0.95, CONFIG)
+        self.trace = LazyPlotly(studio.server, self.folder, self.open_large.order + 0.5, 0.5, CONFIG)
         self.view.on_update(lambda _: self._redraw())
-        self.open_large.on_click(lambda _: self._open_large())
+        self.open_large.on_click(lambda e: self._open_large(e.client))
+        studio.server.on_client_disconnect(self._forget)
 
     def axes(self) -> tuple[int, int] | None:
         sv = self._sv
@@ -152,8 +152,8 @@ class ParetoPanel:
             return
         self.plot.figure = fig
         self.plot.visible = self.open_large.visible = True
-        if self._large_plot is not None:
-            self._large_plot.figure = fig
+        for _, large in list(self._large.values()):
+            large.figure = fig
         tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:
             self.trace.figure = tfig
@@ -162,23 +162,31 @@ class ParetoPanel:
                 ("3-D" if self.axes() is None else str(self.view.value)) if n >= 3 else "")
         self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
 
-    def _open_large(self) -> None:
-        if self._large is not None or self._sv is None:
-            return
-        gui = self.studio.server.gui
-        panel = gui.add_panel()
-        with panel.add_tab("Pareto front (large)", viser.Icon.CHART_DOTS):
-            self._large_plot = gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
-                                              config=CONFIG)
-            close = gui.add_button("Close", icon=viser.Icon.X)
-        close.on_click(lambda _: self._close_large())
-        panel.float(x=24, y=24, width=960, height=760)
-        self._large = panel
+    def charts(self) -> tuple[LazyPlotly, ...]:
+        return self.plot, self.trace
 
-    def _close_large(self) -> None:
-        panel, self._large, self._large_plot = self._large, None, None
-        if panel is not None:
-            panel.remove()
+    def _open_large(self, client: viser.ClientHandle | None) -> None:
+        """A large copy of the chart, floating in the page whose button was pressed (only there)."""
+        if client is None or client.client_id in self._large or self._sv is None:
+            return
+        panel = client.gui.add_panel()
+        with panel.add_tab("Pareto front (large)", viser.Icon.CHART_DOTS):
+            plot = client.gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
+                                         config=CONFIG)
+            close = client.gui.add_button("Close", icon=viser.Icon.X)
+        close.on_click(lambda _: self._close_large(client.client_id))
+        panel.float(x=24, y=24, width=960, height=760)
+        self._large[client.client_id] = (panel, plot)
+
+    def _forget(self, client: viser.ClientHandle) -> None:
+        self._large.pop(client.client_id, None)
+
+    def _close_large(self, client_id: int | None = None) -> None:
+        """Close the large chart of one page, or of every page."""
+        for cid in [client_id] if client_id is not None else list(self._large):
+            large = self._large.pop(cid, None)
+            if large is not None:
+                large[0].remove()
 
 
 def algorithm_name(settings: object) -> str:

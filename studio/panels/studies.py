@@ -59,7 +59,8 @@ class StudiesPanel:
             self.run = gui.add_dropdown("Run", (NONE,), disabled=True, hint="a finished run: its picked design")
             self.load = gui.add_button("Load its design", icon=viser.Icon.ARROW_RIGHT, disabled=True,
                                        hint="the run's picked design goes into the editor (the study is not changed)")
-        self.plot = LazyPlotly(gui, self.folder, (self.metric.order + self.run.order) / 2, 0.8, CONFIG)  # on first use
+        # The box plot: one per page, once the page has drawn (studio/panels/_lazy.py).
+        self.plot = LazyPlotly(studio.server, self.folder, (self.metric.order + self.run.order) / 2, 0.8, CONFIG)
         self.scan.on_click(self._on_scan)
         self.study.on_update(lambda e: self._on_study(e.client))
         self.case.on_update(lambda _: self._draw())

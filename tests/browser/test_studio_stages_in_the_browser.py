@@ -36,10 +36,12 @@ def wait_for(predicate: Any, what: str, timeout: float = 30.0) -> None:
 
 
 def expand(page: Any, folder: str) -> None:
-    """Open a collapsed GUI folder (clicking its title toggles it)."""
+    """Open a GUI folder unless it is open already (clicking its title toggles it; the page is shared between
+    tests, so an earlier one may have opened it). A folder's second child is its content, 0 px tall when shut."""
     title = page.get_by_text(folder, exact=True)
     title.scroll_into_view_if_needed()
-    title.click()
+    if not title.evaluate("e => e.parentElement.children[1].getBoundingClientRect().height > 0"):
+        title.click()
 
 
 def settle(page: Any, studio: Any, stage: str, pop: int, gens: int) -> None:
