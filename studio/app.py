@@ -47,6 +47,9 @@ BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
 # the session file is still written after every generation.
 STUDY_PUSH_PERIOD = 0.15
+# While a stage runs, the scene's animation frames go at most this often (s), leaving a software-rendered page
+# idle time to show the run's progress at once instead of after the frame it is drawing.
+RUN_FRAME_PERIOD = 0.2
 # A Run click this soon after a run started is the second click of a double click (even if that
 # run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
@@ -97,6 +100,7 @@ class Studio:
         self._study_key: object = None
         self._inset_key: object = None
         self._last_push = 0.0
+        self._last_frame = 0.0
         self._study_dirty = False
         self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
         self._last_start = -DOUBLE_CLICK
@@ -280,7 +284,11 @@ class Studio:
             self.refresh()
             pushed = True
             view = self._shown or view
-        drawn = self.scene.draw(frame_index(pb.angle, view.n_samples))
+        now = time.monotonic()
+        drawn = False
+        if not self.session.study.status.running or now - self._last_frame >= RUN_FRAME_PERIOD:
+            drawn = self.scene.draw(frame_index(pb.angle, view.n_samples))
+            self._last_frame = now if drawn else self._last_frame
         self.playback.tick(pb)
         if drawn or pushed:
             self.pacer.probe()
