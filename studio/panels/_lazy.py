@@ -22,6 +22,7 @@ class LazyPlotly:
 
     def __init__(self, server: viser.ViserServer, folder: viser.GuiFolderHandle, order: float, aspect: float,
                  config: Mapping[str, Any]) -> None:
+        self._server = server
         self._folder, self._order, self._aspect, self._config = folder, order, aspect, dict(config)
         self._figure: go.Figure | None = None
         self._visible = False
@@ -46,6 +47,11 @@ class LazyPlotly:
         with self._lock:
             self._handles.pop(client.client_id, None)
 
+    def _live(self) -> list[viser.GuiPlotlyHandle]:
+        """The handles of pages still connected (a page may leave before its disconnect callback ran)."""
+        clients = self._server.get_clients()
+        return [h for cid, h in self._handles.items() if cid in clients]
+
     @property
     def figure(self) -> go.Figure | None:
         return self._figure
@@ -54,7 +60,7 @@ class LazyPlotly:
     def figure(self, fig: go.Figure) -> None:
         with self._lock:
             self._figure = fig
-            for h in list(self._handles.values()):
+            for h in self._live():
                 h.figure = fig
 
     @property
@@ -65,5 +71,5 @@ class LazyPlotly:
     def visible(self, value: bool) -> None:
         with self._lock:
             self._visible = bool(value)
-            for h in list(self._handles.values()):
+            for h in self._live():
                 h.visible = self._visible
