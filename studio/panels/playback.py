@@ -14,8 +14,9 @@ from studio.state import MAX_SPEED, Playback
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
-# While playing, the angle slider follows the animation at this rate (GUI messages are
-# broadcast to every client, so not at the frame rate).
+# While playing, the angle readout follows the animation at this rate (GUI messages are broadcast to every
+# client, so not at the frame rate). The slider itself stays still while playing: a value pushed into its
+# number box while someone types there overwrote what they typed (issue 13, item 11).
 SLIDER_SYNC_PERIOD = 0.25
 
 
@@ -33,7 +34,9 @@ class PlaybackPanel:
             self.speed = gui.add_slider("Speed [x]", 0.1, MAX_SPEED, 0.1, float(pb.speed),
                                         hint="1 = one crank revolution per target period T")
             self.angle = gui.add_slider("Crank angle [deg]", 0.0, 359.0, 1.0, self._degrees(pb),
-                                        hint="input crank angle theta; dragging pauses the animation")
+                                        hint="input crank angle theta; dragging it or typing a value pauses the "
+                                             "animation there")
+            self.now = gui.add_markdown(self._readout(pb))
         self.play.on_click(self._on_play)
         self.speed.on_update(self._on_speed)
         self.angle.on_update(self._on_angle)
@@ -46,18 +49,29 @@ class PlaybackPanel:
     def _degrees(pb: Playback) -> float:
         return float(round(math.degrees(pb.angle)) % 360)
 
+    @classmethod
+    def _readout(cls, pb: Playback) -> str:
+        return f"θ = {cls._degrees(pb):.0f}° ({'playing' if pb.playing else 'paused'})"
+
     def show(self, pb: Playback) -> None:
-        """Mirror the playback state into the controls."""
+        """Mirror the playback state into the controls (the slider only while paused: see SLIDER_SYNC_PERIOD)."""
         self.play.label = self._play_label(pb)
         set_value(self.speed, float(pb.speed))
-        set_value(self.angle, self._degrees(pb))
+        if not pb.playing:
+            set_value(self.angle, self._degrees(pb))
+        self._show_readout(pb)
+
+    def _show_readout(self, pb: Playback) -> None:
+        text = self._readout(pb)
+        if self.now.content != text:
+            self.now.content = text
 
     def tick(self, pb: Playback) -> None:
-        """Called by the animator every frame: keep the slider roughly in step while playing."""
+        """Called by the animator every frame: keep the readout roughly in step while playing."""
         now = time.monotonic()
         if pb.playing and now - self._last_sync >= SLIDER_SYNC_PERIOD:
             self._last_sync = now
-            set_value(self.angle, self._degrees(pb))
+            self._show_readout(pb)
 
     def _on_play(self, event: viser.GuiEvent[Any]) -> None:
         session = self.studio.session
@@ -81,6 +95,7 @@ class PlaybackPanel:
         deg = float(self.angle.value)
         pb = self.studio.session.scrub(math.radians(deg))
         self.play.label = self._play_label(pb)
+        self._show_readout(pb)
         # The animation may have sent the slider a position after this page's edit left: send the typed angle
         # again (viser sends only changes, and the server already holds it), so every page ends on it.
         set_value(self.angle, deg + 1e-6)

@@ -1,4 +1,5 @@
-"""Inputs (issue 13, item 11): a crank angle typed while the animation plays pauses it and sticks."""
+"""Inputs (issue 13, item 11): a crank angle typed while the animation plays pauses it and sticks; the slider
+stays still while playing, so the animation never writes into a box someone is typing in."""
 
 from __future__ import annotations
 
@@ -17,6 +18,11 @@ def test_a_typed_crank_angle_pauses_playback_and_sticks(page: Any, studio: Any) 
     row = page.locator("label", has_text="Crank angle [deg]").locator(
         "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]")
     box = row.locator(".mantine-NumberInput-root input")  # the slider's number box
+    # While playing, the slider stays still (a readout runs instead): nothing is pushed into the box being typed in.
+    wait_for(lambda: box.input_value() == f"{studio.playback.angle.value:g}", "the page to show the server's angle")
+    before = box.input_value()
+    time.sleep(1.0)
+    assert box.input_value() == before and studio.session.playback.playing
     box.fill("90")
     box.press("Enter")
     wait_for(lambda: not studio.session.playback.playing, "the typed angle to pause playback")
