@@ -50,6 +50,9 @@ STUDY_PUSH_PERIOD = 0.15
 # While a stage runs, the scene's animation frames go at most this often (s), leaving a software-rendered page
 # idle time to show the run's progress at once instead of after the frame it is drawing.
 RUN_FRAME_PERIOD = 0.2
+# While a stage runs, the candidate spheres and labels (scene nodes rebuilt when the shortlist changes) are
+# redrawn at most this often (s), like the Pareto chart.
+INSET_PERIOD = 0.5
 # A Run click this soon after a run started is the second click of a double click (even if that
 # run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
@@ -99,6 +102,7 @@ class Studio:
         self._optimized_by: tuple[str, ...] | None = None
         self._study_key: object = None
         self._inset_key: object = None
+        self._inset_at = 0.0
         self._last_push = 0.0
         self._last_frame = 0.0
         self._study_dirty = False
@@ -215,7 +219,10 @@ class Studio:
         key = (tuple(np.round(box, 6)), frames.text_height, id(r), sv.shown)
         if key == self._inset_key:
             return
-        self._inset_key = key
+        running = sv.status.running and sv.status.stage == sv.viewing
+        if running and time.monotonic() - self._inset_at < INSET_PERIOD:
+            return  # a later generation (or the end of the run) redraws it
+        self._inset_key, self._inset_at = key, time.monotonic()
         if r is None or r.pop == 0:
             self.inset.place(box, INSET_NOTE, frames.text_height)
             self.inset.show((), np.zeros((0, 2)), None)
