@@ -114,6 +114,25 @@ def choose(page: Any, label: str, option: str) -> None:
     want.click()
 
 
+def download(page: Any, button: str, attempts: int = 3, timeout: float = 30.0) -> Any:
+    """Click a GUI button that sends a file and return Playwright's Download; click again if nothing came.
+
+    A click that lands while the panel re-lays itself out (a chart appearing, a floating window closing) can
+    be lost before it reaches the server (seen: no handler ran at all); a person would click again.
+    """
+    from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+    for k in range(attempts):
+        try:
+            with page.expect_download(timeout=timeout * 1000) as dl:
+                page.get_by_role("button", name=button, exact=True).click()
+            return dl.value
+        except PlaywrightTimeout:
+            if k == attempts - 1:
+                raise
+    raise AssertionError("unreachable")
+
+
 def field(page: Any, label: str) -> Any:
     """The input of the GUI row labelled ``label`` (exactly), e.g. ``field(page, "r4 [mm]")``.
 

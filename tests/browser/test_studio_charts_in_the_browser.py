@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from playwright.sync_api import expect
-from test_studio_stages_in_the_browser import choose, expand, run_stage
+from test_studio_stages_in_the_browser import choose, download, expand, run_stage
 
 SUBTASK1 = "Subtask 1 → X1 (shape, position)"
 
@@ -40,9 +40,8 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
 
     if not page.get_by_role("button", name="Pareto chart (PNG)", exact=True).is_visible():
         expand(page, "Session and export")  # the page is shared: an earlier test may have left it open
-    with page.expect_download(timeout=60_000) as dl:
-        page.get_by_role("button", name="Pareto chart (PNG)", exact=True).click()
-    data = Path(dl.value.path()).read_bytes()
-    assert dl.value.suggested_filename == "pareto-subtask1.png"
+    got = download(page, "Pareto chart (PNG)")
+    data = Path(got.path()).read_bytes()
+    assert got.suggested_filename == "pareto-subtask1.png"
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", data[16:24]) == (1000, 800)
     choose(page, "View", "3-D (all three)")

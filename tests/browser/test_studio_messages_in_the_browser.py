@@ -26,6 +26,7 @@ from test_studio_stages_in_the_browser import (
     SUBTASK2,
     SUBTASK3,
     choose,
+    download,
     expand,
     field,
     notification,
@@ -182,9 +183,7 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
     # The exported chart says what it shows: mechanism, stage and target.
     if not page.get_by_role("button", name="Pareto chart (HTML)", exact=True).is_visible():
         expand(page, "Session and export")
-    with page.expect_download() as dl:
-        page.get_by_role("button", name="Pareto chart (HTML)", exact=True).click()
-    html = Path(dl.value.path()).read_text()
+    html = Path(download(page, "Pareto chart (HTML)").path()).read_text()
     target = studio.session.view.target.option()
     assert "Stephenson-I six-bar" in html and "subtask2" in html
     assert f"target {target}" in html or f"target {target.split(':', 1)[-1]}" in html or "target cycloid" in html
@@ -196,10 +195,8 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
     wait_for(lambda: "passed on" in (page.evaluate(PLOT_NAMES_JS, title) or []), "the passed-on ring")
 
     # A saved session loads back into the same Stages panel: subtask 3, from the previous stage's pick.
-    with page.expect_download() as dl:
-        page.get_by_role("button", name="Download session", exact=True).click()
     saved = tmp_path / "session.json"
-    dl.value.save_as(saved)
+    download(page, "Download session").save_as(saved)
     assert json.loads(saved.read_text())["study"]["next_stage"] == "subtask3"
     studio.session.load_preset("stephenson1/X0")  # elsewhere meanwhile: another stage and start in the panel
     with studio.session.lock:

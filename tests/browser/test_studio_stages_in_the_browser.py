@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import expect
 
-from benchmarks.studio import choose, field
+from benchmarks.studio import choose, download, field
 from core.formats.design import design_from_dict
 from studio.candidates import candidates
 from studio.chains import chain_for, find
@@ -190,10 +190,8 @@ def test_a_session_downloads_and_loads_back(page: Any, studio: Any, tmp_path: Pa
     run_stage(page, studio, SUBTASK2, "subtask2", pop=8, gens=2)
     saved = studio.session.to_dict()
     expand(page, "Session and export")
-    with page.expect_download() as dl:
-        page.get_by_role("button", name="Download session", exact=True).click()
     path = tmp_path / "session.json"
-    dl.value.save_as(path)
+    download(page, "Download session").save_as(path)
     assert json.loads(path.read_text()) == saved
     # Change the state, then load the file back.
     field(page, "r4 [mm]").fill("129")
@@ -251,18 +249,17 @@ def test_exports_are_files_a_collaborator_can_open_offline(page: Any, studio: An
     run_stage(page, studio, SUBTASK2, "subtask2", pop=8, gens=2)
     expand(page, "Session and export")
 
-    def download(button: str) -> bytes:
-        with page.expect_download() as dl:
-            page.get_by_role("button", name=button, exact=True).click()
-        p = tmp_path / dl.value.suggested_filename
-        dl.value.save_as(p)
+    def fetch(button: str) -> bytes:
+        got = download(page, button)
+        p = tmp_path / got.suggested_filename
+        got.save_as(p)
         return p.read_bytes()
 
-    design = design_from_dict(json.loads(download("Design (JSON)")))
+    design = design_from_dict(json.loads(fetch("Design (JSON)")))
     np.testing.assert_array_equal(design.params, studio.session.view.design.params)
-    cols = parse_trajectories_csv(download("Trajectories (CSV)"))
+    cols = parse_trajectories_csv(fetch("Trajectories (CSV)"))
     np.testing.assert_array_equal(cols["y_leg_mm"], studio.session.view.solution.leg[0, :, 1])
-    assert b"subtask2" in download("Pareto chart (HTML)")
+    assert b"subtask2" in fetch("Pareto chart (HTML)")
     # The chart's camera button saves a PNG, drawn by plotly.js in the browser.
     camera = pareto_plot(page, "subtask2 · complete").locator('.modebar-btn[data-title^="Download plot as a"]')
     camera.scroll_into_view_if_needed()
@@ -271,7 +268,7 @@ def test_exports_are_files_a_collaborator_can_open_offline(page: Any, studio: An
     assert dl.value.suggested_filename == "pareto.png"
     assert Path(dl.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # The animated scene opens on its own, with every outside request blocked.
-    scene = download("Animated scene (HTML)").decode()
+    scene = fetch("Animated scene (HTML)").decode()
     ctx = browser.new_context(viewport={"width": 800, "height": 600})
     try:
         ctx.route("**/*", lambda r: (blocked.append(r.request.url), r.abort()) if not r.request.url.startswith(
