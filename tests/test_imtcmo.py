@@ -7,10 +7,12 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
-from core.optimize.evolve.imtcmo import IMTCMO, aux_select, epsilon_schedule
+from core.optimize.evolve.imtcmo import IMTCMO, aux_select, epsilon_schedule, most_similar
 from core.optimize.moea import problem_by_name
 
 
@@ -20,6 +22,18 @@ def test_epsilon_falls_to_e_minus_6_at_half_the_budget():
     assert var0 * (1 - 0.0) ** cp == 40.0
     assert epsilon_schedule(0.0) == (1.0, pytest.approx((-0.0 - 6.0) / math.log(0.5)))  # VAR0 = 0 reads as 1
     assert epsilon_schedule(1e-4) == (1e-4, 0.0)  # below e^-6: constant, not growing (documented)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(1, 12), st.integers(0, 20), st.data())
+def test_most_similar_is_the_head_of_a_stable_descending_sort(n, extra, data):
+    # neighbour pairing's k most similar directions: ties (copies, -inf for undefined directions) go to the
+    # lower column, as the stable argsort it replaces
+    N = n + extra + 1
+    values = st.sampled_from([-np.inf, -0.5, 0.0, 0.25, 1.0]) | st.floats(-1, 1)
+    cos = np.array(data.draw(st.lists(values, min_size=n * N, max_size=n * N))).reshape(n, N)
+    k = data.draw(st.integers(1, N))
+    assert np.array_equal(most_similar(cos, k), np.argsort(-cos, axis=1, kind="stable")[:, :k])
 
 
 def test_aux_selection_ranks_epsilon_feasible_members_first():

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -66,6 +67,34 @@ def _de_params(n: int, rng: np.random.Generator) -> tuple[F64, F64]:
     return F_SET[rng.integers(0, 3, n)][:, None], CR_SET[rng.integers(0, 3, n)][:, None]
 
 
+@numba.njit(cache=True)
+def _most_similar(cos: F64, k: int) -> I64:  # pragma: no cover - compiled
+    # Per row, the k columns of largest value, largest first, ties to the lower column: the first k of a
+    # stable argsort of -cos, without sorting whole rows (a row keeps a sorted list of k).
+    n, N = cos.shape
+    out = np.empty((n, k), dtype=np.int64)
+    val = np.empty(k)
+    for i in range(n):
+        size = 0
+        for j in range(N):
+            v = cos[i, j]
+            if size == k and v <= val[k - 1]:
+                continue
+            p = size if size < k else k - 1
+            while p > 0 and val[p - 1] < v:
+                val[p], out[i, p] = val[p - 1], out[i, p - 1]
+                p -= 1
+            val[p], out[i, p] = v, j
+            if size < k:
+                size += 1
+    return out
+
+
+def most_similar(cos: F64, k: int) -> I64:
+    """``(n, k)``: each row's k columns of largest value, largest first, ties to the lower column."""
+    return _most_similar(np.ascontiguousarray(cos, dtype=np.float64), int(k))
+
+
 def neighbour_de(a: Arrays, z: F64, n: int, xl: F64, xu: F64, rng: np.random.Generator) -> F64:
     """n children by neighbour-pairing DE/rand/1: x_i + F (x_a - x_b), a and b among x_i's 10 nearest in
     direction (cosine of objectives translated by the ideal point z)."""
@@ -75,11 +104,11 @@ def neighbour_de(a: Arrays, z: F64, n: int, xl: F64, xu: F64, rng: np.random.Gen
     norm = np.linalg.norm(U, axis=1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         U = U / norm
-        cos = U @ U.T
+        cos = (U @ U.T)[:n]  # only the n parents' rows are used
     cos = np.where(np.isnan(cos), -np.inf, cos)
-    np.fill_diagonal(cos, -np.inf)
+    cos[np.arange(n), np.arange(n)] = -np.inf
     k = min(N_NEIGHBOURS, N - 1)
-    near = np.argsort(-cos, axis=1, kind="stable")[:, :k]
+    near = most_similar(cos, k)
     i = np.arange(n)
     ja = rng.integers(0, k, n)
     jb = (ja + rng.integers(1, k, n)) % k
