@@ -75,6 +75,20 @@ def test_spea2_fitness_equals_its_definition_with_ties_and_penalised_members(cas
     assert spea2.fitness(F, cv).tolist() == fitness_by_definition(F, cv).tolist()
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 90), st.integers(1, 3), st.integers(0, 2**32 - 1))
+def test_spea2_fitness_does_not_depend_on_the_members_order(n, m, seed):
+    # the kernel visits members sorted by the first objective; shuffling them must only shuffle the fitness,
+    # and it must still be the definition's on continuous values (each heap replaced many times)
+    rng = np.random.default_rng(seed)
+    F = rng.normal(size=(n, m))
+    cv = np.where(rng.random(n) < 0.3, rng.random(n), 0.0)
+    perm = rng.permutation(n)
+    fit = spea2.fitness(F, cv)
+    assert spea2.fitness(F[perm], cv[perm]).tolist() == fit[perm].tolist()
+    assert fit.tolist() == fitness_by_definition(F, cv).tolist()
+
+
 def truncate_by_definition(F, keep):
     """SPEA2's truncation as written: re-sort every remaining member's distances after each removal and drop the
     lexicographically smallest row (ties: the lowest index)."""
