@@ -270,7 +270,7 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
         for i in range(r):
             if not alive[i]:
                 continue
-            d = D[i, best]
+            d = D[best, i]  # D is symmetric: the row is contiguous, the column is not
             for j in range(LEVELS):
                 if d == near[i, 2 * j]:
                     near[i, 2 * j + 1] -= 1
