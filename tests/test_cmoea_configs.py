@@ -26,6 +26,9 @@ def test_the_algorithm_runs_every_stage_of_a_paper_design(algorithm, config):
         assert r.n_evals > 0 and r.picked is not None and r.pop > 0
 
 
-def test_the_imtcmo_config_ships_and_names_the_algorithm():
-    c = load_config(CONFIGS / "stephenson1_cycloid_imtcmo.toml")
-    assert {s.algorithm.name for s in c.stages} == {"imtcmo"}
+@pytest.mark.parametrize("algorithm", CMOEAS)
+def test_each_cmoea_config_ships_and_names_its_algorithm(algorithm):
+    c = load_config(CONFIGS / f"stephenson1_cycloid_{algorithm}.toml")
+    assert {s.algorithm.name for s in c.stages} == {algorithm}
+    base = load_config(CONFIGS / "stephenson1_cycloid.toml")
+    assert [s.name for s in c.stages] == [s.name for s in base.stages]
