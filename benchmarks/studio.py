@@ -5,8 +5,8 @@
 
 A studio runs in this process; Playwright drives Debian's headless chromium (software WebGL) on it. While
 the animation plays and a stage runs, every 50 ms the script reads the generation the page shows (the
-Stages panel's "generation k/n") and the server's; the lag is how long ago the server reached the
-generation after the one the page shows. Stop is clicked at 60 % of the run; its latency runs from the
+Stages panel's "generation k/n", with the page's own clock at that moment); the lag is how long before
+that moment the server reached the generation after the one the page shows (zero if it had not). Stop is clicked at 60 % of the run; its latency runs from the
 press as the page's event records it to the server cancelling the run. Page ready: a first load, a reload,
 and a second tab while the first is open. Messages and bytes are what the server queued for the pages
 (msgpack, before compression). Targets (issue 13): lag <= 0.5 s, Stop <= 0.5 s,
@@ -39,7 +39,7 @@ DEBUG = False
 # When the page got the press (the event's own time, not when a busy page got round to it), in ms since 1970.
 PRESS_CLOCK = """() => document.addEventListener("pointerdown",
     (e) => { window.__downAt = performance.timeOrigin + e.timeStamp; }, true)"""
-SHOWN = re.compile(r"generation (\d+)/(\d+)")
+SHOWN = re.compile(r"Running [^:]*: generation (\d+)/(\d+)")  # the Stages panel's status line
 
 
 class Sent:
@@ -87,10 +87,22 @@ class ServerClock:
         self._thread.join()
 
 
-def page_generation(page: Any) -> int | None:
-    text = page.evaluate("() => document.body.innerText")
+# Read in the page: its own clock (epoch seconds, the same clock as time.time() here) at the moment it reads the
+# Stages panel's status. textContent, not innerText: innerText lays the whole page out, which the reading
+# itself would pay on the page's main thread, and a timestamp taken here after the call returns would add
+# Playwright's round trip to the lag.
+SHOWN_JS = "() => [Date.now() / 1000, document.body.textContent]"
+
+
+def page_generation_at(page: Any) -> tuple[int | None, float]:
+    """(the generation the page's Stages status shows, or None; when it showed it, by time.time()'s clock)."""
+    at, text = page.evaluate(SHOWN_JS)
     m = SHOWN.search(text)
-    return int(m.group(1)) if m else None
+    return (int(m.group(1)) if m else None), float(at)
+
+
+def page_generation(page: Any) -> int | None:
+    return page_generation_at(page)[0]
 
 
 def choose(page: Any, label: str, option: str) -> None:
@@ -200,7 +212,7 @@ def measure(quick: bool) -> dict[str, float]:
                 if s is not None and (s.pop_size, s.n_gen) == (pop, gens):
                     break
                 time.sleep(0.05)
-            clock = ServerClock(studio)
+            clock = ServerClock(studio, time.time)  # the page's clock (Date.now) is the same one
             page.evaluate(PRESS_CLOCK)
             stop_called: list[float] = []
             runner_stop = studio.runner.stop
@@ -218,13 +230,13 @@ def measure(quick: bool) -> dict[str, float]:
             stop_at = gens * 0.6
             clicked = None
             while studio.session.study.status.running:
-                shown = page_generation(page)
-                now = time.monotonic()
+                shown, at = page_generation_at(page)
                 if shown is not None and shown in clock.reached:
-                    server_g = studio.session.study.status.generation
-                    lags.append(0.0 if shown >= server_g else now - clock.reached.get(shown + 1, now))
+                    # behind by how long ago, at the moment the page showed it, the server reached the next one
+                    nxt = clock.reached.get(shown + 1)
+                    lags.append(at - nxt if nxt is not None and nxt < at else 0.0)
                     if DEBUG:
-                        print(f"{now - t_run:6.2f} shown {shown} server {server_g} lag {lags[-1]:.2f}")
+                        print(f"{time.monotonic() - t_run:6.2f} shown {shown} lag {lags[-1]:.2f}")
                 stop = page.get_by_role("button", name="Stop", exact=True)
                 if clicked is None and studio.session.study.status.generation >= stop_at and stop.is_enabled():
                     clicked = time.monotonic()
