@@ -6,11 +6,11 @@
 A studio runs in this process; Playwright drives Debian's headless chromium (software WebGL) on it. While
 the animation plays and a stage runs, every 50 ms the script reads the generation the page shows (the
 Stages panel's "generation k/n", with the page's own clock at that moment); the lag is how long before
-that moment the server reached the generation after the one the page shows (zero if it had not). Stop is clicked at 60 % of the run; its latency runs from the
-press as the page's event records it to the server cancelling the run. Page ready: a first load, a reload,
-and a second tab while the first is open. Messages and bytes are what the server queued for the pages
-(msgpack, before compression). Targets (issue 13): lag <= 0.5 s, Stop <= 0.5 s,
-page ready <= 2 s. Not a test: numbers depend on the machine and its load.
+that moment the server reached the generation after the one the page shows (zero if it had not). Stop is
+clicked at 60 % of the run; its latency runs from the press as the page's event records it to the server
+cancelling the run. Page ready: a first load, a reload, and a second tab while the first is open. Messages
+and bytes are what the server queued for the pages (msgpack, before compression). Targets (issue 13): lag
+<= 0.5 s, Stop <= 0.5 s, page ready <= 2 s. Not a test: numbers depend on the machine and its load.
 """
 
 from __future__ import annotations
