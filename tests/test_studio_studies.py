@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from study_files import tiny_study
 
 from core.formats.study import load_study
 from core.optimize.pipeline import Pipeline
@@ -15,23 +16,7 @@ from core.study.runner import run_study
 from studio.panels.studies import box_figure
 from studio.studies import StudyRun, find_studies, finished_runs, picked_design, study_rows
 
-ROOT = Path(__file__).resolve().parents[1]
-TINY = f"""
-name = "tiny"
-seeds = "1..2"
-[[algorithms]]
-name = "nsga2"
-pop_size = 12
-[[algorithms]]
-name = "cmoes"
-pop_size = 12
-[[cases]]
-name = "subtask2"
-config = "{ROOT / 'assets' / 'configs' / 'stephenson1_cycloid.toml'}"
-stages = ["subtask2"]
-start = "stephenson1/X1"
-budget = 120
-"""
+TINY = tiny_study("nsga2", "cmoes")
 
 
 @pytest.fixture(scope="module")

@@ -13,21 +13,9 @@ from test_studio_stages_in_the_browser import choose, expand, wait_for
 from core.formats.study import load_study
 from core.study.runner import run_study
 from studio.studies import finished_runs, picked_design, study_rows
+from tests.study_files import tiny_study
 
-ROOT = Path(__file__).resolve().parents[2]
-TINY = f"""
-name = "tiny"
-seeds = "1..2"
-[[algorithms]]
-name = "nsga2"
-pop_size = 12
-[[cases]]
-name = "subtask2"
-config = "{ROOT / 'assets' / 'configs' / 'stephenson1_cycloid.toml'}"
-stages = ["subtask2"]
-start = "stephenson1/X1"
-budget = 120
-"""
+TINY = tiny_study("nsga2")
 
 
 def test_a_collaborator_finds_a_study_sees_its_boxes_and_loads_a_design(page: Any, studio: Any, tmp_path: Path):
