@@ -30,3 +30,13 @@ def check_repair_and_generations(make: Callable[..., Any], problem: str = "mw3",
     res = minimize(p, alg, ("n_gen", n_gen), seed=2, copy_algorithm=False)
     assert repair.calls >= n_gen and len(alg.trace) == n_gen
     assert np.all(res.pop.get("X") <= 0.5 * p.xu + 1e-12)
+
+
+def check_seed(run: Callable[..., Any], problem: str, evals: int, seed: int, **options: Any) -> None:
+    """Same seed, same final population; the next seed, another. ``run(problem, evals, seed=, **options)``
+    returns (pymoo result, algorithm), as each algorithm's test module defines it."""
+    a, _ = run(problem, evals, seed=seed, **options)
+    b, _ = run(problem, evals, seed=seed, **options)
+    c, _ = run(problem, evals, seed=seed + 1, **options)
+    X = a.pop.get("X")
+    assert np.array_equal(X, b.pop.get("X")) and not np.array_equal(X, c.pop.get("X"))

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from cmoea_common import check_repair_and_generations
+from cmoea_common import check_repair_and_generations, check_seed
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
@@ -86,10 +86,7 @@ def test_random_operators_for_200_generations_then_the_q_network_chooses(long_ru
 
 
 def test_same_seed_same_population_and_options_are_checked():
-    a, _ = run("ctp2", 3000, seed=3, pop=40)
-    b, _ = run("ctp2", 3000, seed=3, pop=40)
-    c, _ = run("ctp2", 3000, seed=4, pop=40)
-    assert np.array_equal(a.pop.get("X"), b.pop.get("X")) and not np.array_equal(a.pop.get("X"), c.pop.get("X"))
+    check_seed(run, "ctp2", 3000, 3, pop=40)
     d, _ = run("ctp2", 3000, seed=3, pop=40, reward="improvement", replay="fifo", success="size")
     assert len(d.pop) == 40
     with pytest.raises(ValueError, match="reward must be one of platemo, improvement"):

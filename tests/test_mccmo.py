@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cmoea_common import check_repair_and_generations
+from cmoea_common import check_repair_and_generations, check_seed
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
@@ -82,10 +82,7 @@ def test_one_constraint_needs_no_q_machinery():
 
 
 def test_same_seed_same_archive_and_another_seed_another():
-    a, _ = run("mw3", 3000, seed=5)
-    b, _ = run("mw3", 3000, seed=5)
-    c, _ = run("mw3", 3000, seed=6)
-    assert np.array_equal(a.pop.get("X"), b.pop.get("X")) and not np.array_equal(a.pop.get("X"), c.pop.get("X"))
+    check_seed(run, "mw3", 3000, 5)
 
 
 def test_the_de_operator_runs_and_bad_options_are_refused():
