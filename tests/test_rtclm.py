@@ -14,6 +14,8 @@ from core.kinematics.mechanisms.rtclm import (
     RTCLM_AUXILIARY,
     RTCLM_PRIMARY,
     SIDE_G,
+    _loop_xy,
+    _y_e,
     crank_conditions,
     derive,
     first_loop,
@@ -128,6 +130,16 @@ def test_switching_angle_is_a_root_and_right_leg_is_the_rear_one(x: np.ndarray) 
     _, e, _ = first_loop(x, s["phi"])
     assert abs(e[0, 0, 1] - e[0, 1, 1]) < 1e-9 * (1.0 + np.abs(e).max())
     assert e[0, 0, 0] <= e[0, 1, 0]
+
+
+@settings(max_examples=50, deadline=None)
+@given(first_loop_designs(), st.lists(st.floats(-2 * math.pi, 2 * math.pi), min_size=1, max_size=8))
+def test_the_compiled_foot_height_is_the_first_loops(x: np.ndarray, angles: list[float]) -> None:
+    # the bisection's numba y_E(phi) mirrors the numpy first loop's formula (kept side by side for speed)
+    phi = np.array([angles])
+    want = _loop_xy(x, phi)[3][0]
+    got = np.array([_y_e(x[0], a) for a in angles])
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)
 
 
 @settings(max_examples=20, deadline=None)
