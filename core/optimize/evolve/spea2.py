@@ -159,8 +159,14 @@ def _next_value(D: F64, alive: B, row: int, after: float) -> tuple[float, int]: 
 
 
 @numba.njit(cache=True)
-def _sorted_less(D: F64, order: NDArray[np.int64], alive: B, a: int, b: int) -> bool:  # pragma: no cover
-    # The same comparison on rows sorted once (their dead members skipped while reading).
+def _sorted_less(D: F64, order: NDArray[np.int64], sorted_: B, alive: B, a: int,
+                 b: int) -> bool:  # pragma: no cover - compiled
+    # Are a's ascending distances to the alive members lexicographically smaller than b's? Each row is sorted
+    # once, on first need, and read with its dead members skipped.
+    for k in (a, b):
+        if not sorted_[k]:
+            order[k] = np.argsort(D[k], kind="mergesort")
+            sorted_[k] = True
     n = D.shape[0]
     pa = pb = 0
     while True:
@@ -175,31 +181,6 @@ def _sorted_less(D: F64, order: NDArray[np.int64], alive: B, a: int, b: int) -> 
             return va < vb
         pa += 1
         pb += 1
-
-
-@numba.njit(cache=True)
-def _row_less(D: F64, order: NDArray[np.int64], sorted_: B, alive: B, a: int, b: int,
-              walk: bool) -> bool:  # pragma: no cover - compiled
-    # Are a's ascending distances to the alive members lexicographically smaller than b's? With ``walk``, first
-    # walked value by value (each value with its multiplicity, O(r) a step), which nearly always decides by the
-    # 2nd value; rows still equal then, or without ``walk`` (many tied candidates: duplicates, grids), are sorted
-    # once and compared in order.
-    after = -np.inf
-    for _ in range(2 if walk else 0):
-        va, ca = _next_value(D, alive, a, after)
-        vb, cb = _next_value(D, alive, b, after)
-        if va != vb:
-            return va < vb
-        if va == np.inf:  # both rows exhausted (or the rest is +inf): equal
-            return False
-        if ca != cb:  # the row with more copies of va has va where the other already has a larger value
-            return ca > cb
-        after = va
-    for k in (a, b):
-        if not sorted_[k]:
-            order[k] = np.argsort(D[k], kind="mergesort")
-            sorted_[k] = True
-    return _sorted_less(D, order, alive, a, b)
 
 
 LEVELS = 3  # distinct smallest distances each row keeps during truncation
@@ -240,7 +221,7 @@ def _less(D: F64, F: F64, order: NDArray[np.int64], sorted_: B, alive: B, near: 
             return near[a, 2 * j + 1] > near[b, 2 * j + 1]
     if _same_point(F, a, b):
         return False
-    return _row_less(D, order, sorted_, alive, a, b, False)
+    return _sorted_less(D, order, sorted_, alive, a, b)
 
 
 @numba.njit(cache=True)
@@ -252,7 +233,7 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     # mutual nearest neighbours cost a sort per row.
     r = D.shape[0]
     alive = np.ones(r, dtype=np.bool_)
-    order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_row_less)
+    order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_sorted_less)
     sorted_ = np.zeros(r, dtype=np.bool_)
     near = np.empty((r, 2 * LEVELS))
     for i in range(r):
