@@ -3,7 +3,7 @@
 The side panel's one chart that every page shows at once. As a plotly chart it made each page load and
 evaluate plotly.js (4.8 MB, ~1.5 s of a software-rendered page) before anything else of the studio
 appeared; as SVG it costs a few kB and draws with the page. Equal scales in mm, a minimum height for flat
-paths (``studio.figures.equal_aspect_ranges``), stance and swing in their colours, the target dashed,
+paths (``equal_aspect_ranges``), stance and swing in their colours, the target dashed,
 feature points labelled. Curves are drawn in mm under one transform (their ``points`` are mm), so a test
 or a person reading the markup sees the data, not pixels.
 """
@@ -18,13 +18,59 @@ import numpy as np
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.figures import _arc, _runs, equal_aspect_ranges
 
 F64 = NDArray[np.float64]
 WIDTH = 320.0  # viewBox width (px); the chart scales to the panel's width
 LEFT, RIGHT, TOP, BOTTOM = 46.0, 10.0, 30.0, 36.0
 MAX_ASPECT = 1.1  # a tall path is drawn narrower rather than taller than this (height / width)
 FONT = "font-family:sans-serif;font-size:11px;fill:#444"
+
+
+def _closed(points: F64) -> F64:
+    """Append the first point so a closed curve draws closed."""
+    return np.concatenate([points, points[:1]], axis=0)
+
+
+def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """Maximal cyclic runs of True as ``(start, stop)`` index ranges (stop exclusive, may exceed n)."""
+    n = len(mask)
+    if mask.all():
+        return [(0, n)]
+    if not mask.any():
+        return []
+    starts = [i for i in range(n) if mask[i] and not mask[i - 1]]
+    runs = []
+    for s in starts:
+        e = s
+        while mask[e % n]:
+            e += 1
+        runs.append((s, e))
+    return runs
+
+
+def _arc(points: F64, start: int, stop: int) -> F64:
+    """Samples start..stop (inclusive of the joint to the next sample), cyclic."""
+    idx = np.arange(start, stop + 1) % len(points)
+    return points[idx]
+
+
+MIN_ASPECT = 0.3  # height / width of the bench chart's axes at least, however flat the path
+
+
+def equal_aspect_ranges(clouds: list[F64], pad: float = 0.06) -> tuple[list[float] | None, list[float] | None]:
+    """x and y ranges (mm) around the finite points of ``(n, 2)`` clouds, the shorter axis widened to at least
+    ``MIN_ASPECT`` of the longer one (a nearly flat RTCLM path would otherwise get a chart of zero height)."""
+    pts = np.concatenate([np.asarray(c, dtype=np.float64).reshape(-1, 2) for c in clouds])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) == 0:
+        return None, None
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    span = np.maximum(hi - lo, 1e-6)
+    big = float(span.max())
+    span = np.maximum(span, MIN_ASPECT * big) * (1.0 + 2.0 * pad)
+    mid = 0.5 * (lo + hi)
+    return [float(mid[0] - span[0] / 2), float(mid[0] + span[0] / 2)], \
+        [float(mid[1] - span[1] / 2), float(mid[1] + span[1] / 2)]
 
 
 def ticks(lo: float, hi: float, count: int = 5) -> list[float]:
@@ -114,9 +160,9 @@ def bench_svg(
 
     curves: list[tuple[str, F64, palette.RGB, str]] = []  # name, polyline (mm), colour, dash
     if tgt is not None:
-        curves.append(("target", np.concatenate([tgt, tgt[:1]]), palette.TARGET, "6 4"))
+        curves.append(("target", _closed(tgt), palette.TARGET, "6 4"))
     if stance is None:
-        curves.append(("bench trajectory", np.concatenate([leg, leg[:1]]), palette.PATH, ""))
+        curves.append(("bench trajectory", _closed(leg), palette.PATH, ""))
     else:
         mask = np.asarray(stance, dtype=bool)
         for name, m, colour in (("stance", mask, palette.STANCE), ("swing", ~mask, palette.SWING)):

@@ -16,53 +16,6 @@ from studio import palette
 F64 = NDArray[np.float64]
 
 
-def _closed(points: F64) -> F64:
-    """Append the first point so a closed curve draws closed."""
-    return np.concatenate([points, points[:1]], axis=0)
-
-
-def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """Maximal cyclic runs of True as ``(start, stop)`` index ranges (stop exclusive, may exceed n)."""
-    n = len(mask)
-    if mask.all():
-        return [(0, n)]
-    if not mask.any():
-        return []
-    starts = [i for i in range(n) if mask[i] and not mask[i - 1]]
-    runs = []
-    for s in starts:
-        e = s
-        while mask[e % n]:
-            e += 1
-        runs.append((s, e))
-    return runs
-
-
-def _arc(points: F64, start: int, stop: int) -> F64:
-    """Samples start..stop (inclusive of the joint to the next sample), cyclic."""
-    idx = np.arange(start, stop + 1) % len(points)
-    return points[idx]
-
-
-MIN_ASPECT = 0.3  # height / width of the bench chart's axes at least, however flat the path (bench_svg)
-
-
-def equal_aspect_ranges(clouds: list[F64], pad: float = 0.06) -> tuple[list[float] | None, list[float] | None]:
-    """x and y ranges (mm) around the finite points of ``(n, 2)`` clouds, the shorter axis widened to at least
-    ``MIN_ASPECT`` of the longer one (a nearly flat RTCLM path would otherwise get a chart of zero height)."""
-    pts = np.concatenate([np.asarray(c, dtype=np.float64).reshape(-1, 2) for c in clouds])
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    if len(pts) == 0:
-        return None, None
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    span = np.maximum(hi - lo, 1e-6)
-    big = float(span.max())
-    span = np.maximum(span, MIN_ASPECT * big) * (1.0 + 2.0 * pad)
-    mid = 0.5 * (lo + hi)
-    return [float(mid[0] - span[0] / 2), float(mid[0] + span[0] / 2)], \
-        [float(mid[1] - span[1] / 2), float(mid[1] + span[1] / 2)]
-
-
 def _axis_range(values: F64, focus: F64) -> list[float] | None:
     """A range covering the focus values (the feasible ones) with a margin, and the rest within one span of them."""
     focus = focus[np.isfinite(focus)]

@@ -259,7 +259,7 @@ def test_a_flat_bench_path_still_gets_a_chart_with_height_and_equal_scales():
     # An RTCLM-like path: 200 mm long, 2 mm high (the chart used to collapse to zero height).
     x = np.linspace(-100.0, 100.0, 90)
     leg = np.stack([x, 48.6 + 2.0 * (x / 100.0) ** 2], axis=1)
-    from studio.figures import MIN_ASPECT, equal_aspect_ranges
+    from studio.bench_svg import MIN_ASPECT, equal_aspect_ranges
 
     xr, yr = equal_aspect_ranges([leg])
     assert yr[1] - yr[0] >= MIN_ASPECT * (xr[1] - xr[0]) - 1e-9
