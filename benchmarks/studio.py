@@ -101,10 +101,6 @@ def page_generation_at(page: Any) -> tuple[int | None, float]:
     return (int(m.group(1)) if m else None), float(at)
 
 
-def page_generation(page: Any) -> int | None:
-    return page_generation_at(page)[0]
-
-
 def choose(page: Any, label: str, option: str) -> None:
     """Open a dropdown and click an option; open it again if a click during a layout shift missed.
 
