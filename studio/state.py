@@ -282,11 +282,15 @@ class Session:
         """
         p = presets.get(name)
         with self.lock:
-            v = self.view
-            target = None
-            if p.mechanism.name != v.design.mechanism.name and v.target.origin != "uploaded":
-                target = preset_target(name, v.target.period)
-            return self._commit(self._rebuild(p.design(), name, target))
+            return self._commit(self._rebuild(p.design(), name, self._target_for(p.mechanism.name, name)))
+
+    def _target_for(self, mechanism: str, preset: str) -> TargetSpec | None:
+        """The target a design of ``mechanism`` brings into the editor: None (the current one stays) within the
+        editor's mechanism or when the designer uploaded the target, else ``preset``'s own (``preset_target``)."""
+        v = self.view
+        if mechanism == v.design.mechanism.name or v.target.origin == "uploaded":
+            return None
+        return preset_target(preset, v.target.period)
 
     def select_mechanism(self, name: str) -> DesignView:
         """Switch topology: loads the mechanism's first preset (the registry gives no other design)."""
@@ -445,13 +449,16 @@ class Session:
         return session
 
     def restore_branch(self, j: int) -> DesignView:
-        """Branch j becomes the current pipeline and its design the editor's (mechanism, parameters, output)."""
+        """Branch j becomes the current pipeline and its design the editor's (mechanism, parameters, output),
+        with its mechanism's target when it is another topology's, as switching topology does."""
         with self.lock:
             self.study.restore_branch(j)
             design = self.study.branch_design()
             if design is None:
                 return self.view
-            return self._commit(self._rebuild(design, None))
+            names = presets_for(design.mechanism.name)  # a branch of another topology brings its target back
+            target = self._target_for(design.mechanism.name, names[0]) if names else None
+            return self._commit(self._rebuild(design, None, target))
 
     def restore(self, other: Session) -> None:
         """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""

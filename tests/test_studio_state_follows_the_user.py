@@ -92,6 +92,17 @@ def test_restoring_a_branch_restores_its_mechanism_and_design_with_the_pipeline(
     assert s.study.viewing == restored.name
 
 
+def test_restoring_a_branch_of_another_topology_brings_its_target_back():
+    s, _ = session_after_subtask1()
+    before = s.view.target
+    s.select_mechanism("jansen")
+    assert s.view.target.option() != before.option()  # Jansen's own, smaller target
+    s.restore_branch(0)
+    assert s.view.design.mechanism.name == "stephenson1"
+    assert s.view.target.option() == before.option() and s.view.target.curve is None
+    np.testing.assert_allclose(s.view.target_design, before.points(len(s.view.target_design)))
+
+
 def test_the_camera_frames_the_views_again_when_a_design_outgrows_them():
     from studio.app import Studio
     from studio.state import Session
