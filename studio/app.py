@@ -53,8 +53,8 @@ RUN_FRAME_PERIOD = 0.2
 # While a stage runs, the candidate spheres and labels (scene nodes rebuilt when the shortlist changes) are
 # redrawn at most this often (s), like the Pareto chart.
 INSET_PERIOD = 0.5
-# A Run click this soon after a run started is the second click of a double click (even if that
-# run already finished): it starts nothing.
+# A Run click this soon after a run of the same stage and settings started is the second click of a double
+# click (even if that run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
 # A page gets its plotly charts this long after it first reports its camera (it has drawn), or after it connected
 # if it reports none (s): with them viser sends it plotly.js, compiled once the page is up (studio/panels/_lazy.py).
@@ -108,6 +108,7 @@ class Studio:
         self._study_dirty = False
         self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
         self._last_start = -DOUBLE_CLICK
+        self._last_request: object = None  # (stage, settings, from the pick) of the last run started
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
                                         show_logo=False)
@@ -316,8 +317,6 @@ class Studio:
         """
         session = self.session
         with session.lock:
-            if time.monotonic() - self._last_start < DOUBLE_CLICK:
-                return False
             chain = self.chain()
             sv = self.study_view()
             if sv.next_stage is None:
@@ -325,8 +324,13 @@ class Studio:
             stage = find(chain, sv.next_stage)
             settings = session.study.settings_for(stage)
             view, from_pick = session.view, session.study.from_pick
+            # The second click of a double click asks for the same run again; a click for another stage or
+            # other settings, however soon, is a new request.
+            request = (stage.name, settings, from_pick)
+            if request == self._last_request and time.monotonic() - self._last_start < DOUBLE_CLICK:
+                return False
             self.runner.start(lambda study: study.plan(stage, settings, view.design, view.target, from_pick, chain))
-            self._last_start = time.monotonic()
+            self._last_start, self._last_request = time.monotonic(), request
         self.refresh()
         return True
 

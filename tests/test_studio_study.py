@@ -343,6 +343,26 @@ def test_a_second_run_click_within_the_double_click_time_starts_nothing() -> Non
         studio.close()
 
 
+def test_a_run_click_for_another_stage_right_after_a_run_is_a_new_run() -> None:
+    import studio.app as app
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        tiny(studio.session.study, "subtask2", pop=8, gens=1)
+        tiny(studio.session.study, "subtask3", pop=8, gens=1)
+        with studio.session.lock:
+            studio.session.study.next_stage = "subtask3"
+        assert studio.start_run()
+        studio.runner.join(30)
+        with studio.session.lock:
+            studio.session.study.next_stage = "subtask2"  # the designer chose another stage, within a second
+        assert studio.start_run()
+        studio.runner.join(30)
+        assert studio.session.study.result("subtask2") is not None
+    finally:
+        studio.close()
+
+
 def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
     import studio.app as app
     from studio.candidates import candidates
