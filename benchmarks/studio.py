@@ -8,8 +8,10 @@ the animation plays and a stage runs, every 50 ms the script reads the generatio
 Stages panel's "generation k/n", with the page's own clock at that moment); the lag is how long before
 that moment the server reached the generation after the one the page shows (zero if it had not). Stop is
 clicked at 60 % of the run; its latency runs from the press as the page's event records it to the server
-cancelling the run. Page ready: a first load, a reload, and a second tab while the first is open. Messages
-and bytes are what the server queued for the pages (msgpack, before compression). Targets (issue 13): lag
+cancelling the run. Page ready: a first load, a reload, and a second tab while the first is open, each from
+the request to the first frame the page paints with the metrics table's values (by the page's clock). Messages
+and bytes are what the server queued for the pages, broadcast or to one page (msgpack, before compression);
+the page's frame time is its probe round trip (studio/pacer.py). Targets (issue 13): lag
 <= 0.5 s, Stop <= 0.5 s, page ready <= 2 s. Not a test: numbers depend on the machine and its load.
 """
 
@@ -46,23 +48,33 @@ class Sent:
     """Messages the server queues for its pages (viser's broadcast buffer), with their times and sizes."""
 
     def __init__(self, server: Any) -> None:
-        self.times: list[float] = []
-        self.sizes: list[int] = []
+        self.sent: list[tuple[float, int]] = []  # (when, bytes): one append, as pushes come from several threads
         buffer = server._websock_server.get_message_buffer()
         push = buffer.push
 
         def counted(message: Any) -> Any:
-            self.times.append(time.monotonic())
-            self.sizes.append(len(msgpack.encode(message.as_serializable_dict([]))))
+            self.sent.append((time.monotonic(), len(msgpack.encode(message.as_serializable_dict([])))))
             return push(message)
 
         buffer.push = counted  # this benchmark's own server only
 
+        def count_client(client: Any) -> None:  # and what goes to one page alone (its plotly charts)
+            own = client._websock_connection.get_message_buffer()
+            own_push = own.push
+
+            def counted_own(message: Any) -> Any:
+                self.sent.append((time.monotonic(), len(msgpack.encode(message.as_serializable_dict([])))))
+                return own_push(message)
+
+            own.push = counted_own
+
+        server.on_client_connect(count_client)
+
     def rate(self, t0: float, t1: float) -> tuple[float, float]:
-        t = np.asarray(self.times)
-        sel = (t >= t0) & (t < t1)
+        sent = np.asarray(list(self.sent), dtype=np.float64).reshape(-1, 2)
+        sel = (sent[:, 0] >= t0) & (sent[:, 0] < t1)
         span = max(t1 - t0, 1e-9)
-        return float(sel.sum() / span), float(np.asarray(self.sizes)[sel].sum() / span)
+        return float(sel.sum() / span), float(sent[sel, 1].sum() / span)
 
 
 class ServerClock:
@@ -154,8 +166,20 @@ def field(page: Any, label: str) -> Any:
                         '//input[not(@type="hidden")]')
 
 
-def ready(page: Any, timeout: float = 60.0) -> None:
-    page.wait_for_selector('table.clm-metrics tr[data-key="mse"] td[data-value]', timeout=timeout * 1000)
+READY = 'table.clm-metrics tr[data-key="mse"] td[data-value]'  # the metrics table shows its values
+# Every page notes (by its own clock, epoch ms) the first frame painted after the metrics table got its values:
+# the moment a user sees the page ready. Playwright's own wait for the selector notices it later on a busy page.
+READY_CLOCK = """new MutationObserver((_, obs) => {
+  if (document.querySelector('%s')) { obs.disconnect();
+    requestAnimationFrame(() => setTimeout(() => { window.__readyAt = performance.timeOrigin + performance.now(); }));
+  } }).observe(document, {subtree: true, childList: true, attributes: true});""" % READY
+
+
+def ready(page: Any, since: float | None = None, timeout: float = 60.0) -> float:
+    """Wait for the page to be ready; seconds from ``since`` (time.time()) to its first frame after it was."""
+    page.wait_for_selector(READY, timeout=timeout * 1000)
+    page.wait_for_function("() => window.__readyAt !== undefined", timeout=timeout * 1000)
+    return float(page.evaluate("() => window.__readyAt")) / 1000.0 - (since if since is not None else 0.0)
 
 
 def measure(quick: bool) -> dict[str, float]:
@@ -173,29 +197,28 @@ def measure(quick: bool) -> dict[str, float]:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
             ctx = browser.new_context(viewport={"width": 1600, "height": 1000})
+            ctx.add_init_script(READY_CLOCK)
             page = ctx.new_page()
             frames = Sent(studio.server)
-            t = time.monotonic()
+            t = time.time()  # the page's clock (performance.timeOrigin) is the same one
             page.goto(url)
-            ready(page)
-            out["page ready (s)"] = time.monotonic() - t
+            out["page ready (s)"] = ready(page, t)
             time.sleep(3.0)  # the page gets its charts (and plotly.js) after it is ready
-            t = time.monotonic()
+            t = time.time()
             page.reload()  # returns at the load event: the clock starts before it
-            ready(page)
-            out["page ready after reload (s)"] = time.monotonic() - t
+            out["page ready after reload (s)"] = ready(page, t)
             time.sleep(3.0)
             other = ctx.new_page()
-            t = time.monotonic()
+            t = time.time()
             other.goto(url)
-            ready(other)
-            out["page ready, a second tab (s)"] = time.monotonic() - t
+            out["page ready, a second tab (s)"] = ready(other, t)
             other.close()
 
             t0 = time.monotonic()
             time.sleep(3.0)
             out["idle: messages/s"], bps = frames.rate(t0, time.monotonic())
             out["idle: kB/s"] = bps / 1e3
+            out["idle: page frame time (s)"] = studio.pacer.frame_time()  # probe round trip, animation playing
 
             choose(page, "Stage", STAGE_TITLE)
             deadline = time.monotonic() + 30

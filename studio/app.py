@@ -47,9 +47,14 @@ BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
 # the session file is still written after every generation.
 STUDY_PUSH_PERIOD = 0.15
-# While a stage runs, the scene's animation frames go at most this often (s), leaving a software-rendered page
-# idle time to show the run's progress at once instead of after the frame it is drawing.
+# While a stage runs, the scene's animation frames go at most this often (s), leaving the page idle time to
+# show the run's progress at once instead of after the frame it is drawing ...
 RUN_FRAME_PERIOD = 0.2
+# ... and on a slow page (its frame time, the probe's round trip, over 1.5 frames of a 60 Hz display; software
+# WebGL here: 0.03-0.04 s idle, ~0.1 s during a run) the animation and the candidate spheres hold still until
+# the run ends: viser's client draws for 0.25 s after every scene change, so each frame would keep such a page
+# busy for ~0.3 s with the progress waiting behind it (docs/studio.md).
+SLOW_FRAME = 0.025
 # While a stage runs, the candidate spheres and labels (scene nodes rebuilt when the shortlist changes) are
 # redrawn at most this often (s), like the Pareto chart.
 INSET_PERIOD = 0.5
@@ -221,7 +226,7 @@ class Studio:
         if key == self._inset_key:
             return
         running = sv.status.running and sv.status.stage == sv.viewing
-        if running and time.monotonic() - self._inset_at < INSET_PERIOD:
+        if running and (self.held() or time.monotonic() - self._inset_at < INSET_PERIOD):
             return  # a later generation (or the end of the run) redraws it
         self._inset_key, self._inset_at = key, time.monotonic()
         if r is None or r.pop == 0:
@@ -284,22 +289,26 @@ class Studio:
         view = self._shown
         if view is None or not self.server.get_clients():  # nobody watching: keep time, skip the pushes
             return
-        if not self.pacer.ready():  # a page is still drawing the last push: skip this frame, keep time
-            return
-        pushed = False
         if self._study_dirty and time.monotonic() - self._last_push >= STUDY_PUSH_PERIOD:
+            # GUI only: a page applies it on arrival, without drawing its scene (so no probe, which would)
             self._study_dirty = False
             self.refresh()
-            pushed = True
             view = self._shown or view
-        now = time.monotonic()
-        drawn = False
-        if not self.session.study.status.running or now - self._last_frame >= RUN_FRAME_PERIOD:
-            drawn = self.scene.draw(frame_index(pb.angle, view.n_samples))
-            self._last_frame = now if drawn else self._last_frame
+        if self.held():
+            self.playback.show_held(pb)
+            return
         self.playback.tick(pb)
-        if drawn or pushed:
-            self.pacer.probe()
+        if not self.pacer.ready():  # a page is still drawing the last frame: skip this one, keep time
+            return
+        now = time.monotonic()
+        if not self.session.study.status.running or now - self._last_frame >= RUN_FRAME_PERIOD:
+            if self.scene.draw(frame_index(pb.angle, view.n_samples)):
+                self._last_frame = now
+                self.pacer.probe()
+
+    def held(self) -> bool:
+        """True while a stage runs and a page draws slowly (SLOW_FRAME): the scene holds still till the end."""
+        return self.session.study.status.running and self.pacer.frame_time() > SLOW_FRAME
 
     def notify(
         self, client: viser.ClientHandle, title: str, body: str, color: Literal["red", "yellow", "green"] = "red"

@@ -61,8 +61,12 @@ class PlaybackPanel:
             set_value(self.angle, self._degrees(pb))
         self._show_readout(pb)
 
-    def _show_readout(self, pb: Playback) -> None:
-        text = self._readout(pb)
+    def show_held(self, pb: Playback) -> None:
+        """The animation holds still while a stage runs (a slow page: see studio.app.SLOW_FRAME)."""
+        self._show_readout(pb, f"θ = {self._degrees(pb):.0f}° (held while the stage runs)")
+
+    def _show_readout(self, pb: Playback, text: str | None = None) -> None:
+        text = text or self._readout(pb)
         if self.now.content != text:
             self.now.content = text
 
