@@ -170,9 +170,9 @@ READY = 'table.clm-metrics tr[data-key="mse"] td[data-value]'  # the metrics tab
 # Every page notes (by its own clock, epoch ms) the first frame painted after the metrics table got its values:
 # the moment a user sees the page ready. Playwright's own wait for the selector notices it later on a busy page.
 READY_CLOCK = """new MutationObserver((_, obs) => {
-  if (document.querySelector('%s')) { obs.disconnect();
+  if (document.querySelector('READY')) { obs.disconnect();
     requestAnimationFrame(() => setTimeout(() => { window.__readyAt = performance.timeOrigin + performance.now(); }));
-  } }).observe(document, {subtree: true, childList: true, attributes: true});""" % READY
+  } }).observe(document, {subtree: true, childList: true, attributes: true});""".replace("READY", READY)
 
 
 def ready(page: Any, since: float | None = None, timeout: float = 60.0) -> float:

@@ -17,6 +17,16 @@ import plotly.graph_objects as go
 import viser
 
 
+def write(handle: Any, name: str, value: Any) -> bool:
+    """Set a property of a page's own element; False if the page left (viser removed its elements then,
+    possibly while the server still listed it among its clients)."""
+    try:
+        setattr(handle, name, value)
+    except RuntimeError:  # "Cannot assign to ... on a removed ..."
+        return False
+    return True
+
+
 class LazyPlotly:
     """A chart at ``order`` in ``folder``: one ``client.gui.add_plotly`` per attached page."""
 
@@ -47,10 +57,13 @@ class LazyPlotly:
         with self._lock:
             self._handles.pop(client.client_id, None)
 
-    def _live(self) -> list[viser.GuiPlotlyHandle]:
-        """The handles of pages still connected (a page may leave before its disconnect callback ran)."""
+    def _write(self, name: str, value: Any) -> None:
+        """Set a property on every connected page's chart; forget the charts of pages that left (a page may
+        leave before its disconnect callback ran)."""
         clients = self._server.get_clients()
-        return [h for cid, h in self._handles.items() if cid in clients]
+        for cid, h in list(self._handles.items()):
+            if cid not in clients or not write(h, name, value):
+                self._handles.pop(cid, None)
 
     @property
     def figure(self) -> go.Figure | None:
@@ -60,8 +73,7 @@ class LazyPlotly:
     def figure(self, fig: go.Figure) -> None:
         with self._lock:
             self._figure = fig
-            for h in self._live():
-                h.figure = fig
+            self._write("figure", fig)
 
     @property
     def visible(self) -> bool:
@@ -71,5 +83,4 @@ class LazyPlotly:
     def visible(self, value: bool) -> None:
         with self._lock:
             self._visible = bool(value)
-            for h in self._live():
-                h.visible = self._visible
+            self._write("visible", self._visible)

@@ -16,7 +16,7 @@ import viser
 
 from studio.charts import target_text
 from studio.figures import make_pareto_figure, make_trace_figure
-from studio.panels._lazy import LazyPlotly
+from studio.panels._lazy import LazyPlotly, write
 from studio.study import status_text
 from studio.study_view import StudyView
 
@@ -152,8 +152,9 @@ class ParetoPanel:
             return
         self.plot.figure = fig
         self.plot.visible = self.open_large.visible = True
-        for _, large in list(self._large.values()):
-            large.figure = fig
+        for cid, (_, large) in list(self._large.items()):
+            if not write(large, "figure", fig):
+                self._large.pop(cid, None)
         tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:
             self.trace.figure = tfig
