@@ -450,14 +450,17 @@ class Session:
 
     def restore_branch(self, j: int) -> DesignView:
         """Branch j becomes the current pipeline and its design the editor's (mechanism, parameters, output),
-        with its mechanism's target when it is another topology's, as switching topology does."""
+        with the target its stages ran against (an older session's branch, which did not keep it: its
+        mechanism's target when it is another topology's, as switching topology does)."""
         with self.lock:
             self.study.restore_branch(j)
             design = self.study.branch_design()
             if design is None:
                 return self.view
-            names = presets_for(design.mechanism.name)  # a branch of another topology brings its target back
-            target = self._target_for(design.mechanism.name, names[0]) if names else None
+            target = self.study.target
+            if target is None:
+                names = presets_for(design.mechanism.name)
+                target = self._target_for(design.mechanism.name, names[0]) if names else None
             return self._commit(self._rebuild(design, None, target))
 
     def restore(self, other: Session) -> None:

@@ -72,21 +72,38 @@ class RunStatus:
 
 @dataclass(frozen=True)
 class Branch:
-    """A pipeline the designer left (a JSON copy, restorable)."""
+    """A pipeline the designer left (a JSON copy, restorable), the target its stages ran against
+    (``TargetSpec.to_dict``), and the study's state when it was left: members shown per stage, the stage the
+    Run button launched and whether from the previous pick. Sessions saved before branches kept these have
+    None / {} / None here."""
 
     label: str
     pipeline: dict[str, Any]
+    target: dict[str, Any] | None = None
+    shown: dict[str, int] = field(default_factory=dict)
+    next_stage: str | None = None
+    from_pick: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"label": self.label, "pipeline": self.pipeline}
+        if self.target is not None:
+            out["target"] = self.target
+        if self.next_stage is not None:
+            out.update(shown=dict(self.shown), next_stage=self.next_stage, from_pick=self.from_pick)
+        return out
 
 
 @dataclass(frozen=True)
 class RunPlan:
-    """A prepared run: the pipeline it records into, the stage index, the pick it starts from, the spec."""
+    """A prepared run: the pipeline it records into, the stage index, the pick it starts from, the spec, and
+    the target it runs against."""
 
     pipeline: Pipeline
     index: int
     pick: int | None
     spec: StageSpec
     stage: ChainStage
+    target: TargetSpec
 
 
 def _values(r: StageResult, shown: dict[str, int]) -> str:
@@ -127,6 +144,7 @@ class Study:
         next_stage: the stage the Run button launches.
         from_pick: launch from the previous stage's pick (else from the editor's design).
         settings: per stage name, the run settings.
+        target: the target the pipeline's latest run ran against (what a branch of it brings back).
         status: the run status.
         live: the latest generation of the running stage.
         version: bumped on every change (the panels redraw when it moves).
@@ -139,6 +157,7 @@ class Study:
     next_stage: str | None = None
     from_pick: bool = False
     settings: dict[str, RunSettings] = field(default_factory=dict)
+    target: TargetSpec | None = None
     status: RunStatus = field(default_factory=RunStatus)
     live: Progress | None = None
     version: int = 0
@@ -205,13 +224,16 @@ class Study:
         )
         label = f"{len(self.branches) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
                 f"{time.strftime('%H:%M:%S')})"
-        self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None))))
+        target = None if self.target is None else self.target.to_dict()
+        self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None)), target, dict(self.shown),
+                                    self.next_stage, self.from_pick))
 
     def start_over(self, why: str) -> None:
         """A new topology in the editor: keep the current pipeline as a branch and start afresh (the first
         stage, from the editor's design; no chart, no candidates)."""
         self.keep_branch(why)
         self.pipeline = None
+        self.target = None
         self.viewing = None
         self.shown = {}
         self.next_stage = None
@@ -280,21 +302,27 @@ class Study:
         del self.branches[j]
         self.keep_branch("left for a branch")
         self.pipeline = pipe
+        self.target = None if chosen.target is None else TargetSpec.from_dict(chosen.target)
         last = pipe.lineage[-1] if pipe.lineage else None
         self.viewing = None if last is None else last.name
-        if last is not None and last.picked is not None:
-            self.shown[last.name] = last.picked
+        names = [st.name for st in pipe.stages]
+        if chosen.next_stage in names:  # the Stages panel and the members shown as the branch was left
+            self.shown = {k: v for k, v in chosen.shown.items() if k in names}
+            self.next_stage, self.from_pick = chosen.next_stage, chosen.from_pick
+        elif last is not None:  # an older session's branch: its last stage again, its pick shown
+            self.shown = {} if last.picked is None else {last.name: last.picked}
+            self.next_stage, self.from_pick = last.name, names.index(last.name) > 0
         self.touch()
 
     def branch_design(self) -> Design | None:
-        """The design a restored pipeline stands for: its last stage's passed-on (or shown) member, else its
-        start."""
+        """The design a restored pipeline stands for: its last stage's shown member (what the editor showed
+        when the branch was left), else its passed-on one, else its start."""
         pipe = self.pipeline
         if pipe is None:
             return None
         if pipe.lineage:
             r = pipe.lineage[-1]
-            i = r.picked if r.picked is not None else self.shown.get(r.name)
+            i = self.shown.get(r.name, r.picked)
             if i is not None and 0 <= i < r.pop:
                 return Design(r.mechanism, r.X[i:i + 1], r.output)
         return pipe.start
@@ -311,7 +339,7 @@ class Study:
         if not from_pick:
             c = chain.index(stage)
             specs = [spec] + [stage_spec(s, self.settings_for(s), target) for s in chain[c + 1 :]]
-            return RunPlan(Pipeline(specs, editor), 0, None, spec, stage)
+            return RunPlan(Pipeline(specs, editor), 0, None, spec, stage, target)
         pipe = self.pipeline
         k = self.index(stage.name)
         if pipe is None or k is None or k == 0:
@@ -322,7 +350,7 @@ class Study:
         pick = prev.picked if prev.picked is not None else prev.shortlist.first
         if pick is None:
             raise ValueError(f"{prev.name} has no member to start from")
-        return RunPlan(pipe, k, int(pick), spec, stage)
+        return RunPlan(pipe, k, int(pick), spec, stage, target)
 
     def begin(self, plan: RunPlan) -> None:
         """Mark the run started (caller checked nothing runs); switch pipelines or keep a branch as planned."""
@@ -331,6 +359,7 @@ class Study:
             self.pipeline = plan.pipeline
         elif plan.pipeline.results[plan.index] is not None:
             self.keep_branch(f"before re-running {plan.stage.name}")
+        self.target = plan.target
         self.viewing = plan.stage.name
         self.next_stage = plan.stage.name
         self.shown.pop(plan.stage.name, None)
@@ -343,7 +372,8 @@ class Study:
     def to_dict(self) -> dict[str, Any]:
         return {
             "pipeline": None if self.pipeline is None else json.loads(self.pipeline.to_json(indent=None)),
-            "branches": [{"label": b.label, "pipeline": b.pipeline} for b in self.branches],
+            "branches": [b.to_dict() for b in self.branches],
+            **({} if self.target is None else {"target": self.target.to_dict()}),
             "viewing": self.viewing,
             "shown": dict(self.shown),
             "next_stage": self.next_stage,
@@ -355,25 +385,30 @@ class Study:
     def from_dict(data: object, target: TargetSpec) -> Study:
         """A study saved by :meth:`to_dict`; ValueError naming the first problem.
 
-        A stage whose target was an uploaded curve is pointed at the session's curve, written
-        locally (the saved path may come from another machine).
+        A stage whose target was an uploaded curve is pointed at the curve its pipeline ran against (the
+        branch's or the study's own, else the session's), written locally (the saved path may come from
+        another machine).
         """
         if data is None:
             return Study()
         if not isinstance(data, dict):
             raise ValueError(f"study must be an object, got {type(data).__name__}")
-        pipe = _pipeline_from(data.get("pipeline"), target, "pipeline")
+        ran = _target_dict(data.get("target"), "study")
+        pipe = _pipeline_from(data.get("pipeline"), target if ran is None else TargetSpec.from_dict(ran), "pipeline")
         branches = []
         for j, b in enumerate(data.get("branches") or []):
             if not isinstance(b, dict) or not isinstance(b.get("pipeline"), dict):
                 raise ValueError(f"branch {j + 1} must be an object with a pipeline")
-            _pipeline_from(b["pipeline"], target, f"branch {j + 1}")  # check it loads
-            branches.append(Branch(str(b.get("label", f"branch {j + 1}")), _retarget(b["pipeline"], target,
-                                                                                     f"branch {j + 1}")))
-        shown = data.get("shown") or {}
-        if not isinstance(shown, dict) or not all(isinstance(v, int) and not isinstance(v, bool)
-                                                  for v in shown.values()):
-            raise ValueError("study shown must map stage names to member indices")
+            own = _target_dict(b.get("target"), f"branch {j + 1}")  # a branch's curve travels with it
+            its = target if own is None else TargetSpec.from_dict(own)
+            _pipeline_from(b["pipeline"], its, f"branch {j + 1}")  # check it loads
+            b_shown, b_next = _shown(b.get("shown") or {}, f"branch {j + 1}"), b.get("next_stage")
+            if b_next is not None and not isinstance(b_next, str):
+                raise ValueError(f"branch {j + 1} next_stage must be a stage name, got {b_next!r}")
+            branches.append(Branch(str(b.get("label", f"branch {j + 1}")),
+                                   _retarget(b["pipeline"], its, f"branch {j + 1}"), own, b_shown, b_next,
+                                   bool(b.get("from_pick", False))))
+        shown = _shown(data.get("shown") or {}, "study")
         settings_raw = data.get("settings") or {}
         if not isinstance(settings_raw, dict):
             raise ValueError("study settings must be an object")
@@ -383,7 +418,25 @@ class Study:
             if v is not None and not isinstance(v, str):
                 raise ValueError(f"study {key} must be a stage name, got {v!r}")
         return Study(pipeline=pipe, branches=branches, viewing=viewing,
-                     shown={str(k): int(v) for k, v in shown.items()}, next_stage=nxt,
-                     from_pick=bool(data.get("from_pick", False)), settings=settings)
+                     shown=shown, next_stage=nxt,
+                     from_pick=bool(data.get("from_pick", False)), settings=settings,
+                     target=None if ran is None else TargetSpec.from_dict(ran))
+
+
+def _shown(data: object, where: str) -> dict[str, int]:
+    """Members shown per stage name, checked; ValueError naming where."""
+    if not isinstance(data, dict) or not all(isinstance(v, int) and not isinstance(v, bool) for v in data.values()):
+        raise ValueError(f"{where} shown must map stage names to member indices")
+    return {str(k): int(v) for k, v in data.items()}
+
+
+def _target_dict(data: object, where: str) -> dict[str, Any] | None:
+    """A saved branch's (or pipeline's) target, checked; ValueError naming where it is."""
+    if data is None:
+        return None
+    try:
+        return TargetSpec.from_dict(data).to_dict()
+    except ValueError as exc:
+        raise ValueError(f"{where} target: {exc}") from None
 
 

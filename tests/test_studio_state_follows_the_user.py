@@ -165,3 +165,73 @@ def test_the_passed_on_ring_marks_only_what_was_passed_on():
     member = next(i for i in range(r.pop) if i != r.picked)
     s.study.use_for_next("subtask1", member, chain)
     assert passed_on(sv()) == member
+
+
+def test_a_branch_brings_back_the_target_its_stages_ran_against_even_a_hand_edited_one():
+    import json
+
+    from studio.state import Session
+
+    s, _ = session_after_subtask1()
+    ran = s.view.target
+    s.set_target(length=280.0, height=90.0)  # edited after the run: the branch keeps what the run used
+    s.select_mechanism("jansen")
+    s.set_target(length=50.0)
+    assert s.study.branches[0].target == ran.to_dict()
+    # ... through a session file too
+    s = Session.from_dict(json.loads(json.dumps(s.to_dict())))
+    s.restore_branch(0)
+    assert s.view.design.mechanism.name == "stephenson1"
+    assert s.view.target.option() == ran.option()
+    assert s.study.target is not None and s.study.target.option() == ran.option()
+    # The Jansen study had no result, so no branch of it was kept; back to Jansen and the Stephenson
+    # pipeline is a branch again, with its target.
+    s.select_mechanism("jansen")
+    assert len(s.study.branches) == 1 and s.study.branches[0].target == ran.to_dict()
+
+
+def test_a_restored_branch_offers_the_stage_and_shows_the_members_it_was_left_with():
+    import json
+
+    from studio.state import Session
+
+    s, chain = session_after_subtask1()
+    assert (s.study.next_stage, s.study.from_pick) == ("subtask1", False)  # as a run leaves it: run it again
+    s.select_mechanism("jansen")
+    s.restore_branch(0)
+    assert (s.study.next_stage, s.study.from_pick) == ("subtask1", False)
+    # Member 5 shown, member 2 passed on ("Use for next stage"): the branch brings back both.
+    s.study.show("subtask1", 5)
+    s.study.use_for_next("subtask1", 2, chain)
+    s.study.show("subtask1", 5)
+    s.select_mechanism("jansen")
+    assert s.study.next_stage is None and s.study.shown == {}
+    s = Session.from_dict(json.loads(json.dumps(s.to_dict())))  # through a session file
+    s.restore_branch(0)
+    assert (s.study.next_stage, s.study.from_pick) == ("subtask2", True)
+    assert s.study.shown == {"subtask1": 5} and s.study.pipeline.lineage[-1].picked == 2
+    np.testing.assert_allclose(s.view.design.params[0], s.study.pipeline.lineage[-1].X[5])  # the editor showed 5
+
+
+def test_a_malformed_branch_state_is_refused_with_where_and_what():
+    import json
+
+    import pytest
+
+    from studio.state import Session
+
+    s, chain = session_after_subtask1()
+    s.select_mechanism("jansen")
+    data = json.loads(json.dumps(s.to_dict()))
+    branch = data["study"]["branches"][0]
+    for key, value, message in (("target", {"L": -1.0, "H": 100.0, "T": 2.0}, "branch 1 target: target length"),
+                                ("shown", {"subtask1": "five"}, "branch 1 shown must map stage names"),
+                                ("next_stage", 3, "next_stage")):
+        bad = json.loads(json.dumps(data))
+        bad["study"]["branches"][0] = {**branch, key: value}
+        with pytest.raises(ValueError, match=message):
+            Session.from_dict(bad)
+    bad = json.loads(json.dumps(data))
+    bad["study"]["target"] = {"L": 300.0, "H": 0.0, "T": 2.0}
+    with pytest.raises(ValueError, match="study target: target height"):
+        Session.from_dict(bad)

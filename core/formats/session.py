@@ -30,6 +30,10 @@ class PlaybackFile(Struct, forbid_unknown_fields=True, frozen=True):
 class BranchFile(Struct, forbid_unknown_fields=True, frozen=True):
     label: Label
     pipeline: dict[str, Any]
+    target: dict[str, Any] | None = None  # what its stages ran against (checked by the target's own decoder)
+    shown: Any = {}  # the study's state when the branch was left (checked by the study's decoder)
+    next_stage: str | None = None
+    from_pick: bool = False
 
 
 class StudyFile(Struct, forbid_unknown_fields=True, frozen=True):
@@ -42,6 +46,7 @@ class StudyFile(Struct, forbid_unknown_fields=True, frozen=True):
     next_stage: str | None = None
     from_pick: bool = False
     settings: dict[str, dict[str, Any]] = {}
+    target: dict[str, Any] | None = None  # the target the pipeline's latest run ran against
     results: dict[str, dict[str, Any]] = {}  # version 3: stage results by content hash
 
 
