@@ -13,7 +13,9 @@ from typing import Any
 
 import numpy as np
 from playwright.sync_api import expect
-from test_studio_stages_in_the_browser import choose, expand, settle, wait_for
+from test_studio_stages_in_the_browser import SUBTASK3, choose, expand, field, settle, wait_for
+
+from studio.panels.stages import FROM_PICK
 
 SUBTASK2 = "Subtask 2 → X2 (h_s, I)"
 
@@ -53,7 +55,7 @@ def test_a_whole_session_keeps_its_state_straight(page, studio, ready):
     wait_for(lambda: studio.session.study.from_pick and studio.session.study.next_stage == "subtask3",
              "the pick passed on to subtask 3")
     passed = studio.session.study.result("subtask2").picked
-    design_passed = studio.session.view.design
+    design_passed, target_ran = studio.session.view.design, studio.session.view.target
 
     # Item 1: another topology starts a new pipeline; the old one becomes a branch labelled by its values.
     choose(page, "Topology", "Theo Jansen leg")
@@ -75,6 +77,10 @@ def test_a_whole_session_keeps_its_state_straight(page, studio, ready):
     assert np.allclose(studio.session.view.design.params, design_passed.params)
     assert studio.session.study.result("subtask2").picked == passed
     expect(page.get_by_text(re.compile(r"Last run: subtask2|subtask2 · complete")).first).to_be_visible()
+    # ... with its target, and the Stages panel as it was left: subtask 3, from the pick passed on.
+    assert studio.session.view.target.option() == target_ran.option()
+    expect(field(page, "Stage")).to_have_value(SUBTASK3)
+    expect(field(page, "Start from")).to_have_value(FROM_PICK)
 
     # Item 5: a new start keeps the restored pipeline as a branch; deleting it asks first.
     assert not studio.session.study.branches  # the empty Jansen pipeline was not kept
