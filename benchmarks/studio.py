@@ -10,8 +10,8 @@ that moment the server reached the generation after the one the page shows (zero
 clicked at 60 % of the run; its latency runs from the press as the page's event records it to the server
 cancelling the run. Page ready: a first load, a reload, and a second tab while the first is open, each from
 the request to the first frame the page paints with the metrics table's values (by the page's clock). Messages
-and bytes are what the server queued for the pages, broadcast or to one page (msgpack, before compression);
-the page's frame time is its probe round trip (studio/pacer.py). Targets (issue 13): lag
+and bytes are what the server queued for the pages, broadcast or to one page (msgpack, before compression).
+Targets (issue 13): lag
 <= 0.5 s, Stop <= 0.5 s, page ready <= 2 s. Not a test: numbers depend on the machine and its load.
 """
 
@@ -218,7 +218,6 @@ def measure(quick: bool) -> dict[str, float]:
             time.sleep(3.0)
             out["idle: messages/s"], bps = frames.rate(t0, time.monotonic())
             out["idle: kB/s"] = bps / 1e3
-            out["idle: page frame time (s)"] = studio.pacer.frame_time()  # probe round trip, animation playing
 
             choose(page, "Stage", STAGE_TITLE)
             deadline = time.monotonic() + 30

@@ -47,17 +47,10 @@ BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
 # the session file is still written after every generation.
 STUDY_PUSH_PERIOD = 0.15
-# While a stage runs, the scene's animation frames go at most this often (s), leaving the page idle time to
-# show the run's progress at once instead of after the frame it is drawing ...
-RUN_FRAME_PERIOD = 0.2
-# ... and on a slow page (its frame time, the probe's round trip, over 1.5 frames of a 60 Hz display; software
-# WebGL here: 0.03-0.04 s idle, ~0.1 s during a run) the animation and the candidate spheres hold still until
-# the run ends: viser's client draws for 0.25 s after every scene change, so each frame would keep such a page
-# busy for ~0.3 s with the progress waiting behind it (docs/studio.md).
-SLOW_FRAME = 0.025
-# While a stage runs, the candidate spheres and labels (scene nodes rebuilt when the shortlist changes) are
-# redrawn at most this often (s), like the Pareto chart.
-INSET_PERIOD = 0.5
+# While a stage runs the scene holds still (the linkage, and the candidate spheres until the run ends); the
+# Stages status, the Pareto chart and the trace go on. viser's client draws for 0.25 s after every scene
+# change, and in software WebGL each of those frames keeps the page's main thread ~0.1 s (the WebGL frame and
+# its read-back), so frames during a run kept such a page busy and its progress behind (docs/studio.md).
 # A Run click this soon after a run of the same stage and settings started is the second click of a double
 # click (even if that run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
@@ -107,9 +100,7 @@ class Studio:
         self._optimized_by: tuple[str, ...] | None = None
         self._study_key: object = None
         self._inset_key: object = None
-        self._inset_at = 0.0
         self._last_push = 0.0
-        self._last_frame = 0.0
         self._study_dirty = False
         self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
         self._last_start = -DOUBLE_CLICK
@@ -169,7 +160,7 @@ class Studio:
                 self.walking.show(view)
                 self.bench.show(view, shown)
                 self._shown, self._optimized_by = view, optimized_by
-            self.playback.show(pb)
+            self.playback.show(pb, self.held())
             sv = self.study_view()
             study_changed = sv.key != self._study_key
             if changed or study_changed:
@@ -226,9 +217,9 @@ class Studio:
         if key == self._inset_key:
             return
         running = sv.status.running and sv.status.stage == sv.viewing
-        if running and (self.held() or time.monotonic() - self._inset_at < INSET_PERIOD):
-            return  # a later generation (or the end of the run) redraws it
-        self._inset_key, self._inset_at = key, time.monotonic()
+        if running:
+            return  # held still while the stage runs: the end of the run redraws it
+        self._inset_key = key
         if r is None or r.pop == 0:
             self.inset.place(box, INSET_NOTE, frames.text_height)
             self.inset.show((), np.zeros((0, 2)), None)
@@ -285,7 +276,10 @@ class Studio:
             chart.attach(client)
 
     def _tick(self, dt: float) -> None:
-        pb = self.session.advance(dt)
+        if self.held():  # playback time stands still too: the animation goes on from there after the run
+            pb = self.session.snapshot()[1]
+        else:
+            pb = self.session.advance(dt)
         view = self._shown
         if view is None or not self.server.get_clients():  # nobody watching: keep time, skip the pushes
             return
@@ -294,21 +288,15 @@ class Studio:
             self._study_dirty = False
             self.refresh()
             view = self._shown or view
-        if self.held():
-            self.playback.show_held(pb)
+        if self.held():  # the readout says so (refresh), and the scene stays as it is
             return
         self.playback.tick(pb)
-        if not self.pacer.ready():  # a page is still drawing the last frame: skip this one, keep time
-            return
-        now = time.monotonic()
-        if not self.session.study.status.running or now - self._last_frame >= RUN_FRAME_PERIOD:
-            if self.scene.draw(frame_index(pb.angle, view.n_samples)):
-                self._last_frame = now
-                self.pacer.probe()
+        if self.pacer.ready() and self.scene.draw(frame_index(pb.angle, view.n_samples)):
+            self.pacer.probe()  # a page still drawing the last frame skips this one; time goes on
 
     def held(self) -> bool:
-        """True while a stage runs and a page draws slowly (SLOW_FRAME): the scene holds still till the end."""
-        return self.session.study.status.running and self.pacer.frame_time() > SLOW_FRAME
+        """True while a stage runs: the scene holds still until it ends."""
+        return self.session.study.status.running
 
     def notify(
         self, client: viser.ClientHandle, title: str, body: str, color: Literal["red", "yellow", "green"] = "red"

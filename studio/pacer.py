@@ -8,24 +8,20 @@ has answered. Frames then go at the rate the slowest page draws, never faster th
 not answered for ``STALL`` seconds (a frozen or closed tab) no longer holds the others back.
 
 The probe is not a GUI message, so viser's client draws its scene for it: it follows scene frames only
-(GUI-only pushes are applied on arrival without a draw). Its round trip is the page's frame time, which
-:meth:`Pacer.frame_time` reports (the studio holds the animation during a run on a slow page).
+(GUI-only pushes are applied on arrival without a draw).
 """
 
 from __future__ import annotations
 
-import statistics
 import threading
 import time
 import uuid
-from collections import deque
 
 import viser
 from viser import _messages
 
 STALL = 2.0  # seconds without an answer after which a page no longer paces the pushes
 PROBE_KEY = "clm-studio-pace"
-ROUND_TRIPS = 8  # a page's frame time is the median of its last this many probe round trips
 
 
 class Pacer:
@@ -35,7 +31,6 @@ class Pacer:
         self.server = server
         self._lock = threading.Lock()
         self._pending: dict[int, tuple[str, float]] = {}  # client id -> (probe id, sent at)
-        self._trips: dict[int, deque[float]] = {}  # client id -> its last round trips (s)
         self.answered = 0
         self.waits = 0
         server._websock_server.register_handler(_messages.LocalStorageGetItemResponseMessage, self._on_answer)
@@ -47,12 +42,10 @@ class Pacer:
             if probe is not None and probe[0] == message.request_uuid:
                 del self._pending[client_id]
                 self.answered += 1
-                self._trips.setdefault(client_id, deque(maxlen=ROUND_TRIPS)).append(time.monotonic() - probe[1])
 
     def _forget(self, client_id: int) -> None:
         with self._lock:
             self._pending.pop(client_id, None)
-            self._trips.pop(client_id, None)
 
     def ready(self) -> bool:
         """True when no page is still busy with an earlier push (stalled pages excepted)."""
@@ -62,13 +55,6 @@ class Pacer:
         if busy:
             self.waits += 1
         return not busy
-
-    def frame_time(self) -> float:
-        """The slowest page's frame time: the median of its recent probe round trips (s; 0 before any)."""
-        live = self.server.get_clients()
-        with self._lock:
-            trips = [statistics.median(t) for cid, t in self._trips.items() if t and cid in live]
-        return max(trips, default=0.0)
 
     def probe(self) -> None:
         """After a push: ask every page without an outstanding probe to answer once it has handled it."""

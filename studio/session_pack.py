@@ -1,4 +1,5 @@
-"""Session version 3: every stage result stored once, however many branches share it, its arrays packed.
+"""Session versions 3-4: every stage result stored once, however many branches share it, its arrays packed;
+(4) every target curve a study carries stored once too.
 
 A study's pipelines (the current one and every branch) name their stage results by content hash; the
 results sit once in ``study.results``. A result's pick is not part of its content (branches that picked
@@ -6,6 +7,9 @@ different members of one front share that front): it stays in the pipeline's ``p
 arrays (X, F, G, cv and every metric) are little-endian float64 in base64 with their shape: exact,
 about half the size of decimal text. ``unpack_study`` gives back the version-2 shape, so everything
 after it (the study's decoder, the pipeline's and the results' checks) is unchanged.
+
+Version 4: the study's target and each branch's (the targets their stages ran against) name an uploaded
+curve by content hash; the curves sit once in ``study.curves``.
 """
 
 from __future__ import annotations
@@ -75,17 +79,59 @@ def pack_study(study: dict[str, Any]) -> dict[str, Any]:
             refs.append(key)
         return {**p, "results": refs}
 
+    curves: dict[str, Any] = {}
+
+    def pack_target(t: Any) -> Any:
+        if not isinstance(t, dict) or not isinstance(t.get("curve"), dict):
+            return t
+        key = hashlib.sha256(json.dumps(t["curve"], sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:20]
+        curves.setdefault(key, t["curve"])
+        return {**t, "curve": key}
+
     out = dict(study)
     out["pipeline"] = pack_pipeline(study.get("pipeline"))
-    out["branches"] = [{**b, "pipeline": pack_pipeline(b.get("pipeline"))} for b in study.get("branches", [])]
+    out["branches"] = [{**b, "pipeline": pack_pipeline(b.get("pipeline")),
+                        **({"target": pack_target(b["target"])} if "target" in b else {})}
+                       for b in study.get("branches", [])]
+    if "target" in study:
+        out["target"] = pack_target(study["target"])
     out["results"] = table
+    if curves:
+        out["curves"] = curves
+    return out
+
+
+def _unpack_curves(study: dict[str, Any]) -> dict[str, Any]:
+    """A version-4 study with its targets' curves inline again (the ``curves`` table dropped)."""
+    if "curves" not in study:
+        return study
+    curves = study["curves"]
+    if not isinstance(curves, dict) or not all(isinstance(c, dict) for c in curves.values()):
+        raise ValueError("study.curves must map hashes to curves")
+
+    def target(t: Any, where: str) -> Any:
+        if not isinstance(t, dict) or not isinstance(t.get("curve"), str):
+            return t
+        if t["curve"] not in curves:
+            raise ValueError(f"{where}: no curve {t['curve']!r} in study.curves")
+        return {**t, "curve": curves[t["curve"]]}
+
+    out = {k: v for k, v in study.items() if k != "curves"}
+    if "target" in out:
+        out["target"] = target(out["target"], "study.target")
+    if isinstance(out.get("branches"), list):
+        out["branches"] = [{**b, "target": target(b["target"], f"study.branches[{j}].target")}
+                           if isinstance(b, dict) and "target" in b else b for j, b in enumerate(out["branches"])]
     return out
 
 
 def unpack_study(study: Any) -> Any:
     """The version-2 shape of a packed study (results inline, picks set); ValueError naming the problem.
     A version-2 study (results inline) passes through unchanged."""
-    if not isinstance(study, dict) or "results" not in study:
+    if not isinstance(study, dict):
+        return study
+    study = _unpack_curves(study)
+    if "results" not in study:
         return study
     table = study["results"]
     if not isinstance(table, dict):

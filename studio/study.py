@@ -35,7 +35,7 @@ from core.optimize.result import StageResult
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, stage_spec
 from studio.study_targets import _pipeline_from, _retarget
-from studio.target import TargetSpec
+from studio.target import TargetSpec, curve_file
 
 RUN_STATES = ("idle", "running", "stopping")
 
@@ -312,6 +312,8 @@ class Study:
         elif last is not None:  # an older session's branch: its last stage again, its pick shown
             self.shown = {} if last.picked is None else {last.name: last.picked}
             self.next_stage, self.from_pick = last.name, names.index(last.name) > 0
+        else:  # a branch without results (a hand-made file): a fresh start
+            self.shown, self.next_stage, self.from_pick = {}, None, False
         self.touch()
 
     def branch_design(self) -> Design | None:
@@ -385,28 +387,33 @@ class Study:
     def from_dict(data: object, target: TargetSpec) -> Study:
         """A study saved by :meth:`to_dict`; ValueError naming the first problem.
 
-        A stage whose target was an uploaded curve is pointed at the curve its pipeline ran against (the
-        branch's or the study's own, else the session's), written locally (the saved path may come from
-        another machine).
+        A stage whose target was an uploaded curve is pointed at the studio's copy of that curve (the saved
+        path may come from another machine): every curve the file carries (the session's target, the study's,
+        each branch's) is written to the studio's target store first, so a pipeline whose stages ran against
+        several curves opens anywhere.
         """
         if data is None:
             return Study()
         if not isinstance(data, dict):
             raise ValueError(f"study must be an object, got {type(data).__name__}")
-        ran = _target_dict(data.get("target"), "study")
-        pipe = _pipeline_from(data.get("pipeline"), target if ran is None else TargetSpec.from_dict(ran), "pipeline")
-        branches = []
-        for j, b in enumerate(data.get("branches") or []):
+        raw = data.get("branches") or []
+        for j, b in enumerate(raw):
             if not isinstance(b, dict) or not isinstance(b.get("pipeline"), dict):
                 raise ValueError(f"branch {j + 1} must be an object with a pipeline")
-            own = _target_dict(b.get("target"), f"branch {j + 1}")  # a branch's curve travels with it
-            its = target if own is None else TargetSpec.from_dict(own)
-            _pipeline_from(b["pipeline"], its, f"branch {j + 1}")  # check it loads
+        ran = _target_dict(data.get("target"), "study")
+        owns = [_target_dict(b.get("target"), f"branch {j + 1}") for j, b in enumerate(raw)]
+        for t in (ran, *owns):
+            if t is not None and "curve" in t:
+                curve_file(TargetSpec.from_dict(t).curve)  # type: ignore[arg-type]
+        pipe = _pipeline_from(data.get("pipeline"), target, "pipeline")
+        branches = []
+        for j, (b, own) in enumerate(zip(raw, owns, strict=True)):
+            _pipeline_from(b["pipeline"], target, f"branch {j + 1}")  # check it loads
             b_shown, b_next = _shown(b.get("shown") or {}, f"branch {j + 1}"), b.get("next_stage")
             if b_next is not None and not isinstance(b_next, str):
                 raise ValueError(f"branch {j + 1} next_stage must be a stage name, got {b_next!r}")
             branches.append(Branch(str(b.get("label", f"branch {j + 1}")),
-                                   _retarget(b["pipeline"], its, f"branch {j + 1}"), own, b_shown, b_next,
+                                   _retarget(b["pipeline"], target, f"branch {j + 1}"), own, b_shown, b_next,
                                    bool(b.get("from_pick", False))))
         shown = _shown(data.get("shown") or {}, "study")
         settings_raw = data.get("settings") or {}

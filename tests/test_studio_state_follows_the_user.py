@@ -32,24 +32,30 @@ def test_a_stage_with_feasible_members_just_says_complete():
     assert res.feasible.any() and status_text(res) == "complete"
 
 
-def session_after_subtask1():
-    """A default session whose subtask 1 ran (8 x 2, seed 3) as the studio's runner runs it; and its chain."""
+def run_stage(s, name: str, from_pick: bool = False):
+    """Run stage ``name`` of session ``s`` (8 x 2, seed 3) as the studio's runner runs it; the chain."""
     import threading
 
     from studio.chains import RunSettings, chain_for, find
     from studio.runner import Runner
-    from studio.state import Session
 
-    s = Session.default()
-    s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=8, n_gen=2, seed=3)
+    s.study.settings[name] = RunSettings(name, pop_size=8, n_gen=2, seed=3)
     done = threading.Event()
     runner = Runner(s.lock, lambda: s.study, lambda p: None, done.set)
     chain = chain_for(s.view.design.mechanism)
-    stage, view = find(chain, "subtask1"), s.view
-    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
+    stage, view = find(chain, name), s.view
+    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, from_pick, chain))
     assert done.wait(60)
     runner.join(10)
-    return s, chain
+    return chain
+
+
+def session_after_subtask1():
+    """A default session whose subtask 1 ran (8 x 2, seed 3) as the studio's runner runs it; and its chain."""
+    from studio.state import Session
+
+    s = Session.default()
+    return s, run_stage(s, "subtask1")
 
 
 def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch():
@@ -235,3 +241,53 @@ def test_a_malformed_branch_state_is_refused_with_where_and_what():
     bad["study"]["target"] = {"L": 300.0, "H": 0.0, "T": 2.0}
     with pytest.raises(ValueError, match="study target: target height"):
         Session.from_dict(bad)
+
+
+def test_a_pipeline_run_against_two_uploaded_curves_opens_where_neither_is_stored(tmp_path, monkeypatch):
+    import json
+
+    from studio import study_targets, target
+    from studio.state import Session
+    from studio.target import Curve
+
+    def ellipse(a: float) -> Curve:
+        t = np.arange(40) / 40
+        pts = tuple((150.0 + a * np.cos(2 * np.pi * u), -50.0 + 50.0 * np.sin(2 * np.pi * u)) for u in t)
+        return Curve(f"ellipse{a:g}.csv", pts, None, 2.0)
+
+    s = Session.default()
+    s.set_curve(ellipse(150.0))
+    run_stage(s, "subtask1")
+    s.set_curve(ellipse(140.0))
+    run_stage(s, "subtask2", from_pick=True)  # the pipeline's stages ran against two curves
+    s.set_curve(ellipse(150.0))  # the editor holds the first again
+    s.select_mechanism("jansen")  # the pipeline becomes a branch (its target: the latest run's curve)
+    data = json.loads(json.dumps(s.to_dict()))
+    assert data["version"] == 4 and len(data["study"]["curves"]) == 1  # the branch's curve, stored once
+    # Another machine: an empty target store.
+    monkeypatch.setattr(target, "CURVE_DIR", tmp_path / "store")
+    monkeypatch.setattr(study_targets, "CURVE_DIR", tmp_path / "store")
+    back = Session.from_dict(data)
+    back.restore_branch(0)
+    assert back.view.target.curve is not None and back.view.target.curve.name == "ellipse140.csv"
+    assert [r.name for r in back.study.pipeline.lineage] == ["subtask1", "subtask2"]
+
+
+def test_restoring_a_branch_without_results_starts_afresh():
+    from studio.study import Branch
+
+    s, chain = session_after_subtask1()
+    s.study.show("subtask1", 2)
+    empty = json_pipeline_without_results(s)
+    s.study.branches.append(Branch("empty", empty))
+    s.study.restore_branch(0)
+    assert (s.study.shown, s.study.next_stage, s.study.from_pick) == ({}, None, False)
+
+
+def json_pipeline_without_results(s):
+    import json
+
+    data = json.loads(s.study.pipeline.to_json(indent=None))
+    data["results"] = [None] * len(data["results"])
+    data["picks"] = [None] * len(data.get("picks", data["results"]))
+    return data

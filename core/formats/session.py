@@ -16,7 +16,8 @@ from msgspec import Meta, Struct
 from core.formats.typed import decode
 
 SESSION_FORMAT = "clm-studio-session"
-READS_VERSIONS = (1, 2, 3)  # 1: no walk, no study; 3: stage results once, by hash (studio.session_pack)
+READS_VERSIONS = (1, 2, 3, 4)  # 1: no walk, no study; 3: stage results once, by hash (studio.session_pack);
+# 4: branches keep their target and study state, curves once by hash
 MAX_SESSION_BYTES = 64 * 2**20
 Label = Annotated[str, Meta(min_length=1, max_length=200)]
 
@@ -48,13 +49,14 @@ class StudyFile(Struct, forbid_unknown_fields=True, frozen=True):
     settings: dict[str, dict[str, Any]] = {}
     target: dict[str, Any] | None = None  # the target the pipeline's latest run ran against
     results: dict[str, dict[str, Any]] = {}  # version 3: stage results by content hash
+    curves: dict[str, dict[str, Any]] = {}  # version 4: the targets' curves by content hash
 
 
 class SessionFile(Struct, forbid_unknown_fields=True, frozen=True):
     """A CLM Studio session: the editor's design, target, walking view and playback, and the study."""
 
     format: Literal["clm-studio-session"]
-    version: Literal[1, 2, 3]
+    version: Literal[1, 2, 3, 4]
     design: dict[str, Any]
     target: dict[str, Any]
     preset: str | None = None

@@ -50,23 +50,21 @@ class PlaybackPanel:
         return float(round(math.degrees(pb.angle)) % 360)
 
     @classmethod
-    def _readout(cls, pb: Playback) -> str:
-        return f"θ = {cls._degrees(pb):.0f}° ({'playing' if pb.playing else 'paused'})"
+    def _readout(cls, pb: Playback, held: bool = False) -> str:
+        state = "held while the stage runs" if held and pb.playing else "playing" if pb.playing else "paused"
+        return f"θ = {cls._degrees(pb):.0f}° ({state})"
 
-    def show(self, pb: Playback) -> None:
-        """Mirror the playback state into the controls (the slider only while paused: see SLIDER_SYNC_PERIOD)."""
+    def show(self, pb: Playback, held: bool = False) -> None:
+        """Mirror the playback state into the controls (the slider only while paused: see SLIDER_SYNC_PERIOD);
+        ``held``: the animation holds still while a stage runs (a slow page: see studio.app.SLOW_FRAME)."""
         self.play.label = self._play_label(pb)
         set_value(self.speed, float(pb.speed))
         if not pb.playing:
             set_value(self.angle, self._degrees(pb))
-        self._show_readout(pb)
+        self._show_readout(pb, held)
 
-    def show_held(self, pb: Playback) -> None:
-        """The animation holds still while a stage runs (a slow page: see studio.app.SLOW_FRAME)."""
-        self._show_readout(pb, f"θ = {self._degrees(pb):.0f}° (held while the stage runs)")
-
-    def _show_readout(self, pb: Playback, text: str | None = None) -> None:
-        text = text or self._readout(pb)
+    def _show_readout(self, pb: Playback, held: bool = False) -> None:
+        text = self._readout(pb, held)
         if self.now.content != text:
             self.now.content = text
 
