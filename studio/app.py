@@ -218,7 +218,8 @@ class Studio:
             return
         running = sv.status.running and sv.status.stage == sv.viewing
         if running:
-            return  # held still while the stage runs: the end of the run redraws it
+            self._inset_key = None  # held still while the stage runs: the end of the run redraws it
+            return
         self._inset_key = key
         if r is None or r.pop == 0:
             self.inset.place(box, INSET_NOTE, frames.text_height)

@@ -9,7 +9,8 @@ about half the size of decimal text. ``unpack_study`` gives back the version-2 s
 after it (the study's decoder, the pipeline's and the results' checks) is unchanged.
 
 Version 4: the study's target and each branch's (the targets their stages ran against) name an uploaded
-curve by content hash; the curves sit once in ``study.curves``.
+curve by content hash; the curves sit once in ``study.curves``, with every curve a pipeline's stages ran
+against (by its store name), so a session carries all its curves.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from typing import Any
 import numpy as np
 
 from core.optimize.result import decode_array, encode
+from studio.study_targets import stage_curve_names
+from studio.target import stored_curve
 
 ARRAYS = ("X", "F", "G", "cv")
 PICK_KEYS = ("picked", "pick")
@@ -95,6 +98,12 @@ def pack_study(study: dict[str, Any]) -> dict[str, Any]:
                        for b in study.get("branches", [])]
     if "target" in study:
         out["target"] = pack_target(study["target"])
+    # The curves every stage ran against too (from this studio's store), so the file opens on another machine.
+    for p in [study.get("pipeline"), *(b.get("pipeline") for b in study.get("branches", []))]:
+        for name in stage_curve_names(p):
+            curve = stored_curve(name)
+            if curve is not None:
+                curves.setdefault(name, curve)
     out["results"] = table
     if curves:
         out["curves"] = curves
@@ -102,7 +111,8 @@ def pack_study(study: dict[str, Any]) -> dict[str, Any]:
 
 
 def _unpack_curves(study: dict[str, Any]) -> dict[str, Any]:
-    """A version-4 study with its targets' curves inline again (the ``curves`` table dropped)."""
+    """A version-4 study with its targets' curves inline again (each the table's one object; the table stays
+    for the study's decoder, which writes every curve to the store)."""
     if "curves" not in study:
         return study
     curves = study["curves"]
@@ -116,7 +126,7 @@ def _unpack_curves(study: dict[str, Any]) -> dict[str, Any]:
             raise ValueError(f"{where}: no curve {t['curve']!r} in study.curves")
         return {**t, "curve": curves[t["curve"]]}
 
-    out = {k: v for k, v in study.items() if k != "curves"}
+    out = dict(study)
     if "target" in out:
         out["target"] = target(out["target"], "study.target")
     if isinstance(out.get("branches"), list):

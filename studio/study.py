@@ -35,7 +35,7 @@ from core.optimize.result import StageResult
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, stage_spec
 from studio.study_targets import _pipeline_from, _retarget
-from studio.target import TargetSpec, curve_file
+from studio.target import CURVE_DIR, Curve, TargetSpec, curve_file
 
 RUN_STATES = ("idle", "running", "stopping")
 
@@ -388,33 +388,33 @@ class Study:
         """A study saved by :meth:`to_dict`; ValueError naming the first problem.
 
         A stage whose target was an uploaded curve is pointed at the studio's copy of that curve (the saved
-        path may come from another machine): every curve the file carries (the session's target, the study's,
-        each branch's) is written to the studio's target store first, so a pipeline whose stages ran against
-        several curves opens anywhere.
+        path may come from another machine). Every curve the file carries (``curves``: each one a pipeline's
+        stages ran against; the study's and the branches' targets) is checked, then written to the studio's
+        target store, so the pipelines open anywhere; a curve shared by many targets is read once.
         """
         if data is None:
             return Study()
         if not isinstance(data, dict):
             raise ValueError(f"study must be an object, got {type(data).__name__}")
+        # Everything but the pipelines first, so a refused file writes nothing to the store.
         raw = data.get("branches") or []
+        if not isinstance(raw, list):
+            raise ValueError("study branches must be a list")
+        parsed: dict[int, Curve] = {}
+        carried = data.get("curves") or {}
+        if not isinstance(carried, dict):
+            raise ValueError("study.curves must map names to curves")
+        curves = [_curve(c, f"study.curves[{k}]", parsed) for k, c in carried.items()]
+        ran = _target(data.get("target"), "study", parsed)
+        states = []
         for j, b in enumerate(raw):
+            where = f"branch {j + 1}"
             if not isinstance(b, dict) or not isinstance(b.get("pipeline"), dict):
-                raise ValueError(f"branch {j + 1} must be an object with a pipeline")
-        ran = _target_dict(data.get("target"), "study")
-        owns = [_target_dict(b.get("target"), f"branch {j + 1}") for j, b in enumerate(raw)]
-        for t in (ran, *owns):
-            if t is not None and "curve" in t:
-                curve_file(TargetSpec.from_dict(t).curve)  # type: ignore[arg-type]
-        pipe = _pipeline_from(data.get("pipeline"), target, "pipeline")
-        branches = []
-        for j, (b, own) in enumerate(zip(raw, owns, strict=True)):
-            _pipeline_from(b["pipeline"], target, f"branch {j + 1}")  # check it loads
-            b_shown, b_next = _shown(b.get("shown") or {}, f"branch {j + 1}"), b.get("next_stage")
+                raise ValueError(f"{where} must be an object with a pipeline")
+            b_next = b.get("next_stage")
             if b_next is not None and not isinstance(b_next, str):
-                raise ValueError(f"branch {j + 1} next_stage must be a stage name, got {b_next!r}")
-            branches.append(Branch(str(b.get("label", f"branch {j + 1}")),
-                                   _retarget(b["pipeline"], target, f"branch {j + 1}"), own, b_shown, b_next,
-                                   bool(b.get("from_pick", False))))
+                raise ValueError(f"{where} next_stage must be a stage name, got {b_next!r}")
+            states.append((_target(b.get("target"), where, parsed), _shown(b.get("shown") or {}, where), b_next))
         shown = _shown(data.get("shown") or {}, "study")
         settings_raw = data.get("settings") or {}
         if not isinstance(settings_raw, dict):
@@ -424,10 +424,45 @@ class Study:
         for key, v in (("viewing", viewing), ("next_stage", nxt)):
             if v is not None and not isinstance(v, str):
                 raise ValueError(f"study {key} must be a stage name, got {v!r}")
-        return Study(pipeline=pipe, branches=branches, viewing=viewing,
-                     shown=shown, next_stage=nxt,
-                     from_pick=bool(data.get("from_pick", False)), settings=settings,
-                     target=None if ran is None else TargetSpec.from_dict(ran))
+        for t in (ran, *(own for own, _, _ in states)):
+            if t is not None and t.curve is not None:
+                curves.append(t.curve)
+        try:
+            for c in {id(c): c for c in curves}.values():
+                curve_file(c)
+        except OSError as exc:
+            raise ValueError(f"cannot write the session's target curves to {CURVE_DIR} ({exc.strerror or exc})") \
+                from None
+        pipe = _pipeline_from(data.get("pipeline"), target, "pipeline")
+        branches = []
+        for j, (b, (own, b_shown, b_next)) in enumerate(zip(raw, states, strict=True)):
+            _pipeline_from(b["pipeline"], target, f"branch {j + 1}")  # check it loads
+            branches.append(Branch(str(b.get("label", f"branch {j + 1}")),
+                                   _retarget(b["pipeline"], target, f"branch {j + 1}"),
+                                   None if own is None else dict(b["target"]), b_shown, b_next,
+                                   bool(b.get("from_pick", False))))
+        return Study(pipeline=pipe, branches=branches, viewing=viewing, shown=shown, next_stage=nxt,
+                     from_pick=bool(data.get("from_pick", False)), settings=settings, target=ran)
+
+
+def _curve(data: object, where: str, parsed: dict[int, Curve]) -> Curve:
+    """A carried curve, read once per object; ValueError naming where it is."""
+    if id(data) not in parsed:
+        try:
+            parsed[id(data)] = Curve.from_dict(data)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+    return parsed[id(data)]
+
+
+def _target(data: object, where: str, parsed: dict[int, Curve]) -> TargetSpec | None:
+    """A saved target (the study's or a branch's), checked; ValueError naming where it is."""
+    if data is None:
+        return None
+    try:
+        return TargetSpec.from_dict(data, parsed)
+    except ValueError as exc:
+        raise ValueError(f"{where} target: {exc}") from None
 
 
 def _shown(data: object, where: str) -> dict[str, int]:
@@ -435,15 +470,5 @@ def _shown(data: object, where: str) -> dict[str, int]:
     if not isinstance(data, dict) or not all(isinstance(v, int) and not isinstance(v, bool) for v in data.values()):
         raise ValueError(f"{where} shown must map stage names to member indices")
     return {str(k): int(v) for k, v in data.items()}
-
-
-def _target_dict(data: object, where: str) -> dict[str, Any] | None:
-    """A saved branch's (or pipeline's) target, checked; ValueError naming where it is."""
-    if data is None:
-        return None
-    try:
-        return TargetSpec.from_dict(data).to_dict()
-    except ValueError as exc:
-        raise ValueError(f"{where} target: {exc}") from None
 
 

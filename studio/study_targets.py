@@ -4,13 +4,10 @@ only from the studio's own content-addressed store (a session never names a file
 from __future__ import annotations
 
 import json
-import re
 from typing import Any
 
 from core.optimize.pipeline import Pipeline
-from studio.target import CURVE_DIR, TargetSpec, curve_file
-
-_STORED_CURVE = re.compile(r"target-[0-9a-f]{20}\.csv")
+from studio.target import CURVE_DIR, STORED_CURVE, TargetSpec, curve_file
 
 
 def stage_target(value: object, target: TargetSpec, where: str) -> object:
@@ -24,7 +21,7 @@ def stage_target(value: object, target: TargetSpec, where: str) -> object:
     if not isinstance(value, str) or value.split(":", 1)[0] == "cycloid":
         return value  # non-strings are refused by the problem's own decoder
     name = value.replace("\\", "/").rsplit("/", 1)[-1]
-    if not _STORED_CURVE.fullmatch(name):
+    if not STORED_CURVE.fullmatch(name):
         raise ValueError(f"{where}: its target names a file ({value!r}); a session carries its curve as points "
                          f"and never opens a path")
     if target.curve is not None and curve_file(target.curve).name == name:
@@ -58,3 +55,18 @@ def _pipeline_from(data: object, target: TargetSpec, what: str) -> Pipeline | No
         raise ValueError(f"{what} is malformed ({type(exc).__name__}: {exc})") from None
     except ValueError as exc:
         raise ValueError(f"{what}: {exc}") from None
+
+
+def stage_curve_names(data: Any) -> list[str]:
+    """The store names (``target-<hash>.csv``) of the curves a pipeline's stages ran against (pipeline data as
+    ``Pipeline.to_json`` writes it; anything malformed names none)."""
+    names = []
+    stages = data.get("stages", []) if isinstance(data, dict) else []
+    for s in stages if isinstance(stages, list) else []:
+        opts = s.get("problem", {}).get("options", {}) if isinstance(s, dict) else {}
+        value = opts.get("target") if isinstance(opts, dict) else None
+        if isinstance(value, str) and value.split(":", 1)[0] != "cycloid":
+            name = value.replace("\\", "/").rsplit("/", 1)[-1]
+            if STORED_CURVE.fullmatch(name):
+                names.append(name)
+    return names

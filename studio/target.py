@@ -10,10 +10,12 @@ written once to a content-addressed CSV file (:func:`curve_file`) that reproduce
 from __future__ import annotations
 
 import csv
+import functools
 import hashlib
 import io
 import math
 import os
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -29,6 +31,8 @@ F64 = NDArray[np.float64]
 # In the user's own cache folder, not the shared temporary one: a session resolves stage curves only here.
 CURVE_DIR = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "clm-studio" / "targets"
 MAX_CURVE_BYTES = 2_000_000
+MAX_CURVE_POINTS = 100_000  # a curve read from a session (an upload is bounded by its bytes)
+STORED_CURVE = re.compile(r"target-[0-9a-f]{20}\.csv")  # a curve's file in the store: named by its content
 
 
 @dataclass(frozen=True)
@@ -90,6 +94,8 @@ class Curve:
         pts, times = data["points"], data.get("times")
         if not isinstance(pts, list) or (times is not None and (not isinstance(times, list) or len(times) != len(pts))):
             raise ValueError("target curve: points must be a list of [x, y] and times null or one per point")
+        if len(pts) > MAX_CURVE_POINTS:
+            raise ValueError(f"target curve {name}: {len(pts)} points is too many (at most {MAX_CURVE_POINTS})")
         period = data.get("period", 2.0)
         rows = [[str(v) for v in (*p, *(() if times is None else (times[i],)))] for i, p in enumerate(pts)]
         if pts:
@@ -161,7 +167,9 @@ class TargetSpec:
         return out
 
     @staticmethod
-    def from_dict(data: object) -> TargetSpec:
+    def from_dict(data: object, parsed: dict[int, Curve] | None = None) -> TargetSpec:
+        """A target saved by :meth:`to_dict`; ValueError naming the problem. ``parsed``: curves already read
+        from curve objects of this load, by the object's id (targets sharing one curve parse it once)."""
         if not isinstance(data, dict):
             raise ValueError(f"target must be an object {{L, H, T}}, got {data!r}")
         unknown = [k for k in data if k not in ("L", "H", "T", "curve", "origin")]
@@ -172,9 +180,31 @@ class TargetSpec:
             raise ValueError("target origin must be a short text")
         d = TargetSpec()
         spec = TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period), None, origin)
-        if data.get("curve") is not None:
-            spec = replace(spec.with_curve(Curve.from_dict(data["curve"])), origin=origin or "uploaded")
+        raw = data.get("curve")
+        if raw is not None:
+            curve = parsed.get(id(raw)) if parsed is not None else None
+            if curve is None:
+                curve = Curve.from_dict(raw)
+                if parsed is not None:
+                    parsed[id(raw)] = curve
+            spec = replace(spec.with_curve(curve), origin=origin or "uploaded")
         return spec
+
+
+def stored_curve(name: str) -> dict[str, Any] | None:
+    """The curve the store holds under ``name`` (``target-<hash>.csv``), as :meth:`Curve.to_dict`; None if it
+    holds none (or the name is not a store name)."""
+    if not STORED_CURVE.fullmatch(name):
+        return None
+    return _read_stored(CURVE_DIR / name)
+
+
+@functools.lru_cache(maxsize=64)
+def _read_stored(path: Path) -> dict[str, Any] | None:  # a name fixes the content: cached for good
+    try:
+        return Curve.from_csv(path.read_bytes(), path.name).to_dict()
+    except (OSError, ValueError):
+        return None
 
 
 def curve_file(curve: Curve, directory: Path | None = None) -> Path:

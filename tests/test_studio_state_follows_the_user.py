@@ -260,10 +260,12 @@ def test_a_pipeline_run_against_two_uploaded_curves_opens_where_neither_is_store
     run_stage(s, "subtask1")
     s.set_curve(ellipse(140.0))
     run_stage(s, "subtask2", from_pick=True)  # the pipeline's stages ran against two curves
-    s.set_curve(ellipse(150.0))  # the editor holds the first again
+    s.set_curve(ellipse(130.0))  # and the editor holds a third
     s.select_mechanism("jansen")  # the pipeline becomes a branch (its target: the latest run's curve)
     data = json.loads(json.dumps(s.to_dict()))
-    assert data["version"] == 4 and len(data["study"]["curves"]) == 1  # the branch's curve, stored once
+    curves = data["study"]["curves"]
+    assert data["version"] == 4
+    assert {c["points"][0][0] for c in curves.values()} == {300.0, 290.0}  # both stages' curves travel with it
     # Another machine: an empty target store.
     monkeypatch.setattr(target, "CURVE_DIR", tmp_path / "store")
     monkeypatch.setattr(study_targets, "CURVE_DIR", tmp_path / "store")
@@ -291,3 +293,51 @@ def json_pipeline_without_results(s):
     data["results"] = [None] * len(data["results"])
     data["picks"] = [None] * len(data.get("picks", data["results"]))
     return data
+
+
+def test_curves_a_session_carries_are_read_once_and_written_only_for_a_file_that_passes(tmp_path, monkeypatch):
+    import json
+
+    import pytest
+
+    from studio import study_targets, target
+    from studio.state import Session
+    from studio.target import Curve
+
+    t = np.arange(40) / 40
+    s = Session.default()
+    s.set_curve(Curve("c.csv", tuple((150.0 + 150.0 * np.cos(2 * np.pi * u), 50.0 * np.sin(2 * np.pi * u))
+                                      for u in t), None, 2.0))
+    run_stage(s, "subtask1")
+    s.select_mechanism("jansen")
+    data = json.loads(json.dumps(s.to_dict()))
+    branch = data["study"]["branches"][0]
+    data["study"]["branches"] = [{**branch, "label": f"b{j}"} for j in range(30)]  # 30 branches, one curve
+    store = tmp_path / "store"
+    monkeypatch.setattr(target, "CURVE_DIR", store)
+    monkeypatch.setattr(study_targets, "CURVE_DIR", store)
+    reads = []
+    from_dict = Curve.from_dict
+    monkeypatch.setattr(Curve, "from_dict", staticmethod(lambda d: reads.append(1) or from_dict(d)))
+    back = Session.from_dict(data)
+    assert len(back.study.branches) == 30 and len(reads) <= 3  # the table's curve and the session's own
+    # A file refused for anything else writes nothing to the store.
+    for f in store.iterdir():
+        f.unlink()
+    bad = json.loads(json.dumps(data))
+    bad["study"]["shown"] = {"subtask1": "x"}
+    with pytest.raises(ValueError, match="study shown"):
+        Session.from_dict(bad)
+    assert not any(store.iterdir())
+    # A store that cannot be written is a clear error, not an OSError.
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setattr(target, "CURVE_DIR", blocker / "targets")
+    with pytest.raises(ValueError, match="cannot write the session's target curves"):
+        Session.from_dict(data)
+    # A curve of too many points is refused.
+    huge = json.loads(json.dumps(data))
+    key = next(iter(huge["study"]["curves"]))
+    huge["study"]["curves"][key]["points"] = [[float(i), 0.0] for i in range(target.MAX_CURVE_POINTS + 1)]
+    with pytest.raises(ValueError, match="too many"):
+        Session.from_dict(huge)

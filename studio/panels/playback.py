@@ -56,7 +56,7 @@ class PlaybackPanel:
 
     def show(self, pb: Playback, held: bool = False) -> None:
         """Mirror the playback state into the controls (the slider only while paused: see SLIDER_SYNC_PERIOD);
-        ``held``: the animation holds still while a stage runs (a slow page: see studio.app.SLOW_FRAME)."""
+        ``held``: the animation holds still while a stage runs (``Studio.held``)."""
         self.play.label = self._play_label(pb)
         set_value(self.speed, float(pb.speed))
         if not pb.playing:
@@ -79,7 +79,7 @@ class PlaybackPanel:
         session = self.studio.session
         with session.lock:
             pb = session.set_playing(not session.playback.playing)
-        self.show(pb)
+        self.show(pb, self.studio.held())
         self.studio.autosave()
 
     def _on_speed(self, event: viser.GuiEvent[Any]) -> None:
