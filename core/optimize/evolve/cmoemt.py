@@ -25,9 +25,10 @@ from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.moead import tchebycheff_replace
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import de_rand_1, ga
-from core.optimize.evolve.weights import das_dennis, neighbours, tchebycheff
+from core.optimize.evolve.weights import das_dennis, neighbours
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -140,13 +141,8 @@ class CMOEMT(ArrayAlgorithm):
                 self.z = np.fmin(self.z, y.F[0])
                 if self.variant == "author_repo":
                     continue  # selected with the others below
-                W = self.W[pool]
-                with np.errstate(invalid="ignore"):
-                    g_old = tchebycheff(P.F[pool], W, self.z)
-                    g_new = tchebycheff(np.broadcast_to(y.F[0], (len(pool), y.F.shape[1])), W, self.z)
-                ok = replace_ok(g_old, g_new, P.cv[pool], float(y.cv[0]), self.eps, self.pull)
-                idx = pool[ok][:NR]
-                P.X[idx], P.F[idx], P.G[idx], P.cv[idx] = y.X[0], y.F[0], y.G[0], y.cv[0]
+                tchebycheff_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z,
+                                    float(self.eps), bool(self.pull), NR)
         return kids
 
     # The loop ------------------------------------------------------------------------------------

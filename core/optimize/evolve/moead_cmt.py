@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.moead import cmt_differences, cmt_replace, pbi_replace
 from core.optimize.evolve.variation import de_rand_1, ga
 from core.optimize.evolve.weights import das_dennis, neighbours
 
@@ -76,53 +77,31 @@ class MOEADCMT(ArrayAlgorithm):
         return ga(src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng, half=True)
 
     def _update_task1(self, y: Arrays, pool: NDArray[np.int64], s_cv: float) -> int:
-        P, W = self.P1, self.W[pool]
+        P = self.P1
         # MATLAB's min skips NaN: a child with an undefined objective (pymoo's MW11 at x1 = sqrt(2)) must not
         # turn the ideal point into NaN, which would stop every later replacement. Its own g is NaN: never wins.
         self.z1 = np.fmin(self.z1, y.F[0])
         self.cmin = min(self.cmin, float(y.cv[0]))
         cmax = float(max(P.cv.max(), y.cv[0]))
-        g_old = (np.abs(P.F[pool] - self.z1) / W).max(axis=1)
-        g_new = (np.abs(y.F[0] - self.z1) / W).max(axis=1)
-        cv_old, cv_new = P.cv[pool].copy(), np.full(len(pool), y.cv[0])
-        if cmax > self.cmin:
-            # An infinite violation normalises to NaN; the 1e-4 floor below (np.fmax, MATLAB's max) then
-            # compares that child on g alone, as PlatEMO's code treats a NaN violation.
-            with np.errstate(invalid="ignore"):
-                cv_old = np.where(cv_old > 0, (cv_old - self.cmin) / (cmax - self.cmin), cv_old)
-                cv_new = np.where(cv_new > 0, (cv_new - self.cmin) / (cmax - self.cmin), cv_new)
-        with np.errstate(invalid="ignore"):  # inf - inf for penalised members: NaN, which never wins below
-            a = logistic(g_old - g_new, S_OBJ) * np.fmax(logistic(cv_old - cv_new, s_cv), 1e-4)
-            b = logistic(g_new - g_old, S_OBJ) * np.fmax(logistic(cv_new - cv_old, s_cv), 1e-4)
-        winners = pool[a >= b][:NR]
-        self._replace(P, winners, y)
-        return len(winners)
+        # An infinite violation normalises to NaN; the 1e-4 floor (np.fmax, MATLAB's max) then compares that
+        # child on g alone, as PlatEMO's code treats a NaN violation. inf - inf for penalised members: NaN,
+        # which never wins.
+        dg, dc = cmt_differences(P.F, P.cv, self.W, pool, y.F, float(y.cv[0]), self.z1, self.cmin, cmax)
+        s = s_cv if s_cv > 0 else 1.0  # a step when s_cv is 0: the exponentials go unused
+        with np.errstate(over="ignore", invalid="ignore"):  # numpy's exp, so the numbers are numpy's
+            e = np.exp(np.stack([-dg / S_OBJ, dg / S_OBJ, -dc / s, dc / s]))
+        return int(cmt_replace(P.X, P.F, P.G, P.cv, pool, y.X, y.F, y.G, float(y.cv[0]), dg, dc, e, S_OBJ, s_cv,
+                               NR))
 
     def _update_task2(self, y: Arrays, pool: NDArray[np.int64]) -> int:
-        P, W = self.P2, self.W[pool]
+        P = self.P2
         self.z2 = np.fmin(self.z2, y.F[0])
-        norm_w = np.linalg.norm(W, axis=1)
         # A point on the ideal point (|d| = 0) has an undefined cosine: NaN in PlatEMO's code, so such a child
         # replaces nothing and such a member is never replaced. One objective (our extension; PlatEMO's is
         # for M >= 2) keeps the direction as on the weight line, else a new best could never enter P2.
         degenerate = 1.0 if P.F.shape[1] == 1 else np.nan
-
-        def pbi(F: F64) -> F64:
-            d = F - self.z2
-            nd = np.linalg.norm(d, axis=-1)
-            d1 = (d * W).sum(axis=-1) / norm_w
-            with np.errstate(invalid="ignore", divide="ignore"):
-                cos = np.where(nd > 0, d1 / nd, degenerate)
-                return d1 + THETA * nd * np.sqrt(np.maximum(0.0, 1 - cos**2))
-
-        with np.errstate(invalid="ignore"):
-            winners = pool[pbi(P.F[pool]) >= pbi(np.broadcast_to(y.F[0], (len(pool), y.F.shape[1])))]
-        self._replace(P, winners, y)
-        return len(winners)
-
-    @staticmethod
-    def _replace(P: Arrays, idx: NDArray[np.int64], y: Arrays) -> None:
-        P.X[idx], P.F[idx], P.G[idx], P.cv[idx] = y.X[0], y.F[0], y.G[0], y.cv[0]
+        return int(pbi_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z2, THETA,
+                               degenerate))
 
     def _advance(self, infills: Any = None, **kwargs: Any) -> None:
         rng, n = self.random_state, len(self.W)
