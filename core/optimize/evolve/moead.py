@@ -17,6 +17,16 @@ I64 = NDArray[np.int64]
 
 
 @numba.njit(cache=True)
+def _put(X: F64, F: F64, G: F64, cv: F64, p: int, yX: F64, yF: F64, yG: F64,
+         ycv: float) -> None:  # pragma: no cover - compiled
+    # member p becomes the child
+    X[p, :] = yX[0, :]
+    F[p, :] = yF[0, :]
+    G[p, :] = yG[0, :]
+    cv[p] = ycv
+
+
+@numba.njit(cache=True)
 def _tchebycheff(F: F64, row: int, W: F64, w: int, z: F64) -> float:  # pragma: no cover - compiled
     # max_k W[w, k] |F[row, k] - z_k|, NaN if any term is (as np.max)
     m = -np.inf
@@ -46,10 +56,7 @@ def tchebycheff_replace(X: F64, F: F64, G: F64, cv: F64, W: F64, pool: I64, yX: 
         else:
             ok = better
         if ok:
-            X[p, :] = yX[0, :]
-            F[p, :] = yF[0, :]
-            G[p, :] = yG[0, :]
-            cv[p] = ycv
+            _put(X, F, G, cv, p, yX, yF, yG, ycv)
             done += 1
     return done
 
@@ -111,10 +118,7 @@ def cmt_replace(X: F64, F: F64, G: F64, cv: F64, pool: I64, yX: F64, yF: F64, yG
         b = _logistic(-dg[t], e[1, t], s_obj) * _floor(_logistic(-dc[t], e[3, t], s_cv))
         if a >= b:
             p = pool[t]
-            X[p, :] = yX[0, :]
-            F[p, :] = yF[0, :]
-            G[p, :] = yG[0, :]
-            cv[p] = ycv
+            _put(X, F, G, cv, p, yX, yF, yG, ycv)
             done += 1
     return done
 
@@ -148,9 +152,6 @@ def pbi_replace(X: F64, F: F64, G: F64, cv: F64, W: F64, pool: I64, yX: F64, yF:
             nw += W[p, k] * W[p, k]
         nw = np.sqrt(nw)
         if _pbi(F, p, W, p, nw, z, theta, degenerate) >= _pbi(yF, 0, W, p, nw, z, theta, degenerate):
-            X[p, :] = yX[0, :]
-            F[p, :] = yF[0, :]
-            G[p, :] = yG[0, :]
-            cv[p] = ycv
+            _put(X, F, G, cv, p, yX, yF, yG, ycv)
             done += 1
     return done
