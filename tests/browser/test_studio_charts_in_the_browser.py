@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from playwright.sync_api import expect
-from test_studio_stages_in_the_browser import choose, download, expand, run_stage
+from test_studio_stages_in_the_browser import choose, download, expand, run_stage, wait_for
 
 SUBTASK1 = "Subtask 1 → X1 (shape, position)"
 
@@ -34,7 +34,9 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     page.get_by_role("button", name="Open large chart").click()
     big = page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask1 · complete"))
     expect(big).to_have_count(2)
-    assert big.nth(1).bounding_box()["width"] > 1.8 * big.nth(0).bounding_box()["width"]
+    # plotly sizes the large copy to its window once the window is laid out: wait for it, as a person would
+    wait_for(lambda: big.nth(1).bounding_box()["width"] > 1.8 * big.nth(0).bounding_box()["width"],
+             "the large chart to take its window's width", timeout=15.0)
     page.get_by_role("button", name="Close", exact=True).click()
     expect(big).to_have_count(1)
 
