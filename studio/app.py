@@ -10,7 +10,7 @@ import json
 import threading
 import time
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import viser
@@ -57,6 +57,14 @@ DOUBLE_CLICK = 1.0
 # A page gets its plotly charts this long after it first reports its camera (it has drawn), or after it connected
 # if it reports none (s): with them viser sends it plotly.js, compiled once the page is up (studio/panels/_lazy.py).
 PLOTLY_AFTER, PLOTLY_LATEST = 0.5, 3.0
+
+
+def later(delay: float, fn: Any, *args: Any) -> None:
+    """Call ``fn(*args)`` in ``delay`` seconds on a daemon thread: a pending call never holds up the process's
+    exit (Ctrl-C while a page's charts were still due left ``clm-studio`` waiting on one)."""
+    t = threading.Timer(delay, fn, args)
+    t.daemon = True
+    t.start()
 
 
 class StudioServer(viser.ViserServer):
@@ -264,10 +272,10 @@ class Studio:
                 fitted.set()
                 self._fit_client(client)
                 # The page has drawn: now its charts (and with them plotly.js) can follow without holding it up.
-                threading.Timer(PLOTLY_AFTER, self._attach_charts, (client,)).start()
+                later(PLOTLY_AFTER, self._attach_charts, client)
 
         client.camera.on_update(on_camera)
-        threading.Timer(PLOTLY_LATEST, self._attach_charts, (client,)).start()  # a page that reports no camera
+        later(PLOTLY_LATEST, self._attach_charts, client)  # a page that reports no camera
 
     def _attach_charts(self, client: viser.ClientHandle) -> None:
         """Give a page that has drawn its plotly charts (studio/panels/_lazy.py); once per page."""
