@@ -47,10 +47,6 @@ BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often;
 # the session file is still written after every generation.
 STUDY_PUSH_PERIOD = 0.15
-# While a stage runs the scene holds still (the linkage, and the candidate spheres until the run ends); the
-# Stages status, the Pareto chart and the trace go on. viser's client draws for 0.25 s after every scene
-# change, and in software WebGL each of those frames keeps the page's main thread ~0.1 s (the WebGL frame and
-# its read-back), so frames during a run kept such a page busy and its progress behind (docs/studio.md).
 # A Run click this soon after a run of the same stage and settings started is the second click of a double
 # click (even if that run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
@@ -285,10 +281,8 @@ class Studio:
             chart.attach(client)
 
     def _tick(self, dt: float) -> None:
-        if self.held():  # playback time stands still too: the animation goes on from there after the run
-            pb = self.session.snapshot()[1]
-        else:
-            pb = self.session.advance(dt)
+        held = self.held()  # playback time stands still too: the animation goes on from there after the run
+        pb = self.session.snapshot()[1] if held else self.session.advance(dt)
         view = self._shown
         if view is None or not self.server.get_clients():  # nobody watching: keep time, skip the pushes
             return
@@ -297,14 +291,18 @@ class Studio:
             self._study_dirty = False
             self.refresh()
             view = self._shown or view
-        if self.held():  # the readout says so (refresh), and the scene stays as it is
+        if held:  # the readout says so (refresh), and the scene stays as it is
             return
         self.playback.tick(pb)
         if self.pacer.ready() and self.scene.draw(frame_index(pb.angle, view.n_samples)):
             self.pacer.probe()  # a page still drawing the last frame skips this one; time goes on
 
     def held(self) -> bool:
-        """True while a stage runs: the scene holds still until it ends."""
+        """True while a stage runs: the scene (the linkage, and the candidate spheres) holds still until it ends;
+        the Stages status, the Pareto chart and the trace go on. viser's client draws for 0.25 s after every
+        scene change, and in software WebGL each of those frames keeps the page's main thread ~0.1 s (the WebGL
+        frame and its read-back), so frames during a run kept such a page busy and its progress behind
+        (docs/studio.md)."""
         return self.session.study.status.running
 
     def notify(

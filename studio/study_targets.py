@@ -20,8 +20,8 @@ def stage_target(value: object, target: TargetSpec, where: str) -> object:
     """
     if not isinstance(value, str) or value.split(":", 1)[0] == "cycloid":
         return value  # non-strings are refused by the problem's own decoder
-    name = value.replace("\\", "/").rsplit("/", 1)[-1]
-    if not STORED_CURVE.fullmatch(name):
+    name = _store_name(value)
+    if name is None:
         raise ValueError(f"{where}: its target names a file ({value!r}); a session carries its curve as points "
                          f"and never opens a path")
     if target.curve is not None and curve_file(target.curve).name == name:
@@ -36,12 +36,28 @@ def stage_target(value: object, target: TargetSpec, where: str) -> object:
 def _retarget(data: dict[str, Any], target: TargetSpec, what: str = "pipeline") -> dict[str, Any]:
     """A copy of pipeline data whose stage targets are safe to open (:func:`stage_target`)."""
     out = json.loads(json.dumps(data))
-    stages = out.get("stages", [])
-    for i, s in enumerate(stages if isinstance(stages, list) else []):
-        opts = s.get("problem", {}).get("options", {}) if isinstance(s, dict) else {}
-        if isinstance(opts, dict) and "target" in opts:
+    for i, opts in _stage_options(out):
+        if "target" in opts:
             opts["target"] = stage_target(opts["target"], target, f"{what} stage {i + 1}")
     return out
+
+
+def _stage_options(data: Any) -> list[tuple[int, dict[str, Any]]]:
+    """(stage index, its problem's options) of pipeline data as ``Pipeline.to_json`` writes it (malformed
+    parts skipped: the pipeline's own decoder names them)."""
+    stages = data.get("stages", []) if isinstance(data, dict) else []
+    out = []
+    for i, s in enumerate(stages if isinstance(stages, list) else []):
+        opts = s.get("problem", {}).get("options", {}) if isinstance(s, dict) else {}
+        if isinstance(opts, dict):
+            out.append((i, opts))
+    return out
+
+
+def _store_name(value: str) -> str | None:
+    """The store name (``target-<hash>.csv``) a stage's curve option ends in, or None."""
+    name = value.replace("\\", "/").rsplit("/", 1)[-1]
+    return name if STORED_CURVE.fullmatch(name) else None
 
 
 def _pipeline_from(data: object, target: TargetSpec, what: str) -> Pipeline | None:
@@ -60,13 +76,6 @@ def _pipeline_from(data: object, target: TargetSpec, what: str) -> Pipeline | No
 def stage_curve_names(data: Any) -> list[str]:
     """The store names (``target-<hash>.csv``) of the curves a pipeline's stages ran against (pipeline data as
     ``Pipeline.to_json`` writes it; anything malformed names none)."""
-    names = []
-    stages = data.get("stages", []) if isinstance(data, dict) else []
-    for s in stages if isinstance(stages, list) else []:
-        opts = s.get("problem", {}).get("options", {}) if isinstance(s, dict) else {}
-        value = opts.get("target") if isinstance(opts, dict) else None
-        if isinstance(value, str) and value.split(":", 1)[0] != "cycloid":
-            name = value.replace("\\", "/").rsplit("/", 1)[-1]
-            if STORED_CURVE.fullmatch(name):
-                names.append(name)
-    return names
+    values = [opts.get("target") for _, opts in _stage_options(data)]
+    names = [_store_name(v) for v in values if isinstance(v, str) and v.split(":", 1)[0] != "cycloid"]
+    return [n for n in names if n is not None]
