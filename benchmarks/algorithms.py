@@ -34,6 +34,7 @@ from pymoo.core.problem import Problem  # noqa: E402
 from pymoo.problems import get_problem  # noqa: E402
 from scipy.stats import ranksums  # noqa: E402
 
+from core.kinematics.memory import keep_freed_memory  # noqa: E402
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm  # noqa: E402
 from core.optimize.moea import PROBLEMS  # noqa: E402
 from core.optimize.moea import run as run_moea  # noqa: E402
@@ -234,6 +235,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", type=Path, default=None,
                     help="JSON-lines file of finished runs: appended as runs end, found runs are not run again")
     args = ap.parse_args(argv)
+    keep_freed_memory()  # as clm does (core.kinematics.memory): SPEA2's (n, n) matrices reuse their pages
     names = [REFERENCE] + [n for n in args.algorithms.split(",") if n and n != REFERENCE]
     n_gen = 20 if args.quick else 100
     if not args.no_timing:

@@ -89,6 +89,31 @@ def test_spea2_fitness_does_not_depend_on_the_members_order(n, m, seed):
     assert fit.tolist() == fitness_by_definition(F, cv).tolist()
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40).flatmap(lambda n: arrays(np.float64, (n, 3),
+       elements=st.one_of(st.floats(-1e3, 1e3), st.sampled_from([np.inf, np.nan])))))
+def test_spea2_distances_are_euclidean_with_inf_where_undefined(F):
+    with np.errstate(invalid="ignore"):  # inf - inf
+        want = np.sqrt(((F[:, None, :] - F[None, :, :]) ** 2).sum(axis=2))
+    want = np.where(np.isnan(want), np.inf, want)
+    np.fill_diagonal(want, np.inf)
+    assert spea2.distances(F).tolist() == want.tolist()
+
+
+@pytest.mark.parametrize("n, seed", [(150, 1), (400, 2), (900, 3)])
+def test_spea2_fitness_of_large_pools_equals_its_definition(n, seed):
+    # large enough for the k-th distance to be selected below the triangle-inequality bound; a sphere's points
+    # (a front), copies of some, and a few penalised members
+    rng = np.random.default_rng(seed)
+    X = rng.random((n, 3))
+    F = X / np.linalg.norm(X, axis=1, keepdims=True) * (1 + 0.2 * rng.random((n, 1)))
+    F[n // 3 : n // 3 + 10] = F[:10]
+    F[-3:] = np.inf
+    cv = np.where(rng.random(n) < 0.4, rng.random(n), 0.0)
+    assert spea2.fitness(F, cv).tolist() == fitness_by_definition(F, cv).tolist()
+    assert spea2.fitness(F).tolist() == fitness_by_definition(F).tolist()
+
+
 def truncate_by_definition(F, keep):
     """SPEA2's truncation as written: re-sort every remaining member's distances after each removal and drop the
     lexicographically smallest row (ties: the lowest index)."""
@@ -107,6 +132,15 @@ def truncate_by_definition(F, keep):
 def test_spea2_truncation_equals_its_definition_with_ties_and_penalised_members(case):
     F, keep = case  # a small grid: many equal distances, duplicates, and +inf (penalised) members
     assert spea2.truncate(F, keep).tolist() == truncate_by_definition(F, keep).tolist()
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_spea2_truncation_of_a_larger_pool_equals_its_definition(seed):
+    # each row lists its nearest few members; cutting 70 down to 6 exhausts those lists and makes them again
+    rng = np.random.default_rng(seed)
+    F = rng.normal(size=(70, 2)) if seed % 2 else rng.integers(0, 6, size=(70, 2)).astype(float)
+    for keep in (6, 35):
+        assert spea2.truncate(F, keep).tolist() == truncate_by_definition(F, keep).tolist()
 
 
 def test_spea2_truncation_drops_the_most_crowded_member():

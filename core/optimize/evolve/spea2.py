@@ -31,27 +31,31 @@ def dominance(F: F64, cv: F64 | None = None) -> B:
 
 
 @numba.njit(cache=True)
-def _distances(F: F64) -> F64:  # pragma: no cover - compiled
-    n, m = F.shape
+def _distances(FT: F64) -> F64:  # pragma: no cover - compiled
+    # Row by row over the objectives' columns (FT is (m, n)): each row's loops run over contiguous memory and
+    # vectorize; a symmetric fill wrote every other entry down a column.
+    m, n = FT.shape
     D = np.empty((n, n))
     for i in range(n):
-        D[i, i] = np.inf
-        for j in range(i + 1, n):
-            s = 0.0
-            for k in range(m):
-                d = F[i, k] - F[j, k]
-                s += d * d
-            v = np.sqrt(s)
-            if np.isnan(v):  # inf - inf (penalised members)
-                v = np.inf
-            D[i, j] = v
-            D[j, i] = v
+        row = D[i]
+        for j in range(n):
+            row[j] = 0.0
+        for q in range(m):
+            a, col = FT[q, i], FT[q]
+            for j in range(n):
+                d = a - col[j]
+                row[j] += d * d
+        for j in range(n):
+            v = np.sqrt(row[j])
+            row[j] = np.inf if np.isnan(v) else v  # inf - inf (penalised members)
+        row[i] = np.inf
     return D
 
 
 def distances(F: F64) -> F64:
     """``(n, n)`` Euclidean distances between members, +inf on the diagonal (and where undefined)."""
-    return _distances(np.ascontiguousarray(F, dtype=np.float64).reshape(len(F), -1))
+    F = np.asarray(F, dtype=np.float64).reshape(len(F), -1)
+    return _distances(np.ascontiguousarray(F.T))
 
 
 @numba.njit(cache=True)
@@ -74,50 +78,66 @@ def _push(heap: F64, r: int, v: float) -> None:  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _fitness(F: F64, c: F64, constrained: bool, k: int) -> F64:  # pragma: no cover - compiled
-    # One pass over the pairs i < j: who dominates whom (branch-free counts; 1: i over j, 2: j over i, kept
-    # row-wise), S(i) = how many i dominates, and each row's k smallest squared distances in a max-heap (its
-    # root is the k-th); then R(j) = sum of S over j's dominators. No (n, n) distance matrix is built
-    # (np.partition over one was the largest cost of a CMOES generation, whose pools reach 800 members).
-    # The caller sorts the members by the first objective; i runs down and j up, so every row meets its
-    # members nearest in that order first, and its heap holds small distances early: ~35 % fewer pushes.
-    n, m = F.shape
-    who = np.zeros((n, n), dtype=np.int8)
-    S = np.zeros(n)
-    near = np.full((n, k), np.inf)
-    for i in range(n - 1, -1, -1):
-        for j in range(i + 1, n):
-            if constrained and c[i] != c[j]:
-                ij, ji = c[i] < c[j], c[j] < c[i]
-            else:
-                lt, gt = 0, 0
-                for q in range(m):
-                    lt += F[i, q] < F[j, q]
-                    gt += F[i, q] > F[j, q]
-                ij, ji = gt == 0 and lt > 0, lt == 0 and gt > 0
-            who[i, j] = 1 if ij else (2 if ji else 0)
-            S[i] += ij
-            S[j] += ji
-            s = 0.0  # squared distance; sqrt is monotone, so it is taken of the k-th only
-            for q in range(m):
-                d = F[i, q] - F[j, q]
-                s += d * d
-            if np.isnan(s):  # inf - inf (penalised members)
-                s = np.inf
-            if s < near[i, 0]:
-                _push(near, i, s)
-            if s < near[j, 0]:
-                _push(near, j, s)
-    R = np.zeros(n)
+def _fitness(FT: F64, c: F64, k: int) -> F64:  # pragma: no cover - compiled
+    # Row by row (FT is (m, n), members sorted by the first objective): the squared distances and the counts of
+    # objectives where i is better / worse than each j run over contiguous columns and vectorize. Then who
+    # dominates whom (constraint domination on c; equal c: Pareto), S(i), and the k-th smallest squared
+    # distance (sqrt is monotone: it is taken of that one only), selected among the values below an upper
+    # bound: i's nearest earlier member e has k others within sigma(e) of it, so i has k others within
+    # d(i, e) + sigma(e) (triangle inequality). Last, R(i) = sum of S over i's dominators.
+    m, n = FT.shape
+    d2 = np.empty(n)
+    better = np.empty(n, dtype=np.int32)
+    worse = np.empty(n, dtype=np.int32)
+    cand = np.empty(n)
+    dominated_by = np.empty((n, n), dtype=np.int8)
+    S = np.zeros(n, dtype=np.int64)
+    sig2 = np.empty(n)
+    near = np.empty((1, k))
     for i in range(n):
-        for j in range(i + 1, n):
-            if who[i, j] == 1:
-                R[j] += S[i]
-            elif who[i, j] == 2:
-                R[i] += S[j]
+        for j in range(n):
+            d2[j], better[j], worse[j] = 0.0, 0, 0
+        for q in range(m):
+            a, col = FT[q, i], FT[q]
+            for j in range(n):
+                b = col[j]
+                d = a - b
+                d2[j] += d * d
+                better[j] += np.int32(a < b)
+                worse[j] += np.int32(a > b)
+        ci, s, row = c[i], np.int64(0), dominated_by[i]
+        for j in range(n):
+            cj = c[j]
+            eq = ci == cj
+            s += np.int64((ci < cj) | (eq & (worse[j] == 0) & (better[j] > 0)))
+            row[j] = np.int8((cj < ci) | (eq & (better[j] == 0) & (worse[j] > 0)))
+        S[i] = s
+        d2[i] = np.inf
+        bound, nearest, e = np.inf, np.inf, -1
+        for j in range(i):
+            if d2[j] < nearest:
+                nearest, e = d2[j], j
+        if e >= 0:
+            bound = np.sqrt(nearest) + np.sqrt(sig2[e])
+            bound = bound * bound * (1.0 + 1e-9)  # a margin for rounding: more candidates, same result
+        count = 0
+        for j in range(n):
+            v = d2[j]
+            cand[count] = v
+            count += v <= bound  # NaN (inf - inf) never: it counts as +inf, which a heap of +inf ignores
+        for u in range(k):
+            near[0, u] = np.inf
+        values = cand if count >= k else d2  # fewer than k below a finite bound: NaNs only; all of them then
+        for j in range(count if count >= k else n):
+            if values[j] < near[0, 0]:
+                _push(near, 0, values[j])
+        sig2[i] = near[0, 0]
     out = np.empty(n)
     for i in range(n):
-        out[i] = R[i] + 1.0 / (np.sqrt(near[i, 0]) + 2.0)
+        r, row = 0, dominated_by[i]
+        for j in range(n):
+            r += row[j] * S[j]
+        out[i] = r + 1.0 / (np.sqrt(sig2[i]) + 2.0)
     return out
 
 
@@ -136,10 +156,9 @@ def fitness(F: F64, cv: F64 | None = None) -> F64:
     if n == 1:
         return np.full(1, 0.5)
     k = int(math.floor(math.sqrt(n)))
-    order = np.argsort(Fa[:, 0], kind="stable")  # the kernel's visiting order (same values in any order)
+    order = np.argsort(Fa[:, 0], kind="stable")  # nearby earlier members: tight bounds (same values in any order)
     out = np.empty(n)
-    out[order] = _fitness(np.ascontiguousarray(Fa[order]), np.ascontiguousarray(c[order]), cv is not None,
-                          min(k, n - 1))
+    out[order] = _fitness(np.ascontiguousarray(Fa[order].T), np.ascontiguousarray(c[order]), min(k, n - 1))
     return out
 
 
@@ -186,13 +205,60 @@ def _sorted_less(D: F64, order: NDArray[np.int64], sorted_: B, alive: B, a: int,
 LEVELS = 3  # distinct smallest distances each row keeps during truncation
 
 
+LISTED = 8  # nearest members each row lists, in ascending distance, for finding its next levels
+
+
 @numba.njit(cache=True)
-def _fill(D: F64, alive: B, row: int, near: F64, start: int) -> None:  # pragma: no cover - compiled
+def _relist(D: F64, alive: B, row: int, after: float, lv: F64, li: NDArray[np.int64]) -> None:  # pragma: no cover
+    # lv[row], li[row]: the LISTED smallest distances of ``row`` to alive members that are > ``after``, ascending,
+    # and who is at each (+inf, -1 past the end). Insertion into a sorted list: most values fail the first test.
+    L = lv.shape[1]
+    for p in range(L):
+        lv[row, p], li[row, p] = np.inf, -1
+    for j in range(D.shape[0]):
+        d = D[row, j]
+        if d < lv[row, L - 1] and d > after and alive[j]:
+            p = L - 1
+            while p > 0 and lv[row, p - 1] > d:
+                lv[row, p], li[row, p] = lv[row, p - 1], li[row, p - 1]
+                p -= 1
+            lv[row, p], li[row, p] = d, j
+
+
+@numba.njit(cache=True)
+def _next_listed(D: F64, alive: B, row: int, after: float, lv: F64,
+                 li: NDArray[np.int64]) -> tuple[float, int]:  # pragma: no cover - compiled
+    # As _next_value, read from the row's list: every member nearer than its last entry is listed, so a value
+    # below the last entry is the next one with its full count. Otherwise the list is made again past
+    # ``after``; a value that reaches the end of the new list too is counted by a scan.
+    L = lv.shape[1]
+    for attempt in range(2):
+        p = 0
+        while p < L and (lv[row, p] <= after or (li[row, p] >= 0 and not alive[li[row, p]])):
+            p += 1
+        if p < L:
+            v = lv[row, p]
+            if v == np.inf:  # the rest of the row is +inf
+                return np.inf, 0
+            count = 0
+            while p < L and lv[row, p] == v:
+                count += alive[li[row, p]]
+                p += 1
+            if p < L:
+                return v, count
+        if attempt == 0:
+            _relist(D, alive, row, after, lv, li)
+    return _next_value(D, alive, row, after)
+
+
+@numba.njit(cache=True)
+def _fill(D: F64, alive: B, row: int, near: F64, start: int, lv: F64,
+          li: NDArray[np.int64]) -> None:  # pragma: no cover - compiled
     # near[row, 2j], near[row, 2j + 1] for j >= start: the next distinct smallest distances of ``row`` to alive
     # members after level start - 1's value, and how many alive members are at each (+inf, 0: none).
     after = -np.inf if start == 0 else near[row, 2 * start - 2]
     for j in range(start, near.shape[1] // 2):
-        v, c = _next_value(D, alive, row, after) if after < np.inf else (np.inf, 0)
+        v, c = _next_listed(D, alive, row, after, lv, li) if after < np.inf else (np.inf, 0)
         near[row, 2 * j], near[row, 2 * j + 1] = v, c
         after = v
 
@@ -236,8 +302,11 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_sorted_less)
     sorted_ = np.zeros(r, dtype=np.bool_)
     near = np.empty((r, 2 * LEVELS))
+    lv = np.empty((r, min(LISTED, r)))
+    li = np.empty((r, min(LISTED, r)), dtype=np.int64)
     for i in range(r):
-        _fill(D, alive, i, near, 0)
+        _relist(D, alive, i, -np.inf, lv, li)
+        _fill(D, alive, i, near, 0, lv, li)
     for _ in range(r - keep):
         m = np.inf
         for i in range(r):
@@ -258,7 +327,7 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
                     if near[i, 2 * j + 1] == 0:
                         for q in range(2 * j, 2 * LEVELS - 2):
                             near[i, q] = near[i, q + 2]
-                        _fill(D, alive, i, near, LEVELS - 1)
+                        _fill(D, alive, i, near, LEVELS - 1, lv, li)
                     break
                 if d < near[i, 2 * j]:
                     break
