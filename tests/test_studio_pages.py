@@ -69,3 +69,36 @@ def test_a_page_that_left_is_forgotten_and_the_others_still_get_the_figure(serve
     assert closed.written == {}
     assert set(chart._handles) == {1}
     assert chart.figure is fig and chart.visible
+
+
+def test_the_animation_holds_while_a_page_loads(monkeypatch):
+    # A page that has connected but not yet drawn (no camera report) gets no scene frames and the crank stands
+    # still for everyone; it goes on once the page has drawn, or LOAD_HOLD_MAX s after it connected.
+    from studio import app as app_module
+    from studio.app import Studio
+    from studio.state import Session
+
+    studio = Studio(Session.default(), host="127.0.0.1", port=0)
+    studio.animator.stop()  # ticks below are the test's own
+    try:
+        now = [100.0]
+        monkeypatch.setattr(app_module.time, "monotonic", lambda: now[0])
+        monkeypatch.setattr(studio.server, "get_clients", lambda: {7: FakeClient(7)})
+        drawn: list[int] = []
+        monkeypatch.setattr(studio.scene, "draw", lambda k: drawn.append(k) or False)
+        studio._loading[7] = now[0]
+        angle = studio.session.snapshot()[1].angle
+        studio._tick(0.1)
+        assert studio.session.snapshot()[1].angle == angle and drawn == []
+        now[0] += app_module.LOAD_HOLD_MAX + 0.1  # a page that never reports its camera holds no longer
+        studio._tick(0.1)
+        assert studio.session.snapshot()[1].angle != angle and len(drawn) == 1
+        studio._loading[7] = now[0]  # loading again (a reload), then it has drawn
+        angle = studio.session.snapshot()[1].angle
+        studio._tick(0.1)
+        assert studio.session.snapshot()[1].angle == angle
+        studio._loading.pop(7)
+        studio._tick(0.1)
+        assert studio.session.snapshot()[1].angle != angle and len(drawn) == 2
+    finally:
+        studio.close()
