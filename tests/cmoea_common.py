@@ -10,6 +10,28 @@ from pymoo.optimize import minimize
 
 from core.optimize.moea import problem_by_name
 
+F64 = np.ndarray
+
+
+def replace_ok(g_old: F64, g_new: F64, cv_old: F64, cv_new: float, eps: float, pull: bool) -> np.ndarray:
+    """CMOEMT's task-2 rule as the spec states it (the numpy form the compiled placement in
+    core/optimize/evolve/moead.py is held to): which neighbours a child may replace, by Tchebycheff alone
+    (push) or by the improved epsilon rule (pull)."""
+    better = g_old >= g_new
+    if not pull:
+        return better
+    return (better & (((cv_old <= eps) & (cv_new <= eps)) | (cv_old == cv_new))) | (cv_new < cv_old)
+
+
+def logistic(x: F64, sigma: float) -> F64:
+    """MOEA/D-CMT's soft comparison L(x; sigma) = 1 / (1 + e^(-x / sigma)) as the spec states it; 0.5 where
+    x == 0, a step where sigma == 0 (spec §7 pitfall 1)."""
+    x = np.asarray(x, dtype=np.float64)
+    if sigma <= 0:
+        return np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.where(x == 0, 0.5, 1.0 / (1.0 + np.exp(-x / sigma)))
+
 
 class Halve:
     """A repair that halves every variable (and counts its calls)."""

@@ -8,11 +8,11 @@ import math
 
 import numpy as np
 import pytest
-from cmoea_common import check_repair_and_generations, check_seed
+from cmoea_common import check_repair_and_generations, check_seed, replace_ok
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
-from core.optimize.evolve.cmoemt import CMOEMT, change_rate, replace_ok
+from core.optimize.evolve.cmoemt import CMOEMT, change_rate
 from core.optimize.moea import problem_by_name
 
 

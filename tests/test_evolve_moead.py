@@ -4,10 +4,10 @@ penalised (+inf) and undefined (NaN) objectives."""
 from __future__ import annotations
 
 import numpy as np
+from cmoea_common import logistic, replace_ok
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from core.optimize.evolve.cmoemt import replace_ok
 from core.optimize.evolve.moead import tchebycheff_replace
 from core.optimize.evolve.weights import tchebycheff
 
@@ -49,7 +49,6 @@ def test_the_compiled_replacement_equals_the_numpy_rule(n, m, seed, pull, nr):
 
 def cmt_by_numpy(P, W, pool, y, z1, cmin, cmax, s_cv, nr=2, s_obj=0.3):
     """MOEA/D-CMT's task-1 rule as the numpy code it replaced wrote it."""
-    from core.optimize.evolve.moead_cmt import logistic
 
     X, F, G, cv = (a.copy() for a in P)
     yX, yF, yG, ycv = y

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from cmoea_common import check_seed
+from cmoea_common import check_seed, logistic
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
-from core.optimize.evolve.moead_cmt import logistic, task_probabilities
+from core.optimize.evolve.moead_cmt import task_probabilities
 from core.optimize.moea import hv_platemo, igd, problem_by_name, reference_front
 
 

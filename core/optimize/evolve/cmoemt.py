@@ -49,14 +49,6 @@ def change_rate(ideal: dict[int, F64], nadir: dict[int, F64], gen: int) -> float
     return r if math.isfinite(r) else math.inf
 
 
-def replace_ok(g_old: F64, g_new: F64, cv_old: F64, cv_new: float, eps: float, pull: bool) -> NDArray[np.bool_]:
-    """Which neighbours a child may replace: push by Tchebycheff alone; pull by the improved epsilon rule."""
-    better = g_old >= g_new
-    if not pull:
-        return better
-    return (better & (((cv_old <= eps) & (cv_new <= eps)) | (cv_old == cv_new))) | (cv_new < cv_old)
-
-
 class CMOEMT(ArrayAlgorithm):
     """CMOEMT; the output population is the main task's (P1).
 

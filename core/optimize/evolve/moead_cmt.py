@@ -26,15 +26,6 @@ F64 = NDArray[np.float64]
 DELTA, NR, RMP, LEARN, P_MIN, S_OBJ, THETA = 0.9, 2, 0.2, 0.3, 0.1, 0.3, 5.0
 
 
-def logistic(x: F64, sigma: float) -> F64:
-    """L(x; sigma) = 1 / (1 + e^(-x / sigma)); 0.5 where x == 0, a step where sigma == 0 (spec §7 pitfall 1)."""
-    x = np.asarray(x, dtype=np.float64)
-    if sigma <= 0:
-        return np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))
-    with np.errstate(over="ignore", invalid="ignore"):
-        return np.where(x == 0, 0.5, 1.0 / (1.0 + np.exp(-x / sigma)))
-
-
 def task_probabilities(rwd: F64, fe: int, max_fe: int) -> F64:
     if fe <= LEARN * max_fe or rwd.sum() <= 0:
         return np.array([0.5, 0.5])

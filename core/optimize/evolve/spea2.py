@@ -307,20 +307,27 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     for i in range(r):
         _relist(D, alive, i, -np.inf, lv, li)
         _fill(D, alive, i, near, 0, lv, li)
+    idx = np.arange(r)  # the alive members, ascending (ties go to the lowest index)
+    na = r
+    last = 2 * LEVELS - 2
     for _ in range(r - keep):
-        m = np.inf
-        for i in range(r):
-            if alive[i] and near[i, 0] < m:
-                m = near[i, 0]
-        best = -1
-        for i in range(r):
-            if alive[i] and near[i, 0] == m and (best < 0 or _less(D, F, order, sorted_, alive, near, i, best)):
+        m, best = np.inf, -1  # one pass: the smallest first level, the smallest row among those at it
+        for p in range(na):
+            i = idx[p]
+            v = near[i, 0]
+            if v < m or best < 0:
+                m, best = v, i
+            elif v == m and _less(D, F, order, sorted_, alive, near, i, best):
                 best = i
         alive[best] = False
-        for i in range(r):
-            if not alive[i]:
-                continue
+        at = np.searchsorted(idx[:na], best)
+        idx[at : na - 1] = idx[at + 1 : na]
+        na -= 1
+        for p in range(na):
+            i = idx[p]
             d = D[best, i]  # D is symmetric: the row is contiguous, the column is not
+            if d > near[i, last]:  # beyond the row's levels (most rows)
+                continue
             for j in range(LEVELS):
                 if d == near[i, 2 * j]:
                     near[i, 2 * j + 1] -= 1
