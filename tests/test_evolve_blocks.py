@@ -143,6 +143,20 @@ def test_spea2_truncation_of_a_larger_pool_equals_its_definition(seed):
         assert spea2.truncate(F, keep).tolist() == truncate_by_definition(F, keep).tolist()
 
 
+@pytest.mark.parametrize("keep", [3, 8, 12, 20])
+def test_spea2_truncation_with_copies_equals_its_definition(keep):
+    # CMOES truncates unions with many exact copies, which go first in one step when the removals cover them;
+    # two points whose difference underflows (distance 0, not copies) keep the member-by-member way
+    rng = np.random.default_rng(keep)
+    base = rng.normal(size=(10, 2))
+    F = np.vstack([base, base[:6], base[:3], base[[0]]])  # 10 surplus copies among 20
+    assert spea2.truncate(F, keep).tolist() == truncate_by_definition(F, keep).tolist()
+    tiny = F.copy()
+    tiny[-1] = tiny[0] + np.array([1e-200, 0.0])
+    assert spea2.distances(tiny)[0, -1] == 0.0
+    assert spea2.truncate(tiny, keep).tolist() == truncate_by_definition(tiny, keep).tolist()
+
+
 def test_spea2_truncation_drops_the_most_crowded_member():
     F = np.array([[0, 3], [1, 2], [1.1, 1.9], [3, 0]], dtype=float)
     # (1,2) and (1.1,1.9) are nearest each other; (1,2) is also nearer its next neighbour (sqrt 2 < 1.556).

@@ -60,14 +60,13 @@ def even_search(pool: Arrays, R: F64, n: int, tau: float, max_cv: float) -> tupl
     their fitness; P3 (the region's members with CV <= maxCV (1 - tau)^2, at most n), their CV; and |Q|."""
     Q = pool.take(np.flatnonzero(in_region(pool.F, R)))
     fit = spea2.fitness(Q.F)
-    nd = np.flatnonzero(fit < 1.0)
-    if len(nd) > n:
-        nd = nd[spea2.truncate(Q.F[nd], n)]
-    nd = nd[np.argsort(fit[nd], kind="stable")]
+    nd_all = np.flatnonzero(fit < 1.0)
+    nd = nd_all[spea2.truncate(Q.F[nd_all], n)] if len(nd_all) > n else nd_all
     eps = max_cv * (1.0 - tau) ** 2
     ok = np.flatnonzero(Q.cv <= eps)
-    if len(ok) > n:
-        ok = ok[spea2.truncate(Q.F[ok], n)]
+    if len(ok) > n:  # the same members as P2's (every one feasible and non-dominated): the same cut
+        ok = nd if np.array_equal(ok, nd_all) else ok[spea2.truncate(Q.F[ok], n)]
+    nd = nd[np.argsort(fit[nd], kind="stable")]
     return Q.take(nd), fit[nd], Q.take(ok), Q.cv[ok], len(Q)
 
 

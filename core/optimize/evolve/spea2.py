@@ -290,6 +290,15 @@ def _less(D: F64, F: F64, order: NDArray[np.int64], sorted_: B, alive: B, near: 
     return _sorted_less(D, order, sorted_, alive, a, b)
 
 
+@numba.njit(cache=True, fastmath={"nnan", "nsz"})
+def _smallest(a: F64) -> float:  # pragma: no cover - compiled
+    # The smallest value of a NaN-free array (+inf allowed): the flags let the loop vectorize.
+    m = np.inf
+    for v in a:
+        m = min(m, v)
+    return m
+
+
 @numba.njit(cache=True)
 def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     # Each alive row keeps its LEVELS smallest distinct distances to alive members and their counts; a removal
@@ -304,30 +313,49 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     near = np.empty((r, 2 * LEVELS))
     lv = np.empty((r, min(LISTED, r)))
     li = np.empty((r, min(LISTED, r)), dtype=np.int64)
+    # Exact copies first. While two members are at distance 0 the smallest first level is 0, so every removal
+    # takes a copy, and of identical rows the lowest index: a point's copies go in index order, its last one
+    # stays, and the rest is truncated among distinct points. Taken in one step when the removals cover all the
+    # copies, and when every distance of 0 is between copies (not two points whose difference underflows).
+    copies, exact = 0, True
     for i in range(r):
-        _relist(D, alive, i, -np.inf, lv, li)
-        _fill(D, alive, i, near, 0, lv, li)
-    idx = np.arange(r)  # the alive members, ascending (ties go to the lowest index)
-    na = r
+        for j in range(i + 1, r):
+            if D[i, j] == 0.0:
+                if _same_point(F, i, j):
+                    if alive[i]:
+                        alive[i] = False
+                        copies += 1
+                else:
+                    exact = False
+    if not exact or copies > r - keep:
+        alive[:] = True
+        copies = 0
+    for i in range(r):
+        near[i, 0], near[i, 1] = np.inf, 0.0
+        if alive[i]:
+            _relist(D, alive, i, -np.inf, lv, li)
+            _fill(D, alive, i, near, 0, lv, li)
     last = 2 * LEVELS - 2
-    for _ in range(r - keep):
-        m, best = np.inf, -1  # one pass: the smallest first level, the smallest row among those at it
-        for p in range(na):
-            i = idx[p]
-            v = near[i, 0]
-            if v < m or best < 0:
-                m, best = v, i
-            elif v == m and _less(D, F, order, sorted_, alive, near, i, best):
+    # Contiguous copies of each row's first and last level (dead rows: +inf, -inf), so the two scans a removal
+    # makes over all rows are plain comparisons over arrays: the smallest first level, and the rows whose
+    # levels reach the removed member's distance (the few that change).
+    lead, tail = near[:, 0].copy(), np.where(alive, near[:, last], -np.inf)
+    hit = np.empty(r, dtype=np.bool_)
+    for _ in range(r - keep - copies):
+        m = _smallest(lead)
+        best = -1
+        for i in range(r):  # ascending: ties go to the lowest index
+            if lead[i] == m and alive[i] and (best < 0 or _less(D, F, order, sorted_, alive, near, i, best)):
                 best = i
         alive[best] = False
-        at = np.searchsorted(idx[:na], best)
-        idx[at : na - 1] = idx[at + 1 : na]
-        na -= 1
-        for p in range(na):
-            i = idx[p]
-            d = D[best, i]  # D is symmetric: the row is contiguous, the column is not
-            if d > near[i, last]:  # beyond the row's levels (most rows)
+        lead[best], tail[best] = np.inf, -np.inf
+        row = D[best]  # D is symmetric: the row is contiguous, the column is not
+        for i in range(r):
+            hit[i] = row[i] <= tail[i]
+        for i in range(r):
+            if not hit[i]:
                 continue
+            d = row[i]
             for j in range(LEVELS):
                 if d == near[i, 2 * j]:
                     near[i, 2 * j + 1] -= 1
@@ -335,6 +363,7 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
                         for q in range(2 * j, 2 * LEVELS - 2):
                             near[i, q] = near[i, q + 2]
                         _fill(D, alive, i, near, LEVELS - 1, lv, li)
+                        lead[i], tail[i] = near[i, 0], near[i, last]
                     break
                 if d < near[i, 2 * j]:
                     break
