@@ -264,7 +264,7 @@ def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
         body=_lift(to_scene(body), Z_LINES),
         body_colors=body_colors,
         feet=_lift(to_scene(wf.feet), Z_MARKERS),
-        feet_colors=vertex_colours(leg_rgb),
+        feet_colors=np.asarray(leg_rgb, dtype=np.uint8),  # a point cloud's: sRGB as it is
         trails=_lift(to_scene(seg.reshape(-1, 2, 2)), 0.5 * Z_LINES),
         trail_colors=trail_colors.reshape(-1, 2, 3),
         ground=to_scene(ground),
@@ -283,14 +283,25 @@ def _lift(p: F32, z: float) -> F32:
 
 
 def vertex_colours(rgb: NDArray[np.integer]) -> U8:
-    """sRGB colours (0-255) for per-vertex colour arrays.
+    """sRGB colours (0-255) for the per-vertex colours of line segments.
 
-    viser converts a node's single colour from sRGB but passes per-vertex colours through as
-    linear values, which then display lighter; converting here makes both look the same.
+    viser converts a line node's single colour from sRGB but passes per-vertex colours through as
+    linear values, which then display lighter; converting here makes both look the same. (A point
+    cloud shows its per-point colours as sRGB: :func:`paint`.)
     """
     c = np.asarray(rgb, dtype=np.float64) / 255.0
     lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
     return np.round(lin * 255.0).astype(np.uint8)
+
+
+def paint(points: NDArray[np.floating], rgb: tuple[int, int, int]) -> U8:
+    """One colour for every vertex of a line-segments ``(n, 2, 3)`` or point-cloud ``(n, 3)`` node: ``points``'
+    shape with a colour in the last axis. Every such node carries per-vertex colours, so a page compiles one
+    line shader and one point shader: a node with a single colour is another shader program, ~0.15 s of a page
+    load in software WebGL (docs/studio.md). Lines take per-vertex colours as linear values
+    (:func:`vertex_colours`); point clouds as sRGB, as they take a single colour."""
+    c = vertex_colours(np.asarray(rgb)) if np.ndim(points) == 3 else np.asarray(rgb, dtype=np.uint8)
+    return np.ascontiguousarray(np.broadcast_to(c, (*np.shape(points)[:-1], 3)))
 
 
 def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:

@@ -12,7 +12,7 @@ import viser
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.frames import FPS, INSET_TITLE, SMALL_TEXT, Z_MARKERS, _lift, marker_texts
+from studio.frames import FPS, INSET_TITLE, SMALL_TEXT, Z_MARKERS, _lift, marker_texts, paint
 from studio.geometry import (
     SCENE_SCALE,
     to_scene,
@@ -82,10 +82,12 @@ class CandidateInset:
         self._radius = 0.0
         empty_seg = np.zeros((1, 2, 3), dtype=np.float32)
         scene = server.scene
-        self.border = scene.add_line_segments("/candidates/border", empty_seg, palette.FRAME, thickness=1.0,
-                                              thickness_units="screen")
-        self.front = scene.add_point_cloud("/candidates/front", np.zeros((1, 3), dtype=np.float32), palette.FEASIBLE,
-                                           point_shape="circle", precision="float32", point_shading="flat")
+        # per-vertex colours, as every line and point cloud (studio.frames.paint)
+        self.border = scene.add_line_segments("/candidates/border", empty_seg, paint(empty_seg, palette.FRAME),
+                                              thickness=1.0, thickness_units="screen")
+        one = np.zeros((1, 3), dtype=np.float32)
+        self.front = scene.add_point_cloud("/candidates/front", one, paint(one, palette.FEASIBLE), point_shape="circle",
+                                           precision="float32", point_shading="flat")
         self.title = scene.add_label("/candidates/title", INSET_TITLE, anchor="bottom-left", font_size_mode="scene")
         self.note = scene.add_label("/candidates/note", "", anchor="top-left", font_size_mode="scene")
         self._text_height = 0.0
@@ -97,7 +99,9 @@ class CandidateInset:
         h = text_height / SCENE_SCALE
         corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
         with self.server.atomic():
-            self.border.points = to_scene(np.stack([corners, np.roll(corners, -1, axis=0)], axis=1))
+            border = to_scene(np.stack([corners, np.roll(corners, -1, axis=0)], axis=1))
+            self.border.colors = paint(border, palette.FRAME)
+            self.border.points = border
             self.title.position = (x0 * SCENE_SCALE, (y1 + 0.6 * h) * SCENE_SCALE, 0.0)
             self.title.font_scene_height = text_height
             self.note.position = (x0 * SCENE_SCALE, (y0 - 0.6 * SMALL_TEXT * h) * SCENE_SCALE, 0.0)
@@ -139,7 +143,9 @@ class CandidateInset:
             self.front.visible = len(front) > 0
             if len(front):
                 self.front.point_size = 0.6 * self._radius
-                self.front.points = _lift(to_scene(front), Z_MARKERS)
+                pts = _lift(to_scene(front), Z_MARKERS)
+                self.front.colors = paint(pts, palette.FEASIBLE)
+                self.front.points = pts
 
     @staticmethod
     def _colour(m: InsetMarker, shown: int | None) -> tuple[int, int, int]:

@@ -9,12 +9,13 @@ animation thread only indexes arrays and assigns them.
 from __future__ import annotations
 
 import threading
+from typing import Any
 
 import numpy as np
 import viser
 
 from studio import palette
-from studio.frames import DEFAULT_ASPECT, F32, FOV, U8, WALK_TITLE, SceneFrames, SceneText, build_frames
+from studio.frames import DEFAULT_ASPECT, F32, FOV, U8, WALK_TITLE, SceneFrames, SceneText, build_frames, paint
 from studio.geometry import (
     SCENE_SCALE,
     camera_pose,
@@ -22,13 +23,19 @@ from studio.geometry import (
 from studio.state import DesignView
 
 
-def _set_segments(node: viser.LineSegmentsHandle, segments: F32, colors: U8 | None = None) -> None:
-    """Assign segments (and per-segment colours); hide the node when there is nothing to draw."""
+def _set_segments(node: viser.LineSegmentsHandle, segments: F32, colors: U8 | tuple[int, int, int]) -> None:
+    """Assign segments and their colours (per vertex, or one for all: painted per vertex); hide the node when
+    there is nothing to draw."""
     node.visible = len(segments) > 0
     if len(segments):
-        if colors is not None:
-            node.colors = colors
+        node.colors = paint(segments, colors) if isinstance(colors, tuple) else colors
         node.points = segments
+
+
+def _set_points(node: viser.PointCloudHandle | viser.LineSegmentsHandle, points: F32,
+                rgb: tuple[int, int, int]) -> None:
+    node.colors = paint(points, rgb)
+    node.points = points
 
 
 __all__ = ["WALK_TITLE", "MechanismScene"]
@@ -52,49 +59,41 @@ class MechanismScene:
         scene.set_up_direction("+y")
         empty_seg = np.zeros((1, 2, 3), dtype=np.float32)
         one = np.zeros((1, 3), dtype=np.float32)
+
+        def lines(name: str, rgb: tuple[int, int, int], thickness: float) -> viser.LineSegmentsHandle:
+            return scene.add_line_segments(name, empty_seg, paint(empty_seg, rgb), thickness=thickness,
+                                           thickness_units="screen")
+
+        def points(name: str, rgb: tuple[int, int, int], shape: Any) -> viser.PointCloudHandle:
+            return scene.add_point_cloud(name, one, paint(one, rgb), point_shape=shape, precision="float32",
+                                         point_shading="flat")
+
         # Millimetre paper: plain lines sized to the views (viser's shader grid costs ~150 ms a frame under
         # software WebGL), with its spacing written in a corner as the scale.
-        self.grid = scene.add_line_segments("/grid", empty_seg, palette.GRID, thickness=1.0, thickness_units="screen")
+        self.grid = lines("/grid", palette.GRID, 1.0)
         self.grid_label = scene.add_label("/grid_label", "", anchor="top-left", font_size_mode="scene")
         # Every view's title, the walking metrics and the scale bars' labels, placed by the layout (in the scene's
         # units, so they keep clear of each other at any zoom); one millimetre scale bar under each view.
         self._texts: dict[str, viser.LabelHandle] = {}
-        self.scale_bars = scene.add_line_segments("/scale_bars", empty_seg, palette.PIVOT, thickness=2.0,
-                                                  thickness_units="screen")
-        self.path = scene.add_line_segments("/design/path", empty_seg, palette.PATH, thickness=2.0,
-                                            thickness_units="screen")
-        self.target = scene.add_line_segments("/design/target", empty_seg, palette.TARGET, thickness=1.5,
-                                              thickness_units="screen")
-        self.links = scene.add_line_segments("/design/links", empty_seg, palette.LINK, thickness=4.0,
-                                             thickness_units="screen")
-        self.pivots = scene.add_point_cloud("/design/pivots", one, palette.PIVOT, point_shape="diamond",
-                                            precision="float32", point_shading="flat")
-        self.joints = scene.add_point_cloud("/design/joints", one, palette.JOINT, point_shape="circle",
-                                            precision="float32", point_shading="flat")
-        self.foot = scene.add_point_cloud("/design/foot", one, palette.FOOT, point_shape="circle",
-                                          precision="float32", point_shading="flat")
+        self.scale_bars = lines("/scale_bars", palette.PIVOT, 2.0)
+        self.path = lines("/design/path", palette.PATH, 2.0)
+        self.target = lines("/design/target", palette.TARGET, 1.5)
+        self.links = lines("/design/links", palette.LINK, 4.0)
+        self.pivots = points("/design/pivots", palette.PIVOT, "diamond")
+        self.joints = points("/design/joints", palette.JOINT, "circle")
+        self.foot = points("/design/foot", palette.FOOT, "circle")
         self.leg = scene.add_frame("/leg", show_axes=False)
-        self.leg_axes = scene.add_line_segments("/leg/axes", empty_seg, palette.FRAME, thickness=1.0,
-                                                thickness_units="screen")
-        self.leg_target = scene.add_line_segments("/leg/target", empty_seg, palette.TARGET, thickness=2.0,
-                                                  thickness_units="screen")
-        self.leg_path = scene.add_line_segments("/leg/path", empty_seg, palette.PATH, thickness=3.0,
-                                                thickness_units="screen")
-        self.leg_features = scene.add_point_cloud("/leg/features", one, palette.PIVOT, point_shape="circle",
-                                                  precision="float32", point_shading="flat")
-        self.leg_foot = scene.add_point_cloud("/leg/foot", one, palette.FOOT, point_shape="circle",
-                                              precision="float32", point_shading="flat")
+        self.leg_axes = lines("/leg/axes", palette.FRAME, 1.0)
+        self.leg_target = lines("/leg/target", palette.TARGET, 2.0)
+        self.leg_path = lines("/leg/path", palette.PATH, 3.0)
+        self.leg_features = points("/leg/features", palette.PIVOT, "circle")
+        self.leg_foot = points("/leg/foot", palette.FOOT, "circle")
         self.walk = scene.add_frame("/walk", show_axes=False)
-        self.walk_ground = scene.add_line_segments("/walk/ground", empty_seg, palette.FRAME, thickness=1.5,
-                                                   thickness_units="screen")
-        self.walk_trails = scene.add_line_segments("/walk/trails", empty_seg, palette.FRAME, thickness=1.0,
-                                                   thickness_units="screen")
-        self.walk_obstacle = scene.add_line_segments("/walk/obstacle", empty_seg, palette.OBSTACLE_CLEAR,
-                                                     thickness=3.0, thickness_units="screen")
-        self.walk_body = scene.add_line_segments("/walk/body", empty_seg, palette.TRUNK, thickness=4.0,
-                                                 thickness_units="screen")
-        self.walk_feet = scene.add_point_cloud("/walk/feet", one, palette.FOOT, point_shape="circle",
-                                               precision="float32", point_shading="flat")
+        self.walk_ground = lines("/walk/ground", palette.FRAME, 1.5)
+        self.walk_trails = lines("/walk/trails", palette.FRAME, 1.0)
+        self.walk_obstacle = lines("/walk/obstacle", palette.OBSTACLE_CLEAR, 3.0)
+        self.walk_body = lines("/walk/body", palette.TRUNK, 4.0)
+        self.walk_feet = points("/walk/feet", palette.FOOT, "circle")
 
     @property
     def frames(self) -> SceneFrames | None:
@@ -108,28 +107,32 @@ class MechanismScene:
         with self._lock, self.server.atomic():
             self._frames = frames
             self._index = -1
-            _set_segments(self.grid, frames.grid)
+            _set_segments(self.grid, frames.grid, palette.GRID)
             b = frames.composition.bounds * SCENE_SCALE  # in the views' lower-left corner, inside the frame
             self.grid_label.position = (float(b[0]), float(b[1]), 0.0)
             self.grid_label.text = f"grid {frames.grid_step:g} mm"
             self.grid_label.font_scene_height = 0.7 * frames.text_height
-            _set_segments(self.scale_bars, frames.scale_bars)
+            _set_segments(self.scale_bars, frames.scale_bars, palette.PIVOT)
             self._show_texts(frames.texts)
-            _set_segments(self.path, frames.path)
-            _set_segments(self.target, frames.target)
+            _set_segments(self.path, frames.path, palette.PATH)
+            _set_segments(self.target, frames.target, palette.TARGET)
             self.links.colors = frames.link_colors
             self.links.points = frames.links[index % frames.n_samples]
             for node, size in ((self.pivots, 1.3), (self.joints, 0.8), (self.foot, 1.1), (self.leg_foot, 1.1),
                                (self.leg_features, 0.5)):
                 node.point_size = frames.marker * size
-            self.pivots.points = frames.pivots
+            _set_points(self.pivots, frames.pivots, palette.PIVOT)
+            for node, rgb, moving in ((self.joints, palette.JOINT, frames.joints),
+                                      (self.foot, palette.FOOT, frames.foot),
+                                      (self.leg_foot, palette.FOOT, frames.leg_foot)):
+                node.colors = paint(moving[0], rgb)  # as many as the design has: _draw sets the points only
             self.leg.position = (lay.leg_offset[0] * SCENE_SCALE, lay.leg_offset[1] * SCENE_SCALE, 0.0)
-            self.leg_axes.points = frames.leg_axes
-            _set_segments(self.leg_target, frames.leg_target)
+            _set_points(self.leg_axes, frames.leg_axes, palette.FRAME)
+            _set_segments(self.leg_target, frames.leg_target, palette.TARGET)
             _set_segments(self.leg_path, frames.leg_path, frames.leg_path_colors)
             self.leg_features.visible = len(frames.features) > 0
             if len(frames.features):
-                self.leg_features.points = frames.features
+                _set_points(self.leg_features, frames.features, palette.PIVOT)
             self._show_walk(frames)
             self._show_labels(frames)
             self._draw(index)
@@ -143,11 +146,11 @@ class MechanismScene:
             return
         off = frames.composition.walk_offset
         self.walk.position = (off[0] * SCENE_SCALE, off[1] * SCENE_SCALE, 0.0)
-        self.walk_ground.points = w.ground
+        _set_points(self.walk_ground, w.ground, palette.FRAME)
         self.walk_trails.colors = w.trail_colors
         self.walk_trails.points = w.trails
-        self.walk_obstacle.colors = np.array(palette.OBSTACLE_HIT if w.hit else palette.OBSTACLE_CLEAR, dtype=np.uint8)
-        self.walk_obstacle.points = w.obstacle
+        _set_points(self.walk_obstacle, w.obstacle,
+                    palette.OBSTACLE_HIT if w.hit else palette.OBSTACLE_CLEAR)
         self.walk_body.colors = w.body_colors
         self.walk_feet.point_size = frames.marker * 1.1
         self.walk_feet.colors = w.feet_colors

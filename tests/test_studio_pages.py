@@ -5,6 +5,7 @@ the pages still there get every figure."""
 
 from __future__ import annotations
 
+import numpy as np
 import plotly.graph_objects as go
 import pytest
 import viser
@@ -100,5 +101,33 @@ def test_the_animation_holds_while_a_page_loads(monkeypatch):
         studio._loading.pop(7)
         studio._tick(0.1)
         assert studio.session.snapshot()[1].angle != angle and len(drawn) == 2
+    finally:
+        studio.close()
+
+
+@pytest.mark.parametrize("preset", [None, "jansen", "rtclm/case1", "watt1/paper"])
+def test_every_line_and_point_cloud_carries_a_colour_per_vertex(preset):
+    # One colour per vertex everywhere (studio.frames.paint): a page then compiles one line shader and one point
+    # shader. The colours must match the points in number, on every design and frame.
+    import viser as v
+
+    from studio.app import Studio
+    from studio.state import Session
+
+    studio = Studio(Session.default(), host="127.0.0.1", port=0)
+    studio.animator.stop()
+    try:
+        if preset is not None:
+            studio.session.load_preset(preset)
+            studio.refresh(fit_camera=True)
+        nodes = [n for n in vars(studio.scene).values() if isinstance(n, (v.LineSegmentsHandle, v.PointCloudHandle))]
+        nodes += [studio.inset.border, studio.inset.front]
+        assert len(nodes) == 20
+        n = studio.scene.frames.n_samples
+        for k in (0, n // 3, n - 1):
+            studio.scene.draw(k)
+            for node in nodes:
+                points, colors = np.asarray(node.points), np.asarray(node.colors)
+                assert colors.dtype == np.uint8 and colors.shape == points.shape[:-1] + (3,), node.name
     finally:
         studio.close()
