@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -138,6 +139,41 @@ def _parabolic(v: F64, i: NDArray[np.int64]) -> F64:
 TIE = 1e-9  # samples within this fraction of the path's largest |coordinate| of an extremum tie with it
 
 
+@numba.njit(cache=True)
+def _first_extremum(v: F64, mask: NDArray[np.bool_], largest: bool) -> NDArray[np.int64]:  # pragma: no cover
+    # Per row: argmin (argmax) over the masked samples as numpy finds it (the first NaN if any; 0 if none is
+    # masked), then, if it is finite, the first masked sample within TIE x the largest finite masked |v| of it.
+    pop, n = v.shape
+    out = np.zeros(pop, dtype=np.int64)
+    for r in range(pop):
+        best, e, scale, nan_at = -1, 0.0, 0.0, -1
+        for j in range(n):
+            if not mask[r, j]:
+                continue
+            x = v[r, j]
+            if np.isnan(x):
+                if nan_at < 0:
+                    nan_at = j
+                continue
+            if np.isfinite(x):
+                scale = max(scale, abs(x))
+            if best < 0 or (x > e if largest else x < e):
+                best, e = j, x
+        if nan_at >= 0:
+            out[r] = nan_at
+            continue
+        if best < 0:
+            continue
+        out[r] = best
+        tol = TIE * scale
+        if np.isfinite(e):
+            for j in range(best):
+                if mask[r, j] and abs(v[r, j] - e) <= tol:
+                    out[r] = j
+                    break
+    return out
+
+
 def _extremum(v: F64, mask: NDArray[np.bool_], largest: bool) -> tuple[NDArray[np.int64], F64]:
     """Index of the largest (smallest) masked sample and its parabolic sub-sample index.
 
@@ -145,15 +181,7 @@ def _extremum(v: F64, mask: NDArray[np.bool_], largest: bool) -> tuple[NDArray[n
     path has two equal left-most points, and which one argmin found depended on the last bit (a translation
     by 181 mm moved t4 from 0.93 s to 1.07 s of a 2 s cycle).
     """
-    fill = -np.inf if largest else np.inf
-    w = np.where(mask, v, fill)
-    i = np.argmax(w, 1) if largest else np.argmin(w, 1)
-    rows = np.arange(len(v))
-    e = w[rows, i]
-    with np.errstate(invalid="ignore"):
-        tol = TIE * np.max(np.where(mask, np.abs(v), 0.0), axis=1)
-        near = mask & (np.abs(v - e[:, None]) <= tol[:, None])
-    i = np.where(near.any(1), np.argmax(near, 1), i)  # rows without one (NaN): as argmin/argmax found
+    i = _first_extremum(np.asarray(v, dtype=np.float64), np.asarray(mask), largest)  # strided views as they are
     return i, i + _parabolic(v, i)
 
 
