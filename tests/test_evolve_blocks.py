@@ -172,6 +172,39 @@ def test_spea2_select_fills_with_the_best_dominated_when_too_few_are_non_dominat
     assert order.tolist() == [0, 1] and mask.tolist() == [True, True, False, False]
 
 
+def select_by_definition(F, n, cv=None, fit_F=None):
+    """SPEA2's environmental selection as written: every member's fitness, then fill or truncate."""
+    fit = spea2.fitness(F if fit_F is None else fit_F, cv)
+    marked = fit < 1.0
+    if marked.sum() < n:
+        mask = np.isin(np.arange(len(F)), np.argsort(fit, kind="stable")[:n])
+    elif marked.sum() > n:
+        idx = np.flatnonzero(marked)
+        mask = np.isin(np.arange(len(F)), idx[spea2.truncate(F[idx], n)])
+    else:
+        mask = marked
+    surv = np.flatnonzero(mask)
+    order = surv[np.argsort(fit[surv], kind="stable")]
+    return order, fit[order], mask
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(1, 70), st.integers(1, 4), st.integers(0, 2**32 - 1), st.sampled_from(["plain", "cv", "fit_F"]))
+def test_spea2_select_equals_its_definition(size, m, seed, kind):
+    # select computes only the survivors' densities when enough members are non-dominated; the survivors, their
+    # order and their fitness must be the definition's (fill, exact and truncation cases; copies; +inf members)
+    rng = np.random.default_rng(seed)
+    F = rng.normal(size=(size, m)) if seed % 3 else rng.integers(0, 4, size=(size, m)).astype(float)
+    if seed % 5 == 0:
+        F[rng.random(size) < 0.2] = np.inf
+    cv = np.where(rng.random(size) < 0.4, rng.random(size), 0.0) if kind == "cv" else None
+    fit_F = np.hstack([F, rng.random((size, 1))]) if kind == "fit_F" else None
+    for n in sorted({1, max(1, size // 3), max(1, size // 2), size, size + 2}):
+        got, want = spea2.select(F, n, cv, fit_F), select_by_definition(F, n, cv, fit_F)
+        assert got[0].tolist() == want[0].tolist() and got[2].tolist() == want[2].tolist()
+        assert got[1].tolist() == want[1].tolist()
+
+
 def test_tournament_lower_key_wins_and_ties_go_to_the_first_drawn():
     keys = (np.array([0, 0, 1, 1]), np.array([5.0, 3.0, 0.0, 0.0]))
     w = tournament(keys, 400, np.random.default_rng(7))

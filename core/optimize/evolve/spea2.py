@@ -78,31 +78,22 @@ def _push(heap: F64, r: int, v: float) -> None:  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _fitness(FT: F64, c: F64, k: int) -> F64:  # pragma: no cover - compiled
-    # Row by row (FT is (m, n), members sorted by the first objective): the squared distances and the counts of
-    # objectives where i is better / worse than each j run over contiguous columns and vectorize. Then who
-    # dominates whom (constraint domination on c; equal c: Pareto), S(i), and the k-th smallest squared
-    # distance (sqrt is monotone: it is taken of that one only), selected among the values below an upper
-    # bound: i's nearest earlier member e has k others within sigma(e) of it, so i has k others within
-    # d(i, e) + sigma(e) (triangle inequality). Last, R(i) = sum of S over i's dominators.
+def _raw(FT: F64, c: F64) -> F64:  # pragma: no cover - compiled
+    # R(i) = sum of S over i's dominators, S(i) = how many i dominates (constraint domination on c; equal c:
+    # Pareto). Row by row over the objectives' columns (FT is (m, n)): the counts of objectives where i is
+    # better / worse than each j run over contiguous memory and vectorize.
     m, n = FT.shape
-    d2 = np.empty(n)
     better = np.empty(n, dtype=np.int32)
     worse = np.empty(n, dtype=np.int32)
-    cand = np.empty(n)
     dominated_by = np.empty((n, n), dtype=np.int8)
     S = np.zeros(n, dtype=np.int64)
-    sig2 = np.empty(n)
-    near = np.empty((1, k))
     for i in range(n):
         for j in range(n):
-            d2[j], better[j], worse[j] = 0.0, 0, 0
+            better[j], worse[j] = 0, 0
         for q in range(m):
             a, col = FT[q, i], FT[q]
             for j in range(n):
                 b = col[j]
-                d = a - b
-                d2[j] += d * d
                 better[j] += np.int32(a < b)
                 worse[j] += np.int32(a > b)
         ci, s, row = c[i], np.int64(0), dominated_by[i]
@@ -112,11 +103,42 @@ def _fitness(FT: F64, c: F64, k: int) -> F64:  # pragma: no cover - compiled
             s += np.int64((ci < cj) | (eq & (worse[j] == 0) & (better[j] > 0)))
             row[j] = np.int8((cj < ci) | (eq & (better[j] == 0) & (worse[j] > 0)))
         S[i] = s
+    R = np.empty(n)
+    for i in range(n):
+        r, row = 0, dominated_by[i]
+        for j in range(n):
+            r += row[j] * S[j]
+        R[i] = r
+    return R
+
+
+@numba.njit(cache=True)
+def _kth(FT: F64, rows: NDArray[np.int64], k: int) -> F64:  # pragma: no cover - compiled
+    # For each of ``rows`` (in that order; FT is (m, n), members sorted by the first objective), the k-th
+    # smallest squared distance to the other n - 1 members (sqrt is monotone: it is taken of that one only).
+    # It is selected among the values under an upper bound: the row's nearest earlier row e has k others within
+    # sigma(e), so the row has k others within d(i, e) + sigma(e) (triangle inequality). The result is exact
+    # whatever the bound: with fewer than k values under it, the whole row is used.
+    m, n = FT.shape
+    d2 = np.empty(n)
+    cand = np.empty(n)
+    sig2 = np.empty(len(rows))
+    near = np.empty((1, k))
+    for t in range(len(rows)):
+        i = rows[t]
+        for j in range(n):
+            d2[j] = 0.0
+        for q in range(m):
+            a, col = FT[q, i], FT[q]
+            for j in range(n):
+                d = a - col[j]
+                d2[j] += d * d
         d2[i] = np.inf
         bound, nearest, e = np.inf, np.inf, -1
-        for j in range(i):
-            if d2[j] < nearest:
-                nearest, e = d2[j], j
+        for p in range(t):
+            v = d2[rows[p]]
+            if v < nearest:
+                nearest, e = v, p
         if e >= 0:
             bound = np.sqrt(nearest) + np.sqrt(sig2[e])
             bound = bound * bound * (1.0 + 1e-9)  # a margin for rounding: more candidates, same result
@@ -127,18 +149,27 @@ def _fitness(FT: F64, c: F64, k: int) -> F64:  # pragma: no cover - compiled
             count += v <= bound  # NaN (inf - inf) never: it counts as +inf, which a heap of +inf ignores
         for u in range(k):
             near[0, u] = np.inf
-        values = cand if count >= k else d2  # fewer than k below a finite bound: NaNs only; all of them then
+        values = cand if count >= k else d2
         for j in range(count if count >= k else n):
             if values[j] < near[0, 0]:
                 _push(near, 0, values[j])
-        sig2[i] = near[0, 0]
-    out = np.empty(n)
-    for i in range(n):
-        r, row = 0, dominated_by[i]
-        for j in range(n):
-            r += row[j] * S[j]
-        out[i] = r + 1.0 / (np.sqrt(sig2[i]) + 2.0)
-    return out
+        sig2[t] = near[0, 0]
+    return sig2
+
+
+def _prepared(F: F64, cv: F64 | None) -> tuple[F64, F64, NDArray[np.int64], int]:
+    """The kernels' inputs: ``(m, n)`` objectives sorted by the first one (NaN as +inf), violations likewise,
+    the sorting order, and k = floor(sqrt(n)) (at most n - 1)."""
+    n = len(F)
+    Fa = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64)).reshape(n, -1)
+    c = np.zeros(n) if cv is None else np.where(np.isnan(cv), np.inf, np.asarray(cv, dtype=np.float64))
+    order = np.argsort(Fa[:, 0], kind="stable")  # nearby earlier members: tight bounds (same values in any order)
+    k = min(int(math.floor(math.sqrt(n))), n - 1)
+    return np.ascontiguousarray(Fa[order].T), np.ascontiguousarray(c[order]), order, k
+
+
+def _density(R: F64, sig2: F64) -> F64:
+    return R + 1.0 / (np.sqrt(sig2) + 2.0)
 
 
 def fitness(F: F64, cv: F64 | None = None) -> F64:
@@ -151,14 +182,11 @@ def fitness(F: F64, cv: F64 | None = None) -> F64:
     n = len(F)
     if n == 0:
         return np.zeros(0)
-    Fa = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64)).reshape(n, -1)
-    c = np.zeros(n) if cv is None else np.where(np.isnan(cv), np.inf, np.asarray(cv, dtype=np.float64))
     if n == 1:
         return np.full(1, 0.5)
-    k = int(math.floor(math.sqrt(n)))
-    order = np.argsort(Fa[:, 0], kind="stable")  # nearby earlier members: tight bounds (same values in any order)
+    FT, c, order, k = _prepared(F, cv)
     out = np.empty(n)
-    out[order] = _fitness(np.ascontiguousarray(Fa[order].T), np.ascontiguousarray(c[order]), min(k, n - 1))
+    out[order] = _density(_raw(FT, c), _kth(FT, np.arange(n), k))
     return out
 
 
@@ -390,19 +418,45 @@ def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> t
         order: ``(n,)`` survivor indices sorted by ascending fitness (stable);
         fit: ``(n,)`` their fitness;
         mask: ``(len(F),)`` survivor mask over the input pool.
+
+    When at least n members are non-dominated (fitness < 1 is R = 0), only the survivors' densities are
+    computed: the others' fitness decides nothing (a third of the rows in a pool of 3N).
     """
-    fit = fitness(F if fit_F is None else fit_F, cv)
-    marked = fit < 1.0
-    if marked.sum() < n:
-        chosen = np.argsort(fit, kind="stable")[:n]
-        mask = np.zeros(len(F), dtype=bool)
+    space = F if fit_F is None else fit_F
+    size = len(space)
+    if size < 2 or n <= 0:
+        fit = fitness(space, cv)
+        chosen = np.argsort(fit, kind="stable")[: max(n, 0)]
+        mask = np.zeros(size, dtype=bool)
         mask[chosen] = True
-    elif marked.sum() > n:
+        surv = np.flatnonzero(mask)
+        order = surv[np.argsort(fit[surv], kind="stable")]
+        return order, fit[order], mask
+    FT, c, by_first, k = _prepared(space, cv)
+    R = np.empty(size)
+    R[by_first] = _raw(FT, c)
+    marked = R == 0.0
+    if marked.sum() < n:
+        fit = np.empty(size)
+        fit[by_first] = _density(R[by_first], _kth(FT, np.arange(size), k))
+        chosen = np.argsort(fit, kind="stable")[:n]
+        mask = np.zeros(size, dtype=bool)
+        mask[chosen] = True
+        surv = np.flatnonzero(mask)
+        order = surv[np.argsort(fit[surv], kind="stable")]
+        return order, fit[order], mask
+    if marked.sum() > n:
         idx = np.flatnonzero(marked)
-        mask = np.zeros(len(F), dtype=bool)
+        mask = np.zeros(size, dtype=bool)
         mask[idx[truncate(np.asarray(F)[idx], n)]] = True
     else:
         mask = marked
     surv = np.flatnonzero(mask)
+    position = np.empty(size, dtype=np.int64)
+    position[by_first] = np.arange(size)
+    rows = np.sort(position[surv])  # in the kernels' order, for tight bounds
+    fit_rows = _density(R[by_first[rows]], _kth(FT, rows, k))
+    fit = np.empty(size)
+    fit[by_first[rows]] = fit_rows
     order = surv[np.argsort(fit[surv], kind="stable")]
     return order, fit[order], mask
