@@ -237,20 +237,27 @@ LISTED = 8  # nearest members each row lists, in ascending distance, for finding
 
 
 @numba.njit(cache=True)
-def _relist(D: F64, alive: B, row: int, after: float, lv: F64, li: NDArray[np.int64]) -> None:  # pragma: no cover
+def _relist(D: F64, alive: B, row: int, after: float, lv: F64, li: NDArray[np.int64],
+            cap: float) -> None:  # pragma: no cover - compiled
     # lv[row], li[row]: the LISTED smallest distances of ``row`` to alive members that are > ``after``, ascending,
     # and who is at each (+inf, -1 past the end). Insertion into a sorted list: most values fail the first test.
+    # ``cap`` (+inf if none): a value known to be at least the LISTED-th smallest, so that fewer values are
+    # inserted on the way; if the list is not full under it after all, it is made again without.
     L = lv.shape[1]
-    for p in range(L):
-        lv[row, p], li[row, p] = np.inf, -1
-    for j in range(D.shape[0]):
-        d = D[row, j]
-        if d < lv[row, L - 1] and d > after and alive[j]:
-            p = L - 1
-            while p > 0 and lv[row, p - 1] > d:
-                lv[row, p], li[row, p] = lv[row, p - 1], li[row, p - 1]
-                p -= 1
-            lv[row, p], li[row, p] = d, j
+    for _ in range(2):
+        for p in range(L):
+            lv[row, p], li[row, p] = cap, -1
+        for j in range(D.shape[0]):
+            d = D[row, j]
+            if d < lv[row, L - 1] and d > after and alive[j]:
+                p = L - 1
+                while p > 0 and lv[row, p - 1] > d:
+                    lv[row, p], li[row, p] = lv[row, p - 1], li[row, p - 1]
+                    p -= 1
+                lv[row, p], li[row, p] = d, j
+        if cap == np.inf or li[row, L - 1] >= 0:
+            return
+        cap = np.inf
 
 
 @numba.njit(cache=True)
@@ -275,7 +282,7 @@ def _next_listed(D: F64, alive: B, row: int, after: float, lv: F64,
             if p < L:
                 return v, count
         if attempt == 0:
-            _relist(D, alive, row, after, lv, li)
+            _relist(D, alive, row, after, lv, li, np.inf)
     return _next_value(D, alive, row, after)
 
 
@@ -358,11 +365,20 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     if not exact or copies > r - keep:
         alive[:] = True
         copies = 0
+    L = lv.shape[1]
     for i in range(r):
         near[i, 0], near[i, 1] = np.inf, 0.0
-        if alive[i]:
-            _relist(D, alive, i, -np.inf, lv, li)
-            _fill(D, alive, i, near, 0, lv, li)
+        if not alive[i]:
+            continue
+        # The nearest earlier row e has its L nearest within lv[e, L - 1], so this row has L others (e and
+        # those, less itself) within D[i, e] + lv[e, L - 1] (triangle inequality): a cap for its list.
+        e, nearest = -1, np.inf
+        for j in range(i):
+            if alive[j] and D[i, j] < nearest:
+                e, nearest = j, D[i, j]
+        cap = np.inf if e < 0 or L >= r - 1 else (nearest + lv[e, L - 1]) * (1.0 + 1e-9)
+        _relist(D, alive, i, -np.inf, lv, li, cap)
+        _fill(D, alive, i, near, 0, lv, li)
     last = 2 * LEVELS - 2
     # Contiguous copies of each row's first and last level (dead rows: +inf, -inf), so the two scans a removal
     # makes over all rows are plain comparisons over arrays: the smallest first level, and the rows whose
