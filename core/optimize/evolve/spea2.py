@@ -31,20 +31,26 @@ def dominance(F: F64, cv: F64 | None = None) -> B:
 
 
 @numba.njit(cache=True)
+def _squared_row(FT: F64, i: int, out: F64) -> None:  # pragma: no cover - compiled
+    # out[j] = squared distance of member i to member j (FT is (m, n)), summed objective by objective over
+    # contiguous columns, so the loop vectorizes.
+    out[:] = 0.0
+    for q in range(FT.shape[0]):
+        a, col = FT[q, i], FT[q]
+        for j in range(FT.shape[1]):
+            d = a - col[j]
+            out[j] += d * d
+
+
+@numba.njit(cache=True)
 def _distances(FT: F64) -> F64:  # pragma: no cover - compiled
     # Row by row over the objectives' columns (FT is (m, n)): each row's loops run over contiguous memory and
     # vectorize; a symmetric fill wrote every other entry down a column.
-    m, n = FT.shape
+    n = FT.shape[1]
     D = np.empty((n, n))
     for i in range(n):
         row = D[i]
-        for j in range(n):
-            row[j] = 0.0
-        for q in range(m):
-            a, col = FT[q, i], FT[q]
-            for j in range(n):
-                d = a - col[j]
-                row[j] += d * d
+        _squared_row(FT, i, row)
         for j in range(n):
             v = np.sqrt(row[j])
             row[j] = np.inf if np.isnan(v) else v  # inf - inf (penalised members)
@@ -119,20 +125,14 @@ def _kth(FT: F64, rows: NDArray[np.int64], k: int) -> F64:  # pragma: no cover -
     # It is selected among the values under an upper bound: the row's nearest earlier row e has k others within
     # sigma(e), so the row has k others within d(i, e) + sigma(e) (triangle inequality). The result is exact
     # whatever the bound: with fewer than k values under it, the whole row is used.
-    m, n = FT.shape
+    n = FT.shape[1]
     d2 = np.empty(n)
     cand = np.empty(n)
     sig2 = np.empty(len(rows))
     near = np.empty((1, k))
     for t in range(len(rows)):
         i = rows[t]
-        for j in range(n):
-            d2[j] = 0.0
-        for q in range(m):
-            a, col = FT[q, i], FT[q]
-            for j in range(n):
-                d = a - col[j]
-                d2[j] += d * d
+        _squared_row(FT, i, d2)
         d2[i] = np.inf
         bound, nearest, e = np.inf, np.inf, -1
         for p in range(t):
