@@ -62,7 +62,14 @@ def settle(page: Any, studio: Any, stage: str, pop: int, gens: int) -> None:
         s = st.settings.get(stage)
         return st.next_stage == stage and s is not None and (s.pop_size, s.n_gen) == (pop, gens)
 
-    wait_for(ready, f"{stage} settings to reach the server")
+    deadline = time.monotonic() + 30.0
+    while not ready():
+        if time.monotonic() > deadline:  # what the page showed tells a lost edit from a slow page (seen once)
+            shown = {name: field(page, name).input_value() for name in ("Population", "Generations")}
+            notes = page.locator(".mantine-Notification-root").all_inner_texts()
+            raise AssertionError(f"{stage} settings did not reach the server in 30 s: the page shows {shown}, "
+                                 f"notifications {notes}, the server holds {studio.session.study.settings.get(stage)}")
+        time.sleep(0.05)
 
 
 def run_stage(page: Any, studio: Any, title: str, stage: str, pop: int = 8, gens: int = 3,
