@@ -441,13 +441,7 @@ def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> t
     space = F if fit_F is None else fit_F
     size = len(space)
     if size < 2 or n <= 0:
-        fit = fitness(space, cv)
-        chosen = np.argsort(fit, kind="stable")[: max(n, 0)]
-        mask = np.zeros(size, dtype=bool)
-        mask[chosen] = True
-        surv = np.flatnonzero(mask)
-        order = surv[np.argsort(fit[surv], kind="stable")]
-        return order, fit[order], mask
+        return _lowest(fitness(space, cv), n)
     FT, c, by_first, k = _prepared(space, cv)
     R = np.empty(size)
     R[by_first] = _raw(FT, c)
@@ -455,12 +449,7 @@ def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> t
     if marked.sum() < n:
         fit = np.empty(size)
         fit[by_first] = _density(R[by_first], _kth(FT, np.arange(size), k))
-        chosen = np.argsort(fit, kind="stable")[:n]
-        mask = np.zeros(size, dtype=bool)
-        mask[chosen] = True
-        surv = np.flatnonzero(mask)
-        order = surv[np.argsort(fit[surv], kind="stable")]
-        return order, fit[order], mask
+        return _lowest(fit, n)
     if marked.sum() > n:
         idx = np.flatnonzero(marked)
         mask = np.zeros(size, dtype=bool)
@@ -474,5 +463,17 @@ def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> t
     fit_rows = _density(R[by_first[rows]], _kth(FT, rows, k))
     fit = np.empty(size)
     fit[by_first[rows]] = fit_rows
+    return _ordered(fit, mask)
+
+
+def _lowest(fit: F64, n: int) -> tuple[NDArray[np.int64], F64, B]:
+    """The n members of lowest fitness (ties: the lower index), as :func:`select` returns them."""
+    mask = np.zeros(len(fit), dtype=bool)
+    mask[np.argsort(fit, kind="stable")[: max(n, 0)]] = True
+    return _ordered(fit, mask)
+
+
+def _ordered(fit: F64, mask: B) -> tuple[NDArray[np.int64], F64, B]:
+    surv = np.flatnonzero(mask)
     order = surv[np.argsort(fit[surv], kind="stable")]
     return order, fit[order], mask
