@@ -1,5 +1,5 @@
 """MOEA/D's compiled one-child replacement equals the numpy rule it replaced (CMOEMT's task 2), with ties,
-penalised (+inf) and undefined (NaN) objectives."""
+penalised (+inf) and undefined (NaN) objectives, and marks exactly the members it replaced."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def by_numpy(X, F, G, cv, W, pool, yX, yF, yG, ycv, z, eps, pull, nr):
         g_new = tchebycheff(np.broadcast_to(yF[0], (len(pool), yF.shape[1])), W[pool], z)
     idx = pool[replace_ok(g_old, g_new, cv[pool], ycv, eps, pull)][:nr]
     X[idx], F[idx], G[idx], cv[idx] = yX[0], yF[0], yG[0], ycv
-    return X, F, G, cv, len(idx)
+    return X, F, G, cv, len(idx), idx
 
 
 @settings(max_examples=300, deadline=None)
@@ -41,10 +41,12 @@ def test_the_compiled_replacement_equals_the_numpy_rule(n, m, seed, pull, nr):
     eps = float(rng.choice([0.0, 0.5, 1.0]))
     want = by_numpy(X, F, G, cv, W, pool, yX, yF, yG, ycv, z, eps, pull, nr)
     got = [a.copy() for a in (X, F, G, cv)]
-    replaced = tchebycheff_replace(*got, W, pool, yX, yF, yG, ycv, z, eps, pull, nr)
+    changed = np.zeros(n, dtype=np.bool_)
+    replaced = tchebycheff_replace(*got, W, pool, yX, yF, yG, ycv, z, eps, pull, nr, changed)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]
+    np.testing.assert_array_equal(np.flatnonzero(changed), np.sort(want[5]))
 
 
 def cmt_by_numpy(P, W, pool, y, z1, cmin, cmax, s_cv, nr=2, s_obj=0.3):
@@ -64,7 +66,7 @@ def cmt_by_numpy(P, W, pool, y, z1, cmin, cmax, s_cv, nr=2, s_obj=0.3):
         b = logistic(g_new - g_old, s_obj) * np.fmax(logistic(cv_new - cv_old, s_cv), 1e-4)
     idx = pool[a >= b][:nr]
     X[idx], F[idx], G[idx], cv[idx] = yX[0], yF[0], yG[0], ycv
-    return X, F, G, cv, len(idx)
+    return X, F, G, cv, len(idx), idx
 
 
 def pbi_by_numpy(P, W, pool, y, z, theta=5.0):
@@ -86,7 +88,7 @@ def pbi_by_numpy(P, W, pool, y, z, theta=5.0):
     with np.errstate(invalid="ignore"):
         idx = pool[pbi(F[pool]) >= pbi(np.broadcast_to(yF[0], (len(pool), yF.shape[1])))]
     X[idx], F[idx], G[idx], cv[idx] = yX[0], yF[0], yG[0], ycv
-    return X, F, G, cv, len(idx)
+    return X, F, G, cv, len(idx), idx
 
 
 @settings(max_examples=300, deadline=None)
@@ -109,13 +111,17 @@ def test_moead_cmt_compiled_replacements_equal_the_numpy_rules(n, m, seed, s_cv)
     s = s_cv if s_cv > 0 else 1.0
     with np.errstate(over="ignore", invalid="ignore"):
         e = np.exp(np.stack([-dg / 0.3, dg / 0.3, -dc / s, dc / s]))
-    replaced = cmt_replace(*got, pool, *y, dg, dc, e, 0.3, s_cv, 2)
+    changed = np.zeros(n, dtype=np.bool_)
+    replaced = cmt_replace(*got, pool, *y, dg, dc, e, 0.3, s_cv, 2, changed)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]
+    np.testing.assert_array_equal(np.flatnonzero(changed), np.sort(want[5]))
     want = pbi_by_numpy(P, W, pool, y, z)
     got = [a.copy() for a in P]
-    replaced = pbi_replace(*got, W, pool, *y, z, 5.0, 1.0 if m == 1 else np.nan)
+    changed = np.zeros(n, dtype=np.bool_)
+    replaced = pbi_replace(*got, W, pool, *y, z, 5.0, 1.0 if m == 1 else np.nan, changed)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]
+    np.testing.assert_array_equal(np.flatnonzero(changed), np.sort(want[5]))

@@ -179,7 +179,15 @@ def _imtcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) ->
 def _cmoemt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from core.optimize.evolve.cmoemt import CMOEMT
 
-    return CMOEMT(pop_size=spec.pop_size, seed=seed, variant=str(opts.get("variant", "platemo")))
+    return CMOEMT(pop_size=spec.pop_size, seed=seed, variant=str(opts.get("variant", "platemo")),
+                  ahead=_flag(opts, "ahead", True))
+
+
+def _flag(opts: dict[str, Any], key: str, default: bool) -> bool:
+    v = opts.get(key, default)
+    if not isinstance(v, bool):
+        raise ValueError(f"option {key!r} must be true or false, got {v!r}")
+    return v
 
 
 def _drlos_emcmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
@@ -204,7 +212,7 @@ def _mccmo(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> 
 def _moead_cmt(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
     from core.optimize.evolve.moead_cmt import MOEADCMT
 
-    return MOEADCMT(pop_size=spec.pop_size, seed=seed)
+    return MOEADCMT(pop_size=spec.pop_size, seed=seed, ahead=_flag(opts, "ahead", True))
 
 
 def _de(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
@@ -241,12 +249,12 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
                            {**_SBX30, "sbx_one_child": True}),
     "gde3": AlgorithmInfo("GDE3", DE_OPTIONS, _de),
-    "cmoemt": AlgorithmInfo("CMOEMT", ("variant",), _cmoemt),
+    "cmoemt": AlgorithmInfo("CMOEMT", ("variant", "ahead"), _cmoemt),
     "cmoes": AlgorithmInfo("CMOES", ("operator",), _cmoes),
     "drlos_emcmo": AlgorithmInfo("DRLOS-EMCMO", ("reward", "replay", "success"), _drlos_emcmo),
     "imtcmo": AlgorithmInfo("IMTCMO", (), _imtcmo),
     "mccmo": AlgorithmInfo("MCCMO", ("operator",), _mccmo),
-    "moead_cmt": AlgorithmInfo("MOEA/D-CMT", (), _moead_cmt),
+    "moead_cmt": AlgorithmInfo("MOEA/D-CMT", ("ahead",), _moead_cmt),
 }
 
 

@@ -18,12 +18,15 @@ the largest *finite* violation in P2 (an undefined member's infinite one would s
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
+from core.optimize.evolve.ahead import Ahead
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import tchebycheff_replace
 from core.optimize.evolve.selection import tournament
@@ -55,15 +58,17 @@ class CMOEMT(ArrayAlgorithm):
     Args:
         pop_size: requested N (the effective N is the number of Das-Dennis vectors, e.g. 91 for 100 at M = 3).
         variant: ``platemo`` (default) or ``author_repo`` (see the module doc).
+        ahead: make and evaluate task 2's children in one batch ahead of its sequential loop, with the same
+            results (:mod:`core.optimize.evolve.ahead`); False evaluates them one at a time.
     """
 
-    def __init__(self, pop_size: int = 100, variant: str = "platemo", **kwargs: Any) -> None:
+    def __init__(self, pop_size: int = 100, variant: str = "platemo", ahead: bool = True, **kwargs: Any) -> None:
         if variant not in VARIANTS:
             raise ValueError(f"cmoemt variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
         if pop_size < 10:
             raise ValueError(f"cmoemt needs a population of at least 10, got {pop_size}")
         super().__init__(pop_size=pop_size, **kwargs)
-        self.variant = variant
+        self.variant, self.ahead = variant, ahead
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p, rng = self.problem, self.random_state
@@ -121,21 +126,30 @@ class CMOEMT(ArrayAlgorithm):
         extra = rng.integers(0, n, max(k - len(fixed), 0))
         return np.concatenate([fixed, extra])[: max(k, 1)]
 
-    def _task2(self) -> list[Arrays]:
+    def _child(self, i: int, pool: I64) -> tuple[F64, Callable[[], bool]]:
+        P, ch, a, b = self.P2, self.changed, int(pool[0]), int(pool[1])
+        x = de_rand_1(P.X[i:i + 1], P.X[pool[:1]], P.X[pool[1:2]], self.xl, self.xu, self.random_state)
+        return x, lambda: bool(ch[i] or ch[a] or ch[b])
+
+    def _task2(self) -> tuple[list[Arrays], int]:
         rng, n, P = self.random_state, self.n, self.P2
-        kids = []
+        self.changed = np.zeros(n, dtype=np.bool_)
+        ahead, plan = Ahead(self, self.ahead), []
         for _ in range(ROUNDS):
             for i in self._subset():
                 pool = rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n)
-                x = de_rand_1(P.X[i:i + 1], P.X[pool[:1]], P.X[pool[1:2]], self.xl, self.xu, rng)
-                y = self.evaluate(self.repaired(x))
-                kids.append(y)
-                self.z = np.fmin(self.z, y.F[0])
-                if self.variant == "author_repo":
-                    continue  # selected with the others below
-                tchebycheff_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z,
-                                    float(self.eps), bool(self.pull), NR)
-        return kids
+                ahead.add(partial(self._child, int(i), pool))
+                plan.append(pool)
+        kids = []
+        for j, pool in enumerate(plan):
+            y = ahead.take(j)
+            kids.append(y)
+            self.z = np.fmin(self.z, y.F[0])
+            if self.variant == "author_repo":
+                continue  # selected with the others below
+            tchebycheff_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z,
+                                float(self.eps), bool(self.pull), NR, self.changed)
+        return kids, ahead.close()
 
     # The loop ------------------------------------------------------------------------------------
 
@@ -149,7 +163,8 @@ class CMOEMT(ArrayAlgorithm):
         h = n // 2
         pool1 = tournament((self.fit1,), 2 * h, rng)
         o1 = self.evaluate(self.repaired(ga(p1.X[pool1[:h]], p1.X[pool1[h:]], self.xl, self.xu, rng, half=True)))
-        o2 = Arrays.concat(*self._task2())
+        kids2, missed = self._task2()
+        o2 = Arrays.concat(*kids2)
         mates3 = tournament((self.fit3,), 2 * h, rng)
         o3 = self.evaluate(self.repaired(ga(self.p3.X[mates3[:h]], self.p3.X[mates3[h:]], self.xl, self.xu, rng,
                                            half=True)))
@@ -180,7 +195,8 @@ class CMOEMT(ArrayAlgorithm):
         self.log(pull=float(self.pull), eps=self.eps, eps0=self.eps0, rf=self.rf, r=self.r, transfer=float(transfer),
                  feasible_ratio_P1=float((new1.cv <= 0).mean()), feasible_ratio_P2=float((self.P2.cv <= 0).mean()),
                  feasible_ratio_P3=float((self.p3.cv <= 0).mean()), from_P1=came[0], from_P2=came[1],
-                 from_P3=came[2], from_O1=came[3], from_O2=came[4], from_O3=came[5])
+                 from_P3=came[2], from_O1=came[3], from_O2=came[4], from_O3=came[5],
+                 evaluated_ahead_unused=float(missed))
 
     # The authors' repository's variant -------------------------------------------------------------
 

@@ -11,12 +11,15 @@ floor. The output is the archive. N evaluations per generation, 2N initially.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
+from core.optimize.evolve.ahead import Ahead
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import cmt_differences, cmt_replace, pbi_replace
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -35,7 +38,16 @@ def task_probabilities(rwd: F64, fe: int, max_fe: int) -> F64:
 
 class MOEADCMT(ArrayAlgorithm):
     """MOEA/D-CMT; the effective population is the number of Das-Dennis vectors (<= pop_size; all of it for
-    one objective)."""
+    one objective).
+
+    Args:
+        ahead: make and evaluate each generation's children in one batch ahead of the sequential loop, with the
+            same results (:mod:`core.optimize.evolve.ahead`); False evaluates them one at a time.
+    """
+
+    def __init__(self, pop_size: int = 100, ahead: bool = True, **kwargs: Any) -> None:
+        super().__init__(pop_size=pop_size, **kwargs)
+        self.ahead = ahead
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p = self.problem
@@ -59,13 +71,15 @@ class MOEADCMT(ArrayAlgorithm):
         self.arrays = self.P1.take(np.arange(n))  # the archive: a copy (P1 is updated in place)
         self.log(task=0.0, p1=0.5, feasible_ratio_P1=float((self.P1.cv <= 0).mean()))
 
-    def _child(self, k: int, i: int, pool: NDArray[np.int64]) -> F64:
-        rng = self.random_state
+    def _child(self, k: int, i: int, pool: NDArray[np.int64]) -> tuple[F64, Callable[[], bool]]:
+        rng, a, b = self.random_state, int(pool[0]), int(pool[1])
         if k == 0:
-            src = self.P1 if rng.random() < RMP else self.P2
-            return de_rand_1(self.P1.X[i:i + 1], src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng)
-        src = self.P2 if rng.random() < RMP else self.P1
-        return ga(src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng, half=True)
+            src, ch = (self.P1, self.changed1) if rng.random() < RMP else (self.P2, self.changed2)
+            x = de_rand_1(self.P1.X[i:i + 1], src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng)
+            c1 = self.changed1
+            return x, lambda: bool(c1[i] or ch[a] or ch[b])
+        src, ch = (self.P2, self.changed2) if rng.random() < RMP else (self.P1, self.changed1)
+        return ga(src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng, half=True), lambda: bool(ch[a] or ch[b])
 
     def _update_task1(self, y: Arrays, pool: NDArray[np.int64], s_cv: float) -> int:
         P = self.P1
@@ -82,7 +96,7 @@ class MOEADCMT(ArrayAlgorithm):
         with np.errstate(over="ignore", invalid="ignore"):  # numpy's exp, so the numbers are numpy's
             e = np.exp(np.stack([-dg / S_OBJ, dg / S_OBJ, -dc / s, dc / s]))
         return int(cmt_replace(P.X, P.F, P.G, P.cv, pool, y.X, y.F, y.G, float(y.cv[0]), dg, dc, e, S_OBJ, s_cv,
-                               NR))
+                               NR, self.changed1))
 
     def _update_task2(self, y: Arrays, pool: NDArray[np.int64]) -> int:
         P = self.P2
@@ -92,7 +106,7 @@ class MOEADCMT(ArrayAlgorithm):
         # for M >= 2) keeps the direction as on the weight line, else a new best could never enter P2.
         degenerate = 1.0 if P.F.shape[1] == 1 else np.nan
         return int(pbi_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z2, THETA,
-                               degenerate))
+                               degenerate, self.changed2))
 
     def _advance(self, infills: Any = None, **kwargs: Any) -> None:
         rng, n = self.random_state, len(self.W)
@@ -101,12 +115,17 @@ class MOEADCMT(ArrayAlgorithm):
         prob = task_probabilities(self.rwd, int(self.evaluator.n_eval), self.max_fe)
         k = int(rng.random() >= prob[0])
         kids, rep1, rep2 = [], 0, 0
+        self.changed1, self.changed2 = np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_)
+        ahead, pools = Ahead(self, self.ahead), []
         for i in range(n):
-            pool = rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n)
-            y = self.evaluate(self.repaired(self._child(k, i, pool)))
+            pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
+            ahead.add(partial(self._child, k, i, pools[i]))
+        for i, pool in enumerate(pools):
+            y = ahead.take(i)
             kids.append(y)
             rep1 += self._update_task1(y, pool, s_cv)
             rep2 += self._update_task2(y, pool)
+        missed = ahead.close()
         Q = Arrays.concat(*kids)
         archive = self.arrays
         assert archive is not None
@@ -119,4 +138,5 @@ class MOEADCMT(ArrayAlgorithm):
         self.arrays = pool_a.take(order)
         self.log(task=float(k + 1), p1=float(prob[0]), rwd1=float(self.rwd[0]), rwd2=float(self.rwd[1]),
                  from_children=float(from_q), feasible_ratio_P1=fr, sigma_cv=s_cv, replaced_task1=float(rep1),
-                 replaced_task2=float(rep2), feasible_ratio_archive=float((self.arrays.cv <= 0).mean()))
+                 replaced_task2=float(rep2), feasible_ratio_archive=float((self.arrays.cv <= 0).mean()),
+                 evaluated_ahead_unused=float(missed))

@@ -1,0 +1,62 @@
+"""Children evaluated ahead in one batch (CMOEMT's task 2, MOEA/D-CMT) give the published one-at-a-time loop's
+run exactly: same populations, traces and evaluation counts, with far fewer calls of the problem."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pymoo.core.problem import Problem
+from pymoo.optimize import minimize
+from pymoo.problems import get_problem
+
+from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+
+
+class Counted(Problem):
+    """A pymoo problem that counts its calls and the members it evaluated."""
+
+    def __init__(self, inner: Problem) -> None:
+        super().__init__(n_var=inner.n_var, n_obj=inner.n_obj, n_ieq_constr=inner.n_ieq_constr, xl=inner.xl,
+                         xu=inner.xu)
+        self.inner, self.calls, self.rows = inner, 0, 0
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        self.calls += 1
+        self.rows += len(X)
+        res = self.inner.evaluate(X, return_as_dictionary=True)
+        out["F"], out["G"] = res["F"], res["G"]
+
+
+def run(name: str, problem: str, ahead: bool, seed: int, evals: int = 3000):
+    p = Counted(get_problem(problem))
+    alg = make_algorithm(AlgorithmSpec(name, 40, {"ahead": ahead}), p.n_obj, seed)
+    minimize(p, alg, ("n_eval", evals), seed=seed, copy_algorithm=False)
+    return alg, p
+
+
+@pytest.mark.parametrize("name", ["cmoemt", "moead_cmt"])
+@pytest.mark.parametrize("problem,seed", [("mw3", 1), ("ctp2", 2)])
+def test_ahead_gives_the_one_at_a_time_run_exactly_with_fewer_calls(name, problem, seed):
+    fast, pf = run(name, problem, True, seed)
+    slow, ps = run(name, problem, False, seed)
+    for key in ("X", "F", "G", "cv"):
+        np.testing.assert_array_equal(getattr(fast.arrays, key), getattr(slow.arrays, key))
+    assert fast.evaluator.n_eval == slow.evaluator.n_eval == ps.rows
+    assert len(fast.trace) == len(slow.trace)
+    missed = [row.pop("evaluated_ahead_unused") for row in fast.trace[1:]]
+    assert all(row.pop("evaluated_ahead_unused") == 0 for row in slow.trace[1:])
+    for a, b in zip(fast.trace, slow.trace, strict=True):
+        assert a.keys() == b.keys()
+        np.testing.assert_array_equal(np.array(list(a.values())), np.array(list(b.values())))
+    # Both ways were taken: children used as evaluated ahead, and children made again after a replacement.
+    children = len(fast.W) * (len(fast.trace) - 1)
+    assert 0 < sum(missed) < children
+    assert pf.rows == ps.rows + sum(missed)  # the extra calls are reported
+    # one call per generation for the batch, one per child made again, instead of one per child
+    gens = len(fast.trace) - 1
+    assert pf.calls == ps.calls - children + gens + sum(missed) < ps.calls
+
+
+def test_ahead_must_be_true_or_false():
+    with pytest.raises(ValueError, match="'ahead' must be true or false"):
+        make_algorithm(AlgorithmSpec("moead_cmt", 20, {"ahead": "no"}), 2, 1)
