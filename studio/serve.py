@@ -82,7 +82,11 @@ def main(argv: list[str] | None = None) -> int:
         print(warning, file=sys.stderr, flush=True)
     print(f"CLM Studio: {url_for(args.host, port, token)}  (Ctrl-C to stop)", flush=True)
     try:
-        threading.Event().wait()
+        # A timed wait: Ctrl-C's KeyboardInterrupt is raised in this thread, but the kernel may deliver SIGINT to
+        # any of the server's threads, and then an untimed wait here never wakes (1 in 8 stops hung so).
+        idle = threading.Event()
+        while not idle.wait(0.2):
+            pass
     except KeyboardInterrupt:
         pass
     finally:
