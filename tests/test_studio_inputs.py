@@ -7,6 +7,8 @@ tests/browser/test_studio_messages_in_the_browser.py; here a stand-in handle dri
 
 from __future__ import annotations
 
+import asyncio
+import inspect
 import threading
 import time
 from collections.abc import Callable
@@ -41,15 +43,28 @@ class Handle:
         self._value = value
         self.sent.append(value)
         self.update_timestamp = time.time()
-        for cb in self._callbacks:
-            cb(type("Event", (), {"client": None})())
+        self._run(None)
 
-    def on_update(self, cb: Callable[[Any], None]) -> None:
+    def on_update(self, cb: Callable[[Any], Any]) -> None:
         self._callbacks.append(cb)
 
-    def type(self, field: NumberField, text: str, client: object = "client") -> None:
+    def _run(self, client: object, coroutines_only: bool = False) -> None:
+        event = type("Event", (), {"client": client})()
+        for cb in self._callbacks:
+            if inspect.iscoroutinefunction(cb):
+                asyncio.run(cb(event))
+            elif not coroutines_only:
+                cb(event)
+
+    def arrive(self, text: str, client: object = "client") -> None:
+        """A client's text reaches the server: viser sets it and awaits the coroutine callbacks; the others wait
+        for a thread (``field.edit``)."""
         self._value = text
         self.update_timestamp = time.time()
+        self._run(client, coroutines_only=True)
+
+    def type(self, field: NumberField, text: str, client: object = "client") -> None:
+        self.arrive(text, client)
         field.edit(client)  # type: ignore[arg-type]
 
 
@@ -198,3 +213,28 @@ def test_cancel_drops_a_pending_refusal() -> None:
     field.cancel()
     time.sleep(0.2)
     assert studio.notes == [] and handle.value == "abc"
+
+
+def test_a_text_waiting_for_a_callback_thread_is_not_replaced_by_the_servers_value_however_long_it_waits() -> None:
+    # A busy server (a first run compiling its kernels) gave an edit's callback a thread seconds after the text
+    # came: a refresh meanwhile put the server's value in the field, and the edit found nothing to do.
+    field, handle, studio, applied = make(POP, 40)
+    handle.arrive("16")
+    handle.update_timestamp -= 10.0  # long past STALE_EDIT
+    field.show(40)
+    assert handle.value == "16" and handle.sent == []
+    field.edit("client")  # type: ignore[arg-type]
+    assert applied == [40, 16] and studio.refreshed == 1
+    field.show(16)
+    assert handle.value == "16" and handle.sent == []
+
+
+def test_texts_that_arrive_while_an_edit_waits_are_applied_once_the_newest() -> None:
+    field, handle, studio, applied = make(POP, 40)
+    handle.arrive("1")
+    handle.arrive("16")
+    field.show(40)
+    assert handle.value == "16"
+    field.edit("client")  # type: ignore[arg-type]
+    field.edit("client")  # type: ignore[arg-type]  # the second keystroke's callback: handled already
+    assert applied == [40, 16] and studio.refreshed == 1 and studio.notes == []

@@ -31,6 +31,8 @@ if TYPE_CHECKING:
 REJECT_DELAY = 0.8
 # An edit whose callback never ran (its client left in between) stops holding the field after this.
 STALE_EDIT = 2.0
+# A text that has arrived but whose edit waits for one of viser's callback threads holds the field this long at most.
+PENDING_EDIT = 30.0
 # Plain decimal notation only: no "nan", "inf", "0x10", "1_000" or "1,5" (Python's float() takes some of those).
 NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 
@@ -147,6 +149,8 @@ class NumberField:
         self._edits = threading.Lock()  # one edit at a time, on the newest text
         self._timer: threading.Timer | None = None
         self._settled = handle.value  # the text last handled (an edit, or a value shown by the server)
+        self._arrived: tuple[str, float] | None = None  # a client's newest text not yet handled, and when it came
+        handle.on_update(self._on_arrival)  # first: viser awaits coroutines in order, then queues the others
         handle.on_update(self._on_update)
 
     @property
@@ -172,6 +176,8 @@ class NumberField:
         with self._state:
             if self._timer is not None or self._edits.locked():
                 return
+            if self._arrived is not None and time.time() - self._arrived[1] < PENDING_EDIT:
+                return
             text = self.handle.value
             if text != self._settled and time.time() - self.handle.update_timestamp < STALE_EDIT:
                 return
@@ -193,6 +199,18 @@ class NumberField:
 
     # The client's side ---------------------------------------------------------------------
 
+    async def _on_arrival(self, event: viser.GuiEvent[Any]) -> None:
+        # In viser's event loop, as the text arrives. The edit itself waits for a callback thread, which a busy
+        # server may take seconds to give it; until then no value the server shows may replace the text (it did
+        # once, and the edit then found the server's value in the field and was lost).
+        if event.client is not None:
+            self.arrived(str(self.handle.value))
+
+    def arrived(self, text: str) -> None:
+        """Note a client's text that its edit will handle."""
+        with self._state:
+            self._arrived = (text, time.time())
+
     def _on_update(self, event: viser.GuiEvent[Any]) -> None:
         if event.client is None:  # our own assignment, not an edit
             return
@@ -202,7 +220,8 @@ class NumberField:
         """Handle the field's newest text, typed by ``client``: apply it, or refuse it after ``delay``."""
         with self._edits:
             with self._state:
-                text = self.handle.value
+                text = self.handle.value if self._arrived is None else self._arrived[0]
+                self._arrived = None
                 if text == self._settled:  # handled already (a later callback saw the same text)
                     return
                 self._settled = text
