@@ -3,6 +3,8 @@ run exactly: same populations, traces and evaluation counts, with far fewer call
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from pymoo.core.problem import Problem
@@ -10,6 +12,8 @@ from pymoo.optimize import minimize
 from pymoo.problems import get_problem
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+
+CONFIGS = Path(__file__).resolve().parents[1] / "assets" / "configs"
 
 
 class Counted(Problem):
@@ -60,3 +64,19 @@ def test_ahead_gives_the_one_at_a_time_run_exactly_with_fewer_calls(name, proble
 def test_ahead_must_be_true_or_false():
     with pytest.raises(ValueError, match="'ahead' must be true or false"):
         make_algorithm(AlgorithmSpec("moead_cmt", 20, {"ahead": "no"}), 2, 1)
+
+
+def test_a_design_config_turns_it_off_and_a_wrong_value_names_the_key(tmp_path):
+    from core.formats.config import load_config
+
+    text = (CONFIGS / "stephenson1_cycloid_moead_cmt.toml").read_text()
+    assert '[algorithm]\nname = "moead_cmt"\n' in text
+    off = tmp_path / "off.toml"
+    off.write_text(text.replace('[algorithm]\nname = "moead_cmt"\n', '[algorithm]\nname = "moead_cmt"\n'
+                                                                      'options = { ahead = false }\n'))
+    assert {s.algorithm.options.get("ahead") for s in load_config(off).stages} == {False}
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('[algorithm]\nname = "moead_cmt"\n', '[algorithm]\nname = "moead_cmt"\n'
+                                                                      'options = { ahead = "no" }\n'))
+    with pytest.raises(ValueError, match="ahead"):
+        load_config(bad)

@@ -146,6 +146,7 @@ def _target(t: Target, base: Path) -> str:
 
 # Algorithm option types by name (any other option is a number >= 0).
 ALGORITHM_OPTIONS: dict[str, Any] = {"variant": str, "operator": Literal["ga", "de"], "eliminate_duplicates": bool,
+                                     "ahead": bool,
                                      "n_partitions": PosInt, "reward": Literal["platemo", "improvement"],
                                      "replay": Literal["platemo", "fifo"], "success": Literal["platemo", "size"],
                                      "F": NonNeg | list[NonNeg]}
