@@ -93,6 +93,20 @@ def cmt_differences(F: F64, cv: F64, W: F64, pool: I64, yF: F64, ycv: float, z: 
 
 
 @numba.njit(cache=True)
+def cmt_exponents(dg: F64, dc: F64, s_obj: float, s_cv: float) -> F64:  # pragma: no cover - compiled
+    """The ``(4, T)`` arguments ``-dg / s_obj, dg / s_obj, -dc / s_cv, dc / s_cv`` whose ``exp`` (numpy's, taken by
+    the caller in place) :func:`cmt_replace` reads."""
+    T = len(dg)
+    a = np.empty((4, T))
+    for t in range(T):
+        a[0, t] = -dg[t] / s_obj
+        a[1, t] = dg[t] / s_obj
+        a[2, t] = -dc[t] / s_cv
+        a[3, t] = dc[t] / s_cv
+    return a
+
+
+@numba.njit(cache=True)
 def _logistic(x: float, e: float, sigma: float) -> float:  # pragma: no cover - compiled
     # 1 / (1 + e^(-x / sigma)) with e = e^(-x / sigma) given; 0.5 at x == 0; a step for sigma <= 0
     if sigma <= 0:

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import Ahead
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
-from core.optimize.evolve.moead import cmt_differences, cmt_replace, pbi_replace
+from core.optimize.evolve.moead import cmt_differences, cmt_exponents, cmt_replace, pbi_replace
 from core.optimize.evolve.variation import de_rand_1, ga
 from core.optimize.evolve.weights import das_dennis, neighbours
 
@@ -93,8 +93,9 @@ class MOEADCMT(ArrayAlgorithm):
         # which never wins.
         dg, dc = cmt_differences(P.F, P.cv, self.W, pool, y.F, float(y.cv[0]), self.z1, self.cmin, cmax)
         s = s_cv if s_cv > 0 else 1.0  # a step when s_cv is 0: the exponentials go unused
+        e = cmt_exponents(dg, dc, S_OBJ, s)
         with np.errstate(over="ignore", invalid="ignore"):  # numpy's exp, so the numbers are numpy's
-            e = np.exp(np.stack([-dg / S_OBJ, dg / S_OBJ, -dc / s, dc / s]))
+            np.exp(e, out=e)
         return int(cmt_replace(P.X, P.F, P.G, P.cv, pool, y.X, y.F, y.G, float(y.cv[0]), dg, dc, e, S_OBJ, s_cv,
                                NR, self.changed1))
 

@@ -22,15 +22,33 @@ def sbx(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, prob: floa
     """
     k, d = P1.shape
     u = rng.random((k, d))
-    beta = np.where(u <= 0.5, (2.0 * u) ** (1.0 / (eta + 1.0)), (2.0 - 2.0 * u) ** (-1.0 / (eta + 1.0)))
-    beta *= np.where(rng.random((k, d)) < 0.5, -1.0, 1.0)
-    keep = rng.random((k, d)) >= prob_var
-    keep[rng.random(k) >= prob] = True
-    mid, half = (P1 + P2) / 2.0, (P1 - P2) / 2.0
-    # β = 1 gives the parents back; taken as they are (no rounding through the mean).
-    c1 = np.where(keep, P1, mid + beta * half)
-    c2 = np.where(keep, P2, mid - beta * half)
-    return np.clip(c1, xl, xu), np.clip(c2, xl, xu)
+    sign, var, pair = rng.random((k, d)), rng.random((k, d)), rng.random(k)
+    e = 1.0 / (eta + 1.0)
+    # The powers in numpy (its SIMD power may differ from a compiled one in the last bit), the rest compiled.
+    below, above = (2.0 * u) ** e, (2.0 - 2.0 * u) ** (-1.0 / (eta + 1.0))
+    lo, hi = _bounds(xl, xu, d)
+    return _sbx(np.ascontiguousarray(P1, dtype=np.float64), np.ascontiguousarray(P2, dtype=np.float64), u, below,
+                above, sign, var, pair, lo, hi, float(prob), float(prob_var))
+
+
+@numba.njit(cache=True)
+def _sbx(P1: F64, P2: F64, u: F64, below: F64, above: F64, sign: F64, var: F64, pair: F64, lo: F64, hi: F64,
+         prob: float, prob_var: float) -> tuple[F64, F64]:  # pragma: no cover - compiled
+    k, d = P1.shape
+    C1, C2 = np.empty((k, d)), np.empty((k, d))
+    for i in range(k):
+        for j in range(d):
+            p1, p2 = P1[i, j], P2[i, j]
+            if var[i, j] >= prob_var or pair[i] >= prob:
+                c1, c2 = p1, p2
+            else:
+                beta = below[i, j] if u[i, j] <= 0.5 else above[i, j]
+                beta *= -1.0 if sign[i, j] < 0.5 else 1.0
+                mid, half = (p1 + p2) / 2.0, (p1 - p2) / 2.0
+                c1, c2 = mid + beta * half, mid - beta * half
+            C1[i, j] = c1 if np.isnan(c1) else min(max(c1, lo[j]), hi[j])
+            C2[i, j] = c2 if np.isnan(c2) else min(max(c2, lo[j]), hi[j])
+    return C1, C2
 
 
 @numba.njit(cache=True)
@@ -92,13 +110,17 @@ def sbx_bounded(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, pr
     k, d = P1.shape
     lo, hi = _bounds(xl, xu, d)
     pair, var, u, swap = rng.random(k), rng.random((k, d)), rng.random((k, d)), rng.random((k, d))
-    return _sbx_bounded(P1, P2, np.ascontiguousarray(lo), np.ascontiguousarray(hi), pair, var, u, swap,
-                        float(prob), float(eta), float(prob_var), float(prob_bin))
+    return _sbx_bounded(P1, P2, lo, hi, pair, var, u, swap, float(prob), float(eta), float(prob_var),
+                        float(prob_bin))
 
 
 def _bounds(xl: F64, xu: F64, d: int) -> tuple[F64, F64]:
-    return (np.broadcast_to(np.asarray(xl, dtype=np.float64), (d,)),
-            np.broadcast_to(np.asarray(xu, dtype=np.float64), (d,)))
+    # contiguous (d,) float64 bounds as they are (the algorithms keep them so): no copy, no broadcast view
+    if (type(xl) is np.ndarray and type(xu) is np.ndarray and xl.dtype == xu.dtype == np.float64
+            and xl.shape == xu.shape == (d,) and xl.flags.c_contiguous and xu.flags.c_contiguous):
+        return xl, xu
+    return (np.ascontiguousarray(np.broadcast_to(np.asarray(xl, dtype=np.float64), (d,))),
+            np.ascontiguousarray(np.broadcast_to(np.asarray(xu, dtype=np.float64), (d,))))
 
 
 @numba.njit(cache=True)
@@ -133,7 +155,7 @@ def polynomial_mutation(X: F64, xl: F64, xu: F64, rng: np.random.Generator, prob
     lo, hi = _bounds(xl, xu, d)
     site, u = rng.random((n, d)), rng.random((n, d))
     sel = np.ones(n, dtype=np.bool_) if rows is None else np.asarray(rows, dtype=np.bool_)
-    _pm(X, np.ascontiguousarray(lo), np.ascontiguousarray(hi), site, u, sel, pm, float(eta))
+    _pm(X, lo, hi, site, u, sel, pm, float(eta))
     return X
 
 
@@ -149,9 +171,36 @@ def de_rand_1(X1: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Genera
               CR: float | F64 = 1.0, prob_var: float | None = None, eta_m: float = 20.0) -> F64:
     """DE/rand/1 (PlatEMO's default): ``x1 + F (x2 - x3)`` on every variable with rand < CR (no forced j_rand),
     clipped, then polynomial mutation. ``F`` and ``CR`` are scalars or ``(k, 1)`` per-child values."""
+    if isinstance(F, float) and isinstance(CR, float) and X1.shape == X2.shape == X3.shape and X1.ndim == 2:
+        # scalar F and CR (the usual case): one compiled pass, the same numbers and random draws as below
+        n, d = X1.shape
+        lo, hi = _bounds(xl, xu, d)
+        r = rng.random((n, d))
+        if n == 0:
+            return np.array(X1, dtype=np.float64, order="C")
+        site, u = rng.random((n, d)), rng.random((n, d))
+        return _de_pm(np.ascontiguousarray(X1, dtype=np.float64), np.ascontiguousarray(X2, dtype=np.float64),
+                      np.ascontiguousarray(X3, dtype=np.float64), r, site, u, lo, hi, F, CR,
+                      1.0 / d if prob_var is None else float(prob_var), float(eta_m))
     trial = X1 + F * (X2 - X3)
     C = np.where(rng.random(X1.shape) < CR, trial, X1)
     return polynomial_mutation(np.clip(C, xl, xu), xl, xu, rng, prob_var, eta_m)
+
+
+@numba.njit(cache=True)
+def _de_pm(X1: F64, X2: F64, X3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F64, F: float, CR: float, pm: float,
+           eta: float) -> F64:  # pragma: no cover - compiled
+    # x1 + F (x2 - x3) where r < CR, clipped (np.clip's NaN passes through), then _pm's mutation
+    n, d = X1.shape
+    C = np.empty((n, d))
+    for i in range(n):
+        for j in range(d):
+            c = X1[i, j] + F * (X2[i, j] - X3[i, j]) if r[i, j] < CR else X1[i, j]
+            if not np.isnan(c):
+                c = min(max(c, lo[j]), hi[j])
+            C[i, j] = c
+    _pm(C, lo, hi, site, u, np.ones(n, dtype=np.bool_), pm, eta)
+    return C
 
 
 def de_current_to_pbest_1(X: F64, Xpbest: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Generator,
