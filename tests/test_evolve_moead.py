@@ -1,5 +1,5 @@
 """MOEA/D's compiled one-child replacement equals the numpy rule it replaced (CMOEMT's task 2), with ties,
-penalised (+inf) and undefined (NaN) objectives, and marks exactly the members it replaced."""
+penalised (+inf) and undefined (NaN) objectives, and stamps exactly the members it replaced."""
 
 from __future__ import annotations
 
@@ -41,12 +41,13 @@ def test_the_compiled_replacement_equals_the_numpy_rule(n, m, seed, pull, nr):
     eps = float(rng.choice([0.0, 0.5, 1.0]))
     want = by_numpy(X, F, G, cv, W, pool, yX, yF, yG, ycv, z, eps, pull, nr)
     got = [a.copy() for a in (X, F, G, cv)]
-    changed = np.zeros(n, dtype=np.bool_)
-    replaced = tchebycheff_replace(*got, W, pool, yX, yF, yG, ycv, z, eps, pull, nr, changed)
+    stamp = np.zeros(n, dtype=np.int64)
+    replaced = tchebycheff_replace(*got, W, pool, yX, yF, yG, ycv, z, eps, pull, nr, stamp, 7)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]
-    np.testing.assert_array_equal(np.flatnonzero(changed), np.sort(want[5]))
+    np.testing.assert_array_equal(np.flatnonzero(stamp == 7), np.sort(want[5]))
+    assert set(stamp) <= {0, 7}
 
 
 def cmt_by_numpy(P, W, pool, y, z1, cmin, cmax, s_cv, nr=2, s_obj=0.3):
@@ -111,17 +112,19 @@ def test_moead_cmt_compiled_replacements_equal_the_numpy_rules(n, m, seed, s_cv)
     s = s_cv if s_cv > 0 else 1.0
     with np.errstate(over="ignore", invalid="ignore"):
         e = np.exp(np.stack([-dg / 0.3, dg / 0.3, -dc / s, dc / s]))
-    changed = np.zeros(n, dtype=np.bool_)
-    replaced = cmt_replace(*got, pool, *y, dg, dc, e, 0.3, s_cv, 2, changed)
+    stamp = np.zeros(n, dtype=np.int64)
+    replaced = cmt_replace(*got, pool, *y, dg, dc, e, 0.3, s_cv, 2, stamp, 7)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]
-    np.testing.assert_array_equal(np.flatnonzero(changed), np.sort(want[5]))
+    np.testing.assert_array_equal(np.flatnonzero(stamp == 7), np.sort(want[5]))
+    assert set(stamp) <= {0, 7}
     want = pbi_by_numpy(P, W, pool, y, z)
     got = [a.copy() for a in P]
-    changed = np.zeros(n, dtype=np.bool_)
-    replaced = pbi_replace(*got, W, pool, *y, z, 5.0, 1.0 if m == 1 else np.nan, changed)
+    stamp = np.zeros(n, dtype=np.int64)
+    replaced = pbi_replace(*got, W, pool, *y, z, 5.0, 1.0 if m == 1 else np.nan, stamp, 7)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]
-    np.testing.assert_array_equal(np.flatnonzero(changed), np.sort(want[5]))
+    np.testing.assert_array_equal(np.flatnonzero(stamp == 7), np.sort(want[5]))
+    assert set(stamp) <= {0, 7}

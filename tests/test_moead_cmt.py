@@ -58,13 +58,27 @@ def _member(alg, F, cv):
     return Arrays(np.full((1, d), 0.5), np.array([F], dtype=float), np.full((1, k), cv), np.array([cv], dtype=float))
 
 
+def place(alg, y, pool, s_cv=0.0):
+    """One child through the compiled loop (no parents, so never out of date): replacements of tasks 1 and 2."""
+    from core.optimize.evolve.moead_cmt import _place
+
+    P1, P2, n = alg.P1, alg.P2, len(alg.W)
+    cmin, reps = np.array([alg.cmin]), np.zeros(2, dtype=np.int64)
+    none = np.full((1, 1), -1, dtype=np.int64)
+    degenerate = 1.0 if P1.F.shape[1] == 1 else np.nan
+    _place(0, 1, np.asarray(pool, dtype=np.int64), np.array([0, len(pool)]), P1.X, P1.F, P1.G, P1.cv, P2.X, P2.F,
+           P2.G, P2.cv, alg.W, alg.z1, alg.z2, cmin, s_cv, degenerate, y.X, y.F, y.G, y.cv,
+           np.zeros((2, n), dtype=np.int64), np.zeros(1, dtype=np.int64), none, none, reps)
+    return int(reps[0]), int(reps[1])
+
+
 def test_a_child_with_an_undefined_objective_neither_poisons_the_ideal_points_nor_replaces():
     # pymoo's MW11 gives f2 = NaN at x1 = sqrt(2), where DE's clipping often puts children; MATLAB's min skips
     # NaN, numpy's np.minimum did not, and a NaN ideal point stopped every later replacement.
     _, alg = run("mw11", 200, pop=20)
     z1, z2, P1, P2 = alg.z1.copy(), alg.z2.copy(), alg.P1.F.copy(), alg.P2.F.copy()
     y, pool = _member(alg, [-1.0, np.nan], np.inf), np.arange(len(alg.W))
-    assert alg._update_task1(y, pool, 0.0) == 0 and alg._update_task2(y, pool) == 0
+    assert place(alg, y, pool) == (0, 0)
     assert alg.z1[0] == -1.0 and alg.z1[1] == z1[1] and alg.z2[0] == -1.0 and alg.z2[1] == z2[1]
     np.testing.assert_array_equal(alg.P1.F, P1)
     np.testing.assert_array_equal(alg.P2.F, P2)
@@ -75,7 +89,7 @@ def test_a_child_on_the_ideal_point_replaces_nothing_in_the_pbi_task():
     _, alg = run("mw3", 200, pop=20)
     P2 = alg.P2.F.copy()
     y = _member(alg, alg.z2 - 1.0, 0.0)
-    assert alg._update_task2(y, np.arange(len(alg.W))) == 0
+    assert place(alg, y, np.arange(len(alg.W)))[1] == 0
     np.testing.assert_array_equal(alg.P2.F, P2)
     np.testing.assert_array_equal(alg.z2, y.F[0])
 

@@ -18,19 +18,18 @@ the largest *finite* violation in P2 (an undefined member's infinite one would s
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from functools import partial
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.ahead import Ahead
+from core.optimize.evolve.ahead import DE, Ahead, make_children, numbers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
-from core.optimize.evolve.moead import tchebycheff_replace
+from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
-from core.optimize.evolve.variation import de_rand_1, ga
+from core.optimize.evolve.variation import ga
 from core.optimize.evolve.weights import das_dennis, neighbours
 
 F64 = NDArray[np.float64]
@@ -50,6 +49,23 @@ def change_rate(ideal: dict[int, F64], nadir: dict[int, F64], gen: int) -> float
         b = np.abs(nadir[gen] - n0) / np.maximum(n0, 1e-6)
     r = float(np.nanmax(np.concatenate([a, b])))
     return r if math.isfinite(r) else math.inf
+
+
+@numba.njit(cache=True)
+def _place(j0: int, j1: int, pools: I64, offs: I64, X: F64, F: F64, G: F64, cv: F64, W: F64, z: F64, eps: float,
+           pull: bool, replace: bool, YX: F64, YF: F64, YG: F64, Ycv: F64, stamps: I64, at: I64, pp: I64,
+           pi: I64) -> int:  # pragma: no cover - compiled
+    """Task 2's children ``j0 .. j1 - 1`` (rows of Y) in order: the ideal point ``z`` (in place), then Tchebycheff
+    replacement (when ``replace``); returns the first child out of date (see :class:`~core.optimize.evolve.ahead.
+    Ahead`), or ``j1``."""
+    for j in range(j0, j1):
+        if stale(j, at[j], pp, pi, stamps):
+            return j
+        fmin_into(z, YF[j])
+        if replace:
+            tchebycheff_replace(X, F, G, cv, W, pools[offs[j]:offs[j + 1]], YX[j:j + 1], YF[j:j + 1], YG[j:j + 1],
+                                Ycv[j], z, eps, pull, NR, stamps[0], j + 1)
+    return j1
 
 
 class CMOEMT(ArrayAlgorithm):
@@ -126,30 +142,33 @@ class CMOEMT(ArrayAlgorithm):
         extra = rng.integers(0, n, max(k - len(fixed), 0))
         return np.concatenate([fixed, extra])[: max(k, 1)]
 
-    def _child(self, i: int, pool: I64) -> tuple[F64, Callable[[], bool]]:
-        P, ch, a, b = self.P2, self.changed, int(pool[0]), int(pool[1])
-        x = de_rand_1(P.X[i:i + 1], P.X[pool[:1]], P.X[pool[1:2]], self.xl, self.xu, self.random_state)
-        return x, lambda: bool(ch[i] or ch[a] or ch[b])
-
-    def _task2(self) -> tuple[list[Arrays], int]:
-        rng, n, P = self.random_state, self.n, self.P2
-        self.changed = np.zeros(n, dtype=np.bool_)
-        ahead, plan = Ahead(self, self.ahead), []
+    def _task2(self) -> tuple[Arrays, int]:
+        rng, n, P, d = self.random_state, self.n, self.P2, self.problem.n_var
+        base: list[int] = []
+        pools: list[I64] = []
+        nums = np.empty((ROUNDS * max(n // 5, 1), numbers(DE, d)))
         for _ in range(ROUNDS):
-            for i in self._subset():
-                pool = rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n)
-                ahead.add(partial(self._child, int(i), pool))
-                plan.append(pool)
-        kids = []
-        for j, pool in enumerate(plan):
-            y = ahead.take(j)
-            kids.append(y)
-            self.z = np.fmin(self.z, y.F[0])
-            if self.variant == "author_repo":
-                continue  # selected with the others below
-            tchebycheff_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z,
-                                float(self.eps), bool(self.pull), NR, self.changed)
-        return kids, ahead.close()
+            for i in self._subset():  # each child's pool, then its DE numbers, in the published loop's order
+                pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
+                rng.random(out=nums[len(base)])
+                base.append(int(i))
+        m = len(base)
+        offs = np.zeros(m + 1, dtype=np.int64)
+        offs[1:] = np.cumsum([len(q) for q in pools])
+        flat = np.concatenate(pools).astype(np.int64)
+        pp = np.zeros((m, 3), dtype=np.int64)
+        pi = np.stack([np.array(base, dtype=np.int64), flat[offs[:-1]], flat[offs[:-1] + 1]], 1)
+        stamps = np.zeros((1, n), dtype=np.int64)
+        replace = self.variant != "author_repo"  # the author's variant selects task 2 with the others below
+
+        def make(ks: I64) -> F64:
+            return make_children(DE, ks, pp, pi, P.X, P.X, nums, nums, nums, self.xl, self.xu)
+
+        def place(j0: int, j1: int, Y: Arrays, at: I64) -> int:
+            return int(_place(j0, j1, flat, offs, P.X, P.F, P.G, P.cv, self.W, self.z, float(self.eps),
+                              bool(self.pull), replace, Y.X, Y.F, Y.G, Y.cv, stamps, at, pp, pi))
+
+        return Ahead(self, self.ahead).run(m, pp, pi, stamps, make, place)
 
     # The loop ------------------------------------------------------------------------------------
 
@@ -163,8 +182,7 @@ class CMOEMT(ArrayAlgorithm):
         h = n // 2
         pool1 = tournament((self.fit1,), 2 * h, rng)
         o1 = self.evaluate(self.repaired(ga(p1.X[pool1[:h]], p1.X[pool1[h:]], self.xl, self.xu, rng, half=True)))
-        kids2, missed = self._task2()
-        o2 = Arrays.concat(*kids2)
+        o2, missed = self._task2()
         mates3 = tournament((self.fit3,), 2 * h, rng)
         o3 = self.evaluate(self.repaired(ga(self.p3.X[mates3[:h]], self.p3.X[mates3[h:]], self.xl, self.xu, rng,
                                            half=True)))

@@ -3,7 +3,8 @@
 A child evaluated alone replaces at most ``nr`` of its neighbours before the next child is made (the
 published algorithms require it), so this runs once per child: in numpy it was ~10 small array operations,
 ~40 us of Python each time. Same numbers as the numpy form (IEEE operations only; ``max`` propagates NaN as
-``np.max`` does).
+``np.max`` does). Each replacement writes the child's ``tick`` into ``stamp`` for the member it replaced, which
+tells a child made ahead whether its parents are still the ones it was made from.
 """
 
 from __future__ import annotations
@@ -14,18 +15,25 @@ from numpy.typing import NDArray
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
-B1 = NDArray[np.bool_]
 
 
 @numba.njit(cache=True)
-def _put(X: F64, F: F64, G: F64, cv: F64, p: int, yX: F64, yF: F64, yG: F64, ycv: float,
-         changed: B1) -> None:  # pragma: no cover - compiled
-    # member p becomes the child (and is marked changed)
-    changed[p] = True
+def _put(X: F64, F: F64, G: F64, cv: F64, p: int, yX: F64, yF: F64, yG: F64, ycv: float, stamp: I64,
+         tick: int) -> None:  # pragma: no cover - compiled
+    # member p becomes the child (stamped with the child's tick)
+    stamp[p] = tick
     X[p, :] = yX[0, :]
     F[p, :] = yF[0, :]
     G[p, :] = yG[0, :]
     cv[p] = ycv
+
+
+@numba.njit(cache=True)
+def fmin_into(z: F64, y: F64) -> None:  # pragma: no cover - compiled
+    """``z = np.fmin(z, y)`` in place: a NaN on one side gives the other."""
+    for k in range(len(z)):
+        if np.isnan(z[k]) or y[k] < z[k]:
+            z[k] = y[k]
 
 
 @numba.njit(cache=True)
@@ -44,7 +52,7 @@ def _tchebycheff(F: F64, row: int, W: F64, w: int, z: F64) -> float:  # pragma: 
 @numba.njit(cache=True)
 def tchebycheff_replace(X: F64, F: F64, G: F64, cv: F64, W: F64, pool: I64, yX: F64, yF: F64, yG: F64,
                         ycv: float, z: F64, eps: float, pull: bool, nr: int,
-                        changed: B1) -> int:  # pragma: no cover - compiled
+                        stamp: I64, tick: int) -> int:  # pragma: no cover - compiled
     """Replace, in place, the first ``nr`` members of ``pool`` (in its order) the child (``yX``, ``yF``, ``yG``,
     ``ycv``; rows of shape ``(1, .)``) may replace: push (``pull`` False) when its Tchebycheff value (weights
     ``W[pool]``, ideal point ``z``) is no worse; pull by the improved epsilon rule: no worse and both within
@@ -59,7 +67,7 @@ def tchebycheff_replace(X: F64, F: F64, G: F64, cv: F64, W: F64, pool: I64, yX: 
         else:
             ok = better
         if ok:
-            _put(X, F, G, cv, p, yX, yF, yG, ycv, changed)
+            _put(X, F, G, cv, p, yX, yF, yG, ycv, stamp, tick)
             done += 1
     return done
 
@@ -122,7 +130,8 @@ def _floor(c: float) -> float:  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def cmt_replace(X: F64, F: F64, G: F64, cv: F64, pool: I64, yX: F64, yF: F64, yG: F64, ycv: float, dg: F64,
-                dc: F64, e: F64, s_obj: float, s_cv: float, nr: int, changed: B1) -> int:  # pragma: no cover - compiled
+                dc: F64, e: F64, s_obj: float, s_cv: float, nr: int, stamp: I64,
+                tick: int) -> int:  # pragma: no cover - compiled
     """Replace, in place, the first ``nr`` neighbours in ``pool`` the child beats by MOEA/D-CMT's soft rule
     ``L(dg) max(L(dc), 1e-4) >= L(-dg) max(L(-dc), 1e-4)`` (L the logistic of sharpness s_obj, s_cv); ``e``
     ``(4, T)`` holds ``exp`` of ``-dg / s_obj, dg / s_obj, -dc / s_cv, dc / s_cv`` (numpy's, so the numbers
@@ -135,7 +144,7 @@ def cmt_replace(X: F64, F: F64, G: F64, cv: F64, pool: I64, yX: F64, yF: F64, yG
         b = _logistic(-dg[t], e[1, t], s_obj) * _floor(_logistic(-dc[t], e[3, t], s_cv))
         if a >= b:
             p = pool[t]
-            _put(X, F, G, cv, p, yX, yF, yG, ycv, changed)
+            _put(X, F, G, cv, p, yX, yF, yG, ycv, stamp, tick)
             done += 1
     return done
 
@@ -159,7 +168,7 @@ def _pbi(F: F64, row: int, W: F64, w: int, norm_w: float, z: F64, theta: float,
 
 @numba.njit(cache=True)
 def pbi_replace(X: F64, F: F64, G: F64, cv: F64, W: F64, pool: I64, yX: F64, yF: F64, yG: F64, ycv: float,
-                z: F64, theta: float, degenerate: float, changed: B1) -> int:  # pragma: no cover - compiled
+                z: F64, theta: float, degenerate: float, stamp: I64, tick: int) -> int:  # pragma: no cover - compiled
     """Replace, in place, every neighbour in ``pool`` whose PBI value (weights ``W[pool]``, ideal point ``z``,
     penalty ``theta``) is no better than the child's (MOEA/D-CMT's unconstrained task 2). Returns how many."""
     done = 0
@@ -169,6 +178,6 @@ def pbi_replace(X: F64, F: F64, G: F64, cv: F64, W: F64, pool: I64, yX: F64, yF:
             nw += W[p, k] * W[p, k]
         nw = np.sqrt(nw)
         if _pbi(F, p, W, p, nw, z, theta, degenerate) >= _pbi(yF, 0, W, p, nw, z, theta, degenerate):
-            _put(X, F, G, cv, p, yX, yF, yG, ycv, changed)
+            _put(X, F, G, cv, p, yX, yF, yG, ycv, stamp, tick)
             done += 1
     return done

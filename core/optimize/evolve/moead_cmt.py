@@ -11,21 +11,21 @@ floor. The output is the archive. N evaluations per generation, 2N initially.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from functools import partial
+import math
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.ahead import Ahead
+from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, make_children, numbers, powers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
-from core.optimize.evolve.moead import cmt_differences, cmt_exponents, cmt_replace, pbi_replace
-from core.optimize.evolve.variation import de_rand_1, ga
+from core.optimize.evolve.moead import cmt_differences, cmt_exponents, cmt_replace, fmin_into, pbi_replace
 from core.optimize.evolve.weights import das_dennis, neighbours
 
 F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
 DELTA, NR, RMP, LEARN, P_MIN, S_OBJ, THETA = 0.9, 2, 0.2, 0.3, 0.1, 0.3, 5.0
 
 
@@ -34,6 +34,42 @@ def task_probabilities(rwd: F64, fe: int, max_fe: int) -> F64:
         return np.array([0.5, 0.5])
     p = P_MIN / 2 + (1 - P_MIN) * rwd / rwd.sum()
     return p / p.sum()
+
+
+@numba.njit(cache=True)
+def _place(j0: int, j1: int, pools: I64, offs: I64, X1: F64, F1: F64, G1: F64, cv1: F64, X2: F64, F2: F64, G2: F64,
+           cv2: F64, W: F64, z1: F64, z2: F64, cmin: F64, s_cv: float, degenerate: float, YX: F64, YF: F64, YG: F64,
+           Ycv: F64, stamps: I64, at: I64, pp: I64, pi: I64, reps: I64) -> int:  # pragma: no cover - compiled
+    """Children ``j0 .. j1 - 1`` (rows of Y) update both tasks in order (see :class:`~core.optimize.evolve.ahead.
+    Ahead`); returns the first one out of date, or ``j1``. ``z1``, ``z2``, ``cmin`` ``(1,)`` and ``reps`` (the
+    replacements of each task) are updated in place."""
+    s = s_cv if s_cv > 0 else 1.0  # a step when s_cv is 0: the exponentials go unused
+    for j in range(j0, j1):
+        if stale(j, at[j], pp, pi, stamps):
+            return j
+        pool = pools[offs[j]:offs[j + 1]]
+        yX, yF, yG, ycv = YX[j:j + 1], YF[j:j + 1], YG[j:j + 1], Ycv[j]
+        # Task 1. MATLAB's min skips NaN: a child with an undefined objective (pymoo's MW11 at x1 = sqrt(2)) must
+        # not turn the ideal point into NaN, which would stop every later replacement; its own g is NaN: it never
+        # wins. An infinite violation normalises to NaN; the 1e-4 floor then compares that child on g alone, as
+        # PlatEMO's code treats a NaN violation.
+        fmin_into(z1, yF[0])
+        if ycv < cmin[0]:
+            cmin[0] = ycv
+        cmax = cv1.max()
+        if ycv > cmax:
+            cmax = ycv
+        dg, dc = cmt_differences(F1, cv1, W, pool, yF, ycv, z1, cmin[0], cmax)
+        e = cmt_exponents(dg, dc, S_OBJ, s)
+        for r in range(e.shape[0]):
+            for t in range(e.shape[1]):
+                e[r, t] = math.exp(e[r, t])
+        reps[0] += cmt_replace(X1, F1, G1, cv1, pool, yX, yF, yG, ycv, dg, dc, e, S_OBJ, s_cv, NR, stamps[0], j + 1)
+        # Task 2: a point on the ideal point has an undefined cosine: NaN in PlatEMO's code, so such a child
+        # replaces nothing and such a member is never replaced (`degenerate`).
+        fmin_into(z2, yF[0])
+        reps[1] += pbi_replace(X2, F2, G2, cv2, W, pool, yX, yF, yG, ycv, z2, THETA, degenerate, stamps[1], j + 1)
+    return j1
 
 
 class MOEADCMT(ArrayAlgorithm):
@@ -71,43 +107,28 @@ class MOEADCMT(ArrayAlgorithm):
         self.arrays = self.P1.take(np.arange(n))  # the archive: a copy (P1 is updated in place)
         self.log(task=0.0, p1=0.5, feasible_ratio_P1=float((self.P1.cv <= 0).mean()))
 
-    def _child(self, k: int, i: int, pool: NDArray[np.int64]) -> tuple[F64, Callable[[], bool]]:
-        rng, a, b = self.random_state, int(pool[0]), int(pool[1])
-        if k == 0:
-            src, ch = (self.P1, self.changed1) if rng.random() < RMP else (self.P2, self.changed2)
-            x = de_rand_1(self.P1.X[i:i + 1], src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng)
-            c1 = self.changed1
-            return x, lambda: bool(c1[i] or ch[a] or ch[b])
-        src, ch = (self.P2, self.changed2) if rng.random() < RMP else (self.P1, self.changed1)
-        return ga(src.X[pool[:1]], src.X[pool[1:2]], self.xl, self.xu, rng, half=True), lambda: bool(ch[a] or ch[b])
-
-    def _update_task1(self, y: Arrays, pool: NDArray[np.int64], s_cv: float) -> int:
-        P = self.P1
-        # MATLAB's min skips NaN: a child with an undefined objective (pymoo's MW11 at x1 = sqrt(2)) must not
-        # turn the ideal point into NaN, which would stop every later replacement. Its own g is NaN: never wins.
-        self.z1 = np.fmin(self.z1, y.F[0])
-        self.cmin = min(self.cmin, float(y.cv[0]))
-        cmax = float(max(P.cv.max(), y.cv[0]))
-        # An infinite violation normalises to NaN; the 1e-4 floor (np.fmax, MATLAB's max) then compares that
-        # child on g alone, as PlatEMO's code treats a NaN violation. inf - inf for penalised members: NaN,
-        # which never wins.
-        dg, dc = cmt_differences(P.F, P.cv, self.W, pool, y.F, float(y.cv[0]), self.z1, self.cmin, cmax)
-        s = s_cv if s_cv > 0 else 1.0  # a step when s_cv is 0: the exponentials go unused
-        e = cmt_exponents(dg, dc, S_OBJ, s)
-        with np.errstate(over="ignore", invalid="ignore"):  # numpy's exp, so the numbers are numpy's
-            np.exp(e, out=e)
-        return int(cmt_replace(P.X, P.F, P.G, P.cv, pool, y.X, y.F, y.G, float(y.cv[0]), dg, dc, e, S_OBJ, s_cv,
-                               NR, self.changed1))
-
-    def _update_task2(self, y: Arrays, pool: NDArray[np.int64]) -> int:
-        P = self.P2
-        self.z2 = np.fmin(self.z2, y.F[0])
-        # A point on the ideal point (|d| = 0) has an undefined cosine: NaN in PlatEMO's code, so such a child
-        # replaces nothing and such a member is never replaced. One objective (our extension; PlatEMO's is
-        # for M >= 2) keeps the direction as on the weight line, else a new best could never enter P2.
-        degenerate = 1.0 if P.F.shape[1] == 1 else np.nan
-        return int(pbi_replace(P.X, P.F, P.G, P.cv, self.W, pool, y.X, y.F, y.G, float(y.cv[0]), self.z2, THETA,
-                               degenerate, self.changed2))
+    def _draw(self, k: int) -> tuple[I64, I64, I64, I64, F64]:
+        """Each child's numbers, in the published loop's order: its pool (neighbourhood or population, permuted),
+        then the operator's (the source population's draw first). Returns the pools (flat, offsets), the parents
+        (population 0 = P1, 1 = P2; member) and the operator's numbers."""
+        rng, n, d = self.random_state, len(self.W), self.problem.n_var
+        op = DE if k == 0 else GA_HALF
+        nums = np.empty((n, 1 + numbers(op, d)))
+        pools = []
+        for i in range(n):
+            pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
+            rng.random(out=nums[i])
+        offs = np.zeros(n + 1, dtype=np.int64)
+        offs[1:] = np.cumsum([len(q) for q in pools])
+        flat = np.concatenate(pools).astype(np.int64)
+        a, b = flat[offs[:-1]], flat[offs[:-1] + 1]
+        near = nums[:, 0] < RMP  # the mate's source: the child's own task's population
+        src = np.where(near, 0, 1) if k == 0 else np.where(near, 1, 0)
+        if k == 0:  # DE on base P1[i]
+            pp, pi = np.stack([np.zeros(n, dtype=np.int64), src, src], 1), np.stack([np.arange(n), a, b], 1)
+        else:  # SBX of two mates
+            pp, pi = np.stack([src, src, np.full(n, -1)], 1), np.stack([a, b, np.zeros(n, dtype=np.int64)], 1)
+        return flat, offs, pp.astype(np.int64), pi.astype(np.int64), np.ascontiguousarray(nums[:, 1:])
 
     def _advance(self, infills: Any = None, **kwargs: Any) -> None:
         rng, n = self.random_state, len(self.W)
@@ -115,19 +136,27 @@ class MOEADCMT(ArrayAlgorithm):
         s_cv = 10.0 * fr
         prob = task_probabilities(self.rwd, int(self.evaluator.n_eval), self.max_fe)
         k = int(rng.random() >= prob[0])
-        kids, rep1, rep2 = [], 0, 0
-        self.changed1, self.changed2 = np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_)
-        ahead, pools = Ahead(self, self.ahead), []
-        for i in range(n):
-            pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
-            ahead.add(partial(self._child, k, i, pools[i]))
-        for i, pool in enumerate(pools):
-            y = ahead.take(i)
-            kids.append(y)
-            rep1 += self._update_task1(y, pool, s_cv)
-            rep2 += self._update_task2(y, pool)
-        missed = ahead.close()
-        Q = Arrays.concat(*kids)
+        pools, offs, pp, pi, nums = self._draw(k)
+        op, d = (DE if k == 0 else GA_HALF), self.problem.n_var
+        below, above = powers(nums, d) if op == GA_HALF else (nums, nums)
+        stamps, reps = np.zeros((2, n), dtype=np.int64), np.zeros(2, dtype=np.int64)
+        cmin = np.array([self.cmin])
+        # One objective (our extension; PlatEMO's is for M >= 2): a point on the ideal point counts as on the
+        # weight line (PBI), else a new best could never enter P2.
+        degenerate = 1.0 if self.P1.F.shape[1] == 1 else np.nan
+        P1, P2 = self.P1, self.P2
+
+        def make(ks: I64) -> F64:
+            return make_children(op, ks, pp, pi, P1.X, P2.X, nums, below, above, self.xl, self.xu)
+
+        def place(j0: int, j1: int, Y: Arrays, at: I64) -> int:
+            return int(_place(j0, j1, pools, offs, P1.X, P1.F, P1.G, P1.cv, P2.X, P2.F, P2.G, P2.cv, self.W,
+                              self.z1, self.z2, cmin, s_cv, degenerate, Y.X, Y.F, Y.G, Y.cv, stamps, at, pp, pi,
+                              reps))
+
+        Q, missed = Ahead(self, self.ahead).run(n, pp, pi, stamps, make, place)
+        self.cmin = float(cmin[0])
+        rep1, rep2 = int(reps[0]), int(reps[1])
         archive = self.arrays
         assert archive is not None
         size = len(archive)

@@ -32,23 +32,49 @@ def sbx(P1: F64, P2: F64, xl: F64, xu: F64, rng: np.random.Generator, prob: floa
 
 
 @numba.njit(cache=True)
+def _clip(c: float, lo: float, hi: float) -> float:  # pragma: no cover - compiled
+    # np.clip: NaN passes through
+    return c if np.isnan(c) else min(max(c, lo), hi)
+
+
+@numba.njit(cache=True)
+def _sbx_pair(p1: float, p2: float, u: float, below: float, above: float, sign: float,
+              keep: bool) -> tuple[float, float]:  # pragma: no cover - compiled
+    # one variable's two children, unclipped (the parents when `keep`)
+    if keep:
+        return p1, p2
+    beta = below if u <= 0.5 else above
+    beta *= -1.0 if sign < 0.5 else 1.0
+    mid, half = (p1 + p2) / 2.0, (p1 - p2) / 2.0
+    return mid + beta * half, mid - beta * half
+
+
+@numba.njit(cache=True)
 def _sbx(P1: F64, P2: F64, u: F64, below: F64, above: F64, sign: F64, var: F64, pair: F64, lo: F64, hi: F64,
          prob: float, prob_var: float) -> tuple[F64, F64]:  # pragma: no cover - compiled
     k, d = P1.shape
     C1, C2 = np.empty((k, d)), np.empty((k, d))
     for i in range(k):
         for j in range(d):
-            p1, p2 = P1[i, j], P2[i, j]
-            if var[i, j] >= prob_var or pair[i] >= prob:
-                c1, c2 = p1, p2
-            else:
-                beta = below[i, j] if u[i, j] <= 0.5 else above[i, j]
-                beta *= -1.0 if sign[i, j] < 0.5 else 1.0
-                mid, half = (p1 + p2) / 2.0, (p1 - p2) / 2.0
-                c1, c2 = mid + beta * half, mid - beta * half
-            C1[i, j] = c1 if np.isnan(c1) else min(max(c1, lo[j]), hi[j])
-            C2[i, j] = c2 if np.isnan(c2) else min(max(c2, lo[j]), hi[j])
+            c1, c2 = _sbx_pair(P1[i, j], P2[i, j], u[i, j], below[i, j], above[i, j], sign[i, j],
+                               var[i, j] >= prob_var or pair[i] >= prob)
+            C1[i, j] = _clip(c1, lo[j], hi[j])
+            C2[i, j] = _clip(c2, lo[j], hi[j])
     return C1, C2
+
+
+@numba.njit(cache=True)
+def ga_half_row(p1: F64, p2: F64, u: F64, below: F64, above: F64, sign: F64, var: F64, pair: float, site: F64,
+                um: F64, lo: F64, hi: F64, out: F64, prob: float = 1.0, prob_var: float = 0.5,
+                eta_m: float = 20.0) -> None:  # pragma: no cover - compiled
+    """One "GAhalf" child into ``out`` ``(d,)``: :func:`sbx`'s first child of ``p1``, ``p2`` from its numbers
+    (``below``, ``above``: the powers of ``u`` as :func:`sbx` takes them), clipped, then :func:`polynomial_mutation`
+    (``site``, ``um``; 1/d per variable): :func:`ga` with ``half`` on one pair, the same numbers."""
+    d = len(p1)
+    for j in range(d):
+        c1, _ = _sbx_pair(p1[j], p2[j], u[j], below[j], above[j], sign[j], var[j] >= prob_var or pair >= prob)
+        out[j] = _clip(c1, lo[j], hi[j])
+    _pm_row(out, lo, hi, site, um, 1.0 / d, eta_m)
 
 
 @numba.njit(cache=True)
@@ -124,23 +150,27 @@ def _bounds(xl: F64, xu: F64, d: int) -> tuple[F64, F64]:
 
 
 @numba.njit(cache=True)
+def _pm_row(x: F64, lo: F64, hi: F64, site: F64, u: F64, pm: float, eta: float) -> None:  # pragma: no cover
+    # one row in place
+    p = 1.0 / (eta + 1.0)
+    for j in range(len(x)):
+        if site[j] >= pm:
+            continue
+        span = hi[j] - lo[j] if hi[j] > lo[j] else 1.0
+        v, r = x[j], u[j]
+        if r <= 0.5:
+            dq = (2.0 * r + (1.0 - 2.0 * r) * _pow(1.0 - (v - lo[j]) / span, eta + 1.0)) ** p - 1.0
+        else:
+            dq = 1.0 - (2.0 * (1.0 - r) + 2.0 * (r - 0.5) * _pow(1.0 - (hi[j] - v) / span, eta + 1.0)) ** p
+        x[j] = min(max(v + dq * span, lo[j]), hi[j])
+
+
+@numba.njit(cache=True)
 def _pm(X: F64, lo: F64, hi: F64, site: F64, u: F64, rows: NDArray[np.bool_], pm: float,
         eta: float) -> None:  # pragma: no cover - compiled
-    n, d = X.shape
-    p = 1.0 / (eta + 1.0)
-    for i in range(n):
-        if not rows[i]:
-            continue
-        for j in range(d):
-            if site[i, j] >= pm:
-                continue
-            span = hi[j] - lo[j] if hi[j] > lo[j] else 1.0
-            x, r = X[i, j], u[i, j]
-            if r <= 0.5:
-                dq = (2.0 * r + (1.0 - 2.0 * r) * _pow(1.0 - (x - lo[j]) / span, eta + 1.0)) ** p - 1.0
-            else:
-                dq = 1.0 - (2.0 * (1.0 - r) + 2.0 * (r - 0.5) * _pow(1.0 - (hi[j] - x) / span, eta + 1.0)) ** p
-            X[i, j] = min(max(x + dq * span, lo[j]), hi[j])
+    for i in range(X.shape[0]):
+        if rows[i]:
+            _pm_row(X[i], lo, hi, site[i], u[i], pm, eta)
 
 
 def polynomial_mutation(X: F64, xl: F64, xu: F64, rng: np.random.Generator, prob_var: float | None = None,
@@ -188,6 +218,18 @@ def de_rand_1(X1: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Genera
 
 
 @numba.njit(cache=True)
+def de_row(x1: F64, x2: F64, x3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F64, out: F64, F: float = 0.5,
+           CR: float = 1.0, eta_m: float = 20.0) -> None:  # pragma: no cover - compiled
+    """One DE/rand/1 child into ``out`` ``(d,)`` from its numbers (``r`` for CR, ``site`` and ``u`` for the
+    mutation at 1/d): :func:`de_rand_1` with scalar ``F`` and ``CR`` on one row, the same numbers."""
+    d = len(x1)
+    for j in range(d):
+        c = x1[j] + F * (x2[j] - x3[j]) if r[j] < CR else x1[j]
+        out[j] = _clip(c, lo[j], hi[j])
+    _pm_row(out, lo, hi, site, u, 1.0 / d, eta_m)
+
+
+@numba.njit(cache=True)
 def _de_pm(X1: F64, X2: F64, X3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F64, F: float, CR: float, pm: float,
            eta: float) -> F64:  # pragma: no cover - compiled
     # x1 + F (x2 - x3) where r < CR, clipped (np.clip's NaN passes through), then _pm's mutation
@@ -196,10 +238,8 @@ def _de_pm(X1: F64, X2: F64, X3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F6
     for i in range(n):
         for j in range(d):
             c = X1[i, j] + F * (X2[i, j] - X3[i, j]) if r[i, j] < CR else X1[i, j]
-            if not np.isnan(c):
-                c = min(max(c, lo[j]), hi[j])
-            C[i, j] = c
-    _pm(C, lo, hi, site, u, np.ones(n, dtype=np.bool_), pm, eta)
+            C[i, j] = _clip(c, lo[j], hi[j])
+        _pm_row(C[i], lo, hi, site[i], u[i], pm, eta)
     return C
 
 
