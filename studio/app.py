@@ -57,6 +57,10 @@ PLOTLY_AFTER, PLOTLY_LATEST = 0.5, 3.0
 # seconds after it connected: frames pushed during a load made the new page and the open ones compete for the
 # two cores (a second tab ready in 1.55-1.8 s against 1.4-1.5 s with the animation paused).
 LOAD_HOLD_MAX = 3.0
+# A page's request for the studio's address (seen by clm-studio's gate) starts the hold that long before its
+# websocket connects: fetching and starting viser's client takes ~0.5-1 s, which the frames pushed to the open
+# pages competed with. It ends when a page connects (its own hold goes on), or after this many seconds.
+REQUEST_HOLD_MAX = 2.0
 
 
 def later(delay: float, fn: Any, *args: Any) -> None:
@@ -114,6 +118,8 @@ class Studio:
         self._last_start = -DOUBLE_CLICK
         self._last_request: object = None  # (stage, settings, from the pick) of the last run started
         self._loading: dict[int, float] = {}  # pages that have not drawn yet: client id -> connected at
+        self._requested = -REQUEST_HOLD_MAX  # when a page last asked for the studio's address (monotonic s)
+        self._connected = -REQUEST_HOLD_MAX  # when a page last connected
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
                                         show_logo=False)
@@ -265,7 +271,7 @@ class Studio:
         at that pose (not yet moved by the user) gives its real aspect. One refit per client.
         """
         fitted = threading.Event()
-        self._loading[client.client_id] = time.monotonic()
+        self._loading[client.client_id] = self._connected = time.monotonic()
 
         def on_camera(cam: viser.CameraHandle) -> None:
             if fitted.is_set():
@@ -305,10 +311,17 @@ class Studio:
         if self.pacer.ready() and self.scene.draw(frame_index(pb.angle, view.n_samples)):
             self.pacer.probe()  # a page still drawing the last frame skips this one; time goes on
 
+    def page_requested(self) -> None:
+        """A browser asked for the studio's page (clm-studio's gate calls this): hold the scene from now on, not
+        only once its websocket connects (see REQUEST_HOLD_MAX). Any thread."""
+        self._requested = time.monotonic()
+
     def _page_loading(self) -> bool:
-        """True while a page that connected less than LOAD_HOLD_MAX s ago has not drawn yet (closed pages and
-        late ones are forgotten)."""
+        """True while a page is on its way: requested less than REQUEST_HOLD_MAX s ago and not connected since,
+        or connected less than LOAD_HOLD_MAX s ago and not drawn yet (closed pages and late ones are forgotten)."""
         now, clients = time.monotonic(), self.server.get_clients()
+        if self._connected < self._requested and now - self._requested < REQUEST_HOLD_MAX:
+            return True
         for cid, since in list(self._loading.items()):
             if cid not in clients or now - since > LOAD_HOLD_MAX:
                 self._loading.pop(cid, None)

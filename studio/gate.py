@@ -11,7 +11,9 @@ connection only if its first request passes:
   when it sees that parameter (the page's scripts and websocket carry no query). Compared in constant time.
 
 Anything else gets ``403 Forbidden`` and is closed; after the first request a connection's bytes are relayed
-unchanged. Plain HTTP: the token keeps out whoever lacks the URL, not someone who can read the traffic.
+unchanged. An admitted request for the page itself (``GET /``) is also reported to ``on_page``: the studio holds
+its scene still while a new page loads. Plain HTTP: the token keeps out whoever lacks the URL, not someone who
+can read the traffic.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import hmac
 import re
 import secrets
 import threading
+from collections.abc import Callable
 from http.cookies import CookieError, SimpleCookie
 from urllib.parse import parse_qsl, urlencode, urlsplit
 
@@ -61,10 +64,13 @@ class Gate:
         host, port: where to listen (port 0: any free port; a taken port: the next free one).
         upstream_port: the studio's viser server, on loopback.
         token: the secret the URL must carry (see :func:`check_token`), or None for none.
+        on_page: called (in the gate's thread) for each admitted request of the page (see :func:`is_page`).
     """
 
-    def __init__(self, host: str, port: int, upstream_port: int, token: str | None = None) -> None:
+    def __init__(self, host: str, port: int, upstream_port: int, token: str | None = None,
+                 on_page: Callable[[], None] | None = None) -> None:
         self.host = host
+        self._on_page = on_page
         self.upstream_port = upstream_port
         self._want_port = port
         self._loopback = is_loopback(host)
@@ -152,6 +158,8 @@ class Gate:
                 await writer.drain()
             writer.close()
             return
+        if self._on_page is not None and is_page(head):
+            self._on_page()
         try:
             up_reader, up_writer = await asyncio.open_connection("127.0.0.1", self.upstream_port)
         except OSError:
@@ -208,6 +216,16 @@ class Gate:
     def _matches(self, value: str | None) -> bool:
         assert self._token is not None
         return value is not None and hmac.compare_digest(value.encode("utf-8", "replace"), self._token)
+
+
+def is_page(head: bytes) -> bool:
+    """Is this request head a browser's ``GET`` of the page (``/``, ``/index.html``, with any query), not one of
+    its scripts, styles or its websocket?"""
+    first = head.split(b"\r\n", 1)[0].split(b" ")
+    if len(first) != 3 or first[0] != b"GET" or b"\r\nupgrade:" in head.lower():
+        return False
+    path = first[1].split(b"?", 1)[0]
+    return path in (b"/", b"/index.html")
 
 
 def _response(status: int, reason: str, body: str, extra: str = "") -> bytes:

@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
         # prints its own address box; the one line below is the address to open.
         with contextlib.redirect_stdout(io.StringIO()):
             studio = Studio(session, "127.0.0.1", 0, session_path=args.session)
-        gate = Gate(args.host, args.port, studio.server.get_port(), token)
+        gate = Gate(args.host, args.port, studio.server.get_port(), token, on_page=studio.page_requested)
         port = gate.get_port()
     except (OSError, ValueError) as exc:
         if studio is not None:

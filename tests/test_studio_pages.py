@@ -105,6 +105,44 @@ def test_the_animation_holds_while_a_page_loads(monkeypatch):
         studio.close()
 
 
+def test_the_animation_holds_from_a_page_request_until_that_page_connects(monkeypatch):
+    # clm-studio's gate reports a page's request a second or so before its websocket connects: the hold starts
+    # there, hands over to the page's own hold when it connects, and ends REQUEST_HOLD_MAX s after a request
+    # whose page never connects.
+    from studio import app as app_module
+    from studio.app import Studio
+    from studio.state import Session
+
+    studio = Studio(Session.default(), host="127.0.0.1", port=0)
+    studio.animator.stop()
+    try:
+        now = [100.0]
+        monkeypatch.setattr(app_module.time, "monotonic", lambda: now[0])
+        monkeypatch.setattr(studio.server, "get_clients", lambda: {7: FakeClient(7)})
+        monkeypatch.setattr(studio.scene, "draw", lambda k: False)
+
+        def moves() -> bool:
+            angle = studio.session.snapshot()[1].angle
+            studio._tick(0.1)
+            return studio.session.snapshot()[1].angle != angle
+
+        assert moves()
+        studio.page_requested()
+        assert not moves()
+        now[0] += app_module.REQUEST_HOLD_MAX - 0.1
+        assert not moves()
+        now[0] += 0.2  # that page never connected: the hold ends
+        assert moves()
+        studio.page_requested()
+        now[0] += 0.5
+        studio._loading[7] = studio._connected = now[0]  # it connects: its own hold takes over ...
+        assert not moves()
+        studio._loading.pop(7)  # ... and ends when it has drawn, whatever the request's hold had left
+        assert moves()
+    finally:
+        studio.close()
+
+
 @pytest.mark.parametrize("preset", [None, "jansen", "rtclm/case1", "watt1/paper"])
 def test_every_line_and_point_cloud_carries_a_colour_per_vertex(preset):
     # One colour per vertex everywhere (studio.frames.paint): a page then compiles one line shader and one point

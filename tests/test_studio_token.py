@@ -194,3 +194,38 @@ def test_ctrl_c_stops_clm_studio_whichever_of_its_threads_the_kernel_hands_it_to
             proc.kill()
             proc.wait()
     assert proc.returncode == 0 and "CLM Studio stopped." in out
+
+
+def test_the_gate_reports_each_admitted_page_request_and_nothing_else(studio):
+    # clm-studio holds the scene from a page's request on (Studio.page_requested): only the page itself counts,
+    # not its scripts or websocket, nor a request the gate refuses.
+    seen: list[int] = []
+    gate = Gate("127.0.0.1", 0, studio.server.get_port(), TOKEN, on_page=lambda: seen.append(1))
+    try:
+        port = gate.get_port()
+        assert get(port, "/").status == 403 and seen == []  # refused: no token
+        r = get(port, f"/?token={TOKEN}")  # admitted, and redirected to / with the cookie (the gate's own answer)
+        cookie = r.getheader("Set-Cookie").split(";", 1)[0]
+        assert r.status == 303 and seen == []
+        assert get(port, "/", {"Cookie": cookie}).status == 200 and seen == [1]
+        assert get(port, "/index.html?x=1", {"Cookie": cookie}).status == 200 and seen == [1, 1]
+        assert get(port, "/robots.txt", {"Cookie": cookie}).status in (200, 404) and seen == [1, 1]
+        assert websocket_status(port, "/", cookie) == OK and seen == [1, 1]
+    finally:
+        gate.close()
+
+
+@pytest.mark.parametrize("head,page", [
+    (b"GET / HTTP/1.1\r\nHost: x\r\n\r\n", True),
+    (b"GET /?token=abc HTTP/1.1\r\nHost: x\r\n\r\n", True),
+    (b"GET /index.html HTTP/1.1\r\n\r\n", True),
+    (b"GET /assets/index-1234.js HTTP/1.1\r\n\r\n", False),
+    (b"POST / HTTP/1.1\r\n\r\n", False),
+    (b"GET / HTTP/1.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\r\n", False),
+    (b"GET / HTTP/1.1\r\nupgrade: WebSocket\r\n\r\n", False),
+    (b"garbage\r\n\r\n", False),
+])
+def test_what_counts_as_a_page_request(head, page):
+    from studio.gate import is_page
+
+    assert is_page(head) is page
