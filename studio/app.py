@@ -6,6 +6,7 @@ package), so the studio works offline. ``studio.serve`` is the ``clm-studio`` co
 
 from __future__ import annotations
 
+import collections
 import json
 import threading
 import time
@@ -118,8 +119,8 @@ class Studio:
         self._last_start = -DOUBLE_CLICK
         self._last_request: object = None  # (stage, settings, from the pick) of the last run started
         self._loading: dict[int, float] = {}  # pages that have not drawn yet: client id -> connected at
-        self._requested = -REQUEST_HOLD_MAX  # when a page last asked for the studio's address (monotonic s)
-        self._connected = -REQUEST_HOLD_MAX  # when a page last connected
+        self._requested: collections.deque[float] = collections.deque()  # pages asked for, not yet connected
+        self._request_lock = threading.Lock()  # the gate's thread adds, viser's and the animator's take
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, control_width="large", brand_color=BRAND,
                                         show_logo=False)
@@ -271,7 +272,10 @@ class Studio:
         at that pose (not yet moved by the user) gives its real aspect. One refit per client.
         """
         fitted = threading.Event()
-        self._loading[client.client_id] = self._connected = time.monotonic()
+        self._loading[client.client_id] = time.monotonic()
+        with self._request_lock:
+            if self._requested:  # the oldest page requested has connected (its own hold follows)
+                self._requested.popleft()
 
         def on_camera(cam: viser.CameraHandle) -> None:
             if fitted.is_set():
@@ -314,14 +318,19 @@ class Studio:
     def page_requested(self) -> None:
         """A browser asked for the studio's page (clm-studio's gate calls this): hold the scene from now on, not
         only once its websocket connects (see REQUEST_HOLD_MAX). Any thread."""
-        self._requested = time.monotonic()
+        with self._request_lock:
+            self._requested.append(time.monotonic())
 
     def _page_loading(self) -> bool:
-        """True while a page is on its way: requested less than REQUEST_HOLD_MAX s ago and not connected since,
-        or connected less than LOAD_HOLD_MAX s ago and not drawn yet (closed pages and late ones are forgotten)."""
+        """True while a page is on its way: requested less than REQUEST_HOLD_MAX s ago and not connected yet (each
+        connect answers the oldest request), or connected less than LOAD_HOLD_MAX s ago and not drawn yet (closed
+        pages and late ones are forgotten)."""
         now, clients = time.monotonic(), self.server.get_clients()
-        if self._connected < self._requested and now - self._requested < REQUEST_HOLD_MAX:
-            return True
+        with self._request_lock:
+            while self._requested and now - self._requested[0] > REQUEST_HOLD_MAX:
+                self._requested.popleft()  # a page that never connected holds no longer
+            if self._requested:
+                return True
         for cid, since in list(self._loading.items()):
             if cid not in clients or now - since > LOAD_HOLD_MAX:
                 self._loading.pop(cid, None)

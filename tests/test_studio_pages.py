@@ -107,8 +107,8 @@ def test_the_animation_holds_while_a_page_loads(monkeypatch):
 
 def test_the_animation_holds_from_a_page_request_until_that_page_connects(monkeypatch):
     # clm-studio's gate reports a page's request a second or so before its websocket connects: the hold starts
-    # there, hands over to the page's own hold when it connects, and ends REQUEST_HOLD_MAX s after a request
-    # whose page never connects.
+    # there, hands over to the page's own hold when it connects (each connect answers the oldest request), and
+    # ends REQUEST_HOLD_MAX s after a request whose page never connects.
     from studio import app as app_module
     from studio.app import Studio
     from studio.state import Session
@@ -118,13 +118,16 @@ def test_the_animation_holds_from_a_page_request_until_that_page_connects(monkey
     try:
         now = [100.0]
         monkeypatch.setattr(app_module.time, "monotonic", lambda: now[0])
-        monkeypatch.setattr(studio.server, "get_clients", lambda: {7: FakeClient(7)})
+        monkeypatch.setattr(studio.server, "get_clients", lambda: {7: FakeClient(7), 8: FakeClient(8)})
         monkeypatch.setattr(studio.scene, "draw", lambda k: False)
 
         def moves() -> bool:
             angle = studio.session.snapshot()[1].angle
             studio._tick(0.1)
             return studio.session.snapshot()[1].angle != angle
+
+        def connects(cid: int) -> None:  # viser's connect callback, for a page without a browser
+            studio._on_connect(PageClient(cid))
 
         assert moves()
         studio.page_requested()
@@ -134,13 +137,28 @@ def test_the_animation_holds_from_a_page_request_until_that_page_connects(monkey
         now[0] += 0.2  # that page never connected: the hold ends
         assert moves()
         studio.page_requested()
+        studio.page_requested()  # two pages on their way
         now[0] += 0.5
-        studio._loading[7] = studio._connected = now[0]  # it connects: its own hold takes over ...
-        assert not moves()
-        studio._loading.pop(7)  # ... and ends when it has drawn, whatever the request's hold had left
+        connects(7)  # the first connects: its own hold, and the second request's, go on ...
+        studio._loading.pop(7)  # ... the first has drawn
+        assert not moves()  # the second page has not connected yet
+        connects(8)
+        studio._loading.pop(8)  # the second has drawn: nothing holds
         assert moves()
     finally:
         studio.close()
+
+
+class PageClient(FakeClient):
+    """Enough of a viser ClientHandle for Studio._on_connect: a camera that takes a callback."""
+
+    class Camera:
+        def on_update(self, cb: object) -> None:
+            pass
+
+    def __init__(self, client_id: int) -> None:
+        super().__init__(client_id)
+        self.camera = self.Camera()
 
 
 @pytest.mark.parametrize("preset", [None, "jansen", "rtclm/case1", "watt1/paper"])
