@@ -117,3 +117,66 @@ def test_children_made_from_their_drawn_numbers_are_the_operators_children(d):
         got = ahead.make_children(op, np.arange(n)[::-1].copy(), pp, pi, XA, XB, nums, below, above, lo, hi)
         np.testing.assert_array_equal(got[::-1], np.vstack(want))
         assert np.isfinite(got).sum() >= got.size - n  # only the NaN parent's variable can be NaN
+
+
+def _started(name: str, problem: str, seed: int):
+    """An algorithm after its initial population and one generation, ready for the next."""
+    p = get_problem(problem)
+    alg = make_algorithm(AlgorithmSpec(name, 40), p.n_obj, seed)
+    alg.setup(p, termination=("n_eval", 10**6), seed=seed)
+    alg.next()
+    alg.next()
+    return alg
+
+
+@pytest.mark.parametrize("problem,seed", [("mw3", 1), ("ctp2", 4), ("mw14", 2)])
+@pytest.mark.parametrize("k", [0, 1])
+def test_moead_cmt_draws_each_childs_numbers_in_the_published_loops_order(problem, seed, k):
+    # The published loop (PlatEMO's MOEADCMT.m), one child at a time with the operators drawing from the generator,
+    # against the numbers drawn first and the children made from them: same pools, same children, same draws used.
+    from core.optimize.evolve.moead_cmt import DELTA, RMP
+    from core.optimize.evolve.variation import de_rand_1, ga
+
+    alg = _started("moead_cmt", problem, seed)
+    rng, n, P1, P2 = alg.random_state, len(alg.W), alg.P1, alg.P2
+    state = rng.bit_generator.state
+    pools, offs, pp, pi, nums = alg._draw(k)
+    after = rng.random()
+    op = ahead.DE if k == 0 else ahead.GA_HALF
+    below, above = ahead.powers(nums, alg.problem.n_var) if k else (nums, nums)
+    got = ahead.make_children(op, np.arange(n), pp, pi, P1.X, P2.X, nums, below, above, alg.xl, alg.xu)
+    rng.bit_generator.state = state
+    for i in range(n):
+        pool = rng.permutation(alg.B[i]) if rng.random() < DELTA else rng.permutation(n)
+        np.testing.assert_array_equal(pools[offs[i]:offs[i + 1]], pool)
+        if k == 0:
+            src = P1 if rng.random() < RMP else P2
+            x = de_rand_1(P1.X[i:i + 1], src.X[pool[:1]], src.X[pool[1:2]], alg.xl, alg.xu, rng)
+        else:
+            src = P2 if rng.random() < RMP else P1
+            x = ga(src.X[pool[:1]], src.X[pool[1:2]], alg.xl, alg.xu, rng, half=True)
+        np.testing.assert_array_equal(got[i], x[0])
+    assert rng.random() == after
+
+
+@pytest.mark.parametrize("problem,seed", [("mw3", 1), ("ctp2", 4), ("mw14", 2)])
+def test_cmoemt_task2_draws_each_childs_numbers_in_the_published_loops_order(problem, seed):
+    from core.optimize.evolve.cmoemt import DELTA, ROUNDS
+    from core.optimize.evolve.variation import de_rand_1
+
+    alg = _started("cmoemt", problem, seed)
+    rng, n, P = alg.random_state, alg.n, alg.P2
+    state = rng.bit_generator.state
+    pools, offs, pp, pi, nums = alg._draw()
+    after = rng.random()
+    got = ahead.make_children(ahead.DE, np.arange(len(pi)), pp, pi, P.X, P.X, nums, nums, nums, alg.xl, alg.xu)
+    rng.bit_generator.state = state
+    c = 0
+    for _ in range(ROUNDS):
+        for i in alg._subset():
+            pool = rng.permutation(alg.B[i]) if rng.random() < DELTA else rng.permutation(n)
+            np.testing.assert_array_equal(pools[offs[c]:offs[c + 1]], pool)
+            x = de_rand_1(P.X[i:i + 1], P.X[pool[:1]], P.X[pool[1:2]], alg.xl, alg.xu, rng)
+            np.testing.assert_array_equal(got[c], x[0])
+            c += 1
+    assert c == len(pi) and rng.random() == after

@@ -109,11 +109,8 @@ def test_moead_cmt_compiled_replacements_equal_the_numpy_rules(n, m, seed, s_cv)
     want = cmt_by_numpy(P, W, pool, y, z, cmin, cmax, s_cv)
     got = [a.copy() for a in P]
     dg, dc = cmt_differences(got[1], got[3], W, pool, y[1], y[3], z, cmin, cmax)
-    s = s_cv if s_cv > 0 else 1.0
-    with np.errstate(over="ignore", invalid="ignore"):
-        e = np.exp(np.stack([-dg / 0.3, dg / 0.3, -dc / s, dc / s]))
     stamp = np.zeros(n, dtype=np.int64)
-    replaced = cmt_replace(*got, pool, *y, dg, dc, e, 0.3, s_cv, 2, stamp, 7)
+    replaced = cmt_replace(*got, pool, *y, dg, dc, 0.3, s_cv, 2, stamp, 7)
     for a, b in zip(got, want[:4], strict=True):
         np.testing.assert_array_equal(a, b)
     assert replaced == want[4]

@@ -142,13 +142,16 @@ class CMOEMT(ArrayAlgorithm):
         extra = rng.integers(0, n, max(k - len(fixed), 0))
         return np.concatenate([fixed, extra])[: max(k, 1)]
 
-    def _task2(self) -> tuple[Arrays, int]:
-        rng, n, P, d = self.random_state, self.n, self.P2, self.problem.n_var
+    def _draw(self) -> tuple[I64, I64, I64, I64, F64]:
+        """Task 2's children's numbers, in the published loop's order: per round the subproblems, then per child
+        its pool (neighbourhood or population, permuted) and its DE numbers. Returns the pools (flat, offsets), the
+        parents (population 0 = P2; member: the subproblem's, then the pool's first two) and the numbers."""
+        rng, n, d = self.random_state, self.n, self.problem.n_var
         base: list[int] = []
         pools: list[I64] = []
         nums = np.empty((ROUNDS * max(n // 5, 1), numbers(DE, d)))
         for _ in range(ROUNDS):
-            for i in self._subset():  # each child's pool, then its DE numbers, in the published loop's order
+            for i in self._subset():
                 pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
                 rng.random(out=nums[len(base)])
                 base.append(int(i))
@@ -158,6 +161,12 @@ class CMOEMT(ArrayAlgorithm):
         flat = np.concatenate(pools).astype(np.int64)
         pp = np.zeros((m, 3), dtype=np.int64)
         pi = np.stack([np.array(base, dtype=np.int64), flat[offs[:-1]], flat[offs[:-1] + 1]], 1)
+        return flat, offs, pp, pi, nums[:m]
+
+    def _task2(self) -> tuple[Arrays, int]:
+        n, P = self.n, self.P2
+        flat, offs, pp, pi, nums = self._draw()
+        m = len(pi)
         stamps = np.zeros((1, n), dtype=np.int64)
         replace = self.variant != "author_repo"  # the author's variant selects task 2 with the others below
 

@@ -9,6 +9,8 @@ tells a child made ahead whether its parents are still the ones it was made from
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numpy.typing import NDArray
@@ -101,25 +103,11 @@ def cmt_differences(F: F64, cv: F64, W: F64, pool: I64, yF: F64, ycv: float, z: 
 
 
 @numba.njit(cache=True)
-def cmt_exponents(dg: F64, dc: F64, s_obj: float, s_cv: float) -> F64:  # pragma: no cover - compiled
-    """The ``(4, T)`` arguments ``-dg / s_obj, dg / s_obj, -dc / s_cv, dc / s_cv`` whose ``exp`` (numpy's, taken by
-    the caller in place) :func:`cmt_replace` reads."""
-    T = len(dg)
-    a = np.empty((4, T))
-    for t in range(T):
-        a[0, t] = -dg[t] / s_obj
-        a[1, t] = dg[t] / s_obj
-        a[2, t] = -dc[t] / s_cv
-        a[3, t] = dc[t] / s_cv
-    return a
-
-
-@numba.njit(cache=True)
-def _logistic(x: float, e: float, sigma: float) -> float:  # pragma: no cover - compiled
-    # 1 / (1 + e^(-x / sigma)) with e = e^(-x / sigma) given; 0.5 at x == 0; a step for sigma <= 0
+def _logistic(x: float, sigma: float) -> float:  # pragma: no cover - compiled
+    # 1 / (1 + e^(-x / sigma)); 0.5 at x == 0; a step for sigma <= 0 (NaN stays NaN)
     if sigma <= 0:
         return 1.0 if x > 0 else (0.0 if x < 0 else 0.5)
-    return 0.5 if x == 0 else 1.0 / (1.0 + e)
+    return 0.5 if x == 0 else 1.0 / (1.0 + math.exp(-x / sigma))
 
 
 @numba.njit(cache=True)
@@ -130,18 +118,18 @@ def _floor(c: float) -> float:  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def cmt_replace(X: F64, F: F64, G: F64, cv: F64, pool: I64, yX: F64, yF: F64, yG: F64, ycv: float, dg: F64,
-                dc: F64, e: F64, s_obj: float, s_cv: float, nr: int, stamp: I64,
+                dc: F64, s_obj: float, s_cv: float, nr: int, stamp: I64,
                 tick: int) -> int:  # pragma: no cover - compiled
     """Replace, in place, the first ``nr`` neighbours in ``pool`` the child beats by MOEA/D-CMT's soft rule
-    ``L(dg) max(L(dc), 1e-4) >= L(-dg) max(L(-dc), 1e-4)`` (L the logistic of sharpness s_obj, s_cv); ``e``
-    ``(4, T)`` holds ``exp`` of ``-dg / s_obj, dg / s_obj, -dc / s_cv, dc / s_cv`` (numpy's, so the numbers
-    are numpy's). Returns how many it replaced."""
+    ``L(dg) max(L(dc), 1e-4) >= L(-dg) max(L(-dc), 1e-4)`` (L the logistic of sharpness s_obj, s_cv, with the
+    compiled ``exp``: numpy's may differ in the last bit, which decides only between near-equal sides). Returns
+    how many it replaced."""
     done = 0
     for t in range(len(pool)):
         if done >= nr:
             break
-        a = _logistic(dg[t], e[0, t], s_obj) * _floor(_logistic(dc[t], e[2, t], s_cv))
-        b = _logistic(-dg[t], e[1, t], s_obj) * _floor(_logistic(-dc[t], e[3, t], s_cv))
+        a = _logistic(dg[t], s_obj) * _floor(_logistic(dc[t], s_cv))
+        b = _logistic(-dg[t], s_obj) * _floor(_logistic(-dc[t], s_cv))
         if a >= b:
             p = pool[t]
             _put(X, F, G, cv, p, yX, yF, yG, ycv, stamp, tick)

@@ -11,7 +11,6 @@ floor. The output is the archive. N evaluations per generation, 2N initially.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba
@@ -21,7 +20,7 @@ from numpy.typing import NDArray
 from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, make_children, numbers, powers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
-from core.optimize.evolve.moead import cmt_differences, cmt_exponents, cmt_replace, fmin_into, pbi_replace
+from core.optimize.evolve.moead import cmt_differences, cmt_replace, fmin_into, pbi_replace
 from core.optimize.evolve.weights import das_dennis, neighbours
 
 F64 = NDArray[np.float64]
@@ -43,7 +42,6 @@ def _place(j0: int, j1: int, pools: I64, offs: I64, X1: F64, F1: F64, G1: F64, c
     """Children ``j0 .. j1 - 1`` (rows of Y) update both tasks in order (see :class:`~core.optimize.evolve.ahead.
     Ahead`); returns the first one out of date, or ``j1``. ``z1``, ``z2``, ``cmin`` ``(1,)`` and ``reps`` (the
     replacements of each task) are updated in place."""
-    s = s_cv if s_cv > 0 else 1.0  # a step when s_cv is 0: the exponentials go unused
     for j in range(j0, j1):
         if stale(j, at[j], pp, pi, stamps):
             return j
@@ -60,11 +58,7 @@ def _place(j0: int, j1: int, pools: I64, offs: I64, X1: F64, F1: F64, G1: F64, c
         if ycv > cmax:
             cmax = ycv
         dg, dc = cmt_differences(F1, cv1, W, pool, yF, ycv, z1, cmin[0], cmax)
-        e = cmt_exponents(dg, dc, S_OBJ, s)
-        for r in range(e.shape[0]):
-            for t in range(e.shape[1]):
-                e[r, t] = math.exp(e[r, t])
-        reps[0] += cmt_replace(X1, F1, G1, cv1, pool, yX, yF, yG, ycv, dg, dc, e, S_OBJ, s_cv, NR, stamps[0], j + 1)
+        reps[0] += cmt_replace(X1, F1, G1, cv1, pool, yX, yF, yG, ycv, dg, dc, S_OBJ, s_cv, NR, stamps[0], j + 1)
         # Task 2: a point on the ideal point has an undefined cosine: NaN in PlatEMO's code, so such a child
         # replaces nothing and such a member is never replaced (`degenerate`).
         fmin_into(z2, yF[0])
