@@ -155,7 +155,7 @@ TRACE_RATIOS = {"feasible_ratio": "feasible", "feasible_ratio_P1": "feasible (ma
 
 def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> go.Figure | None:
     """Feasible ratios (and task probabilities) over evaluations, and the epsilon level on a log axis
-    when the algorithm has one; None for an empty trace."""
+    when the algorithm has one (where it is 0 it is not drawn, and a note says so); None for an empty trace."""
     if not trace:
         return None
     x = [row.get("n_eval", i) for i, row in enumerate(trace)]
@@ -163,11 +163,18 @@ def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> 
     for key, name in TRACE_RATIOS.items():
         if any(key in row for row in trace):
             fig.add_scatter(x=x, y=[row.get(key) for row in trace], mode="lines", name=name)
-    if any("eps" in row for row in trace):
-        eps = [max(row["eps"], 1e-12) if "eps" in row else None for row in trace]
+    eps = [row["eps"] if row.get("eps", 0.0) > 0 else None for row in trace]  # a log axis shows no 0
+    if any(v is not None for v in eps):
         fig.add_scatter(x=x, y=eps, mode="lines", name="epsilon", yaxis="y2", line={"dash": "dot"})
-        fig.update_layout(yaxis2={"title": {"text": "epsilon"}, "type": "log", "overlaying": "y", "side": "right"})
-    fig.update_layout(title={"text": title, "font": {"size": 12}}, height=220, margin={"l": 45, "r": 45, "t": 30,
-                      "b": 35}, xaxis={"title": {"text": "evaluations"}}, yaxis={"range": [0, 1.02]},
-                      legend={"orientation": "h", "y": -0.35, "font": {"size": 10}})
+        fig.update_layout(yaxis2={"title": {"text": "epsilon"}, "type": "log", "overlaying": "y", "side": "right",
+                                  "exponentformat": "power", "automargin": True, "showgrid": False})
+    if any("eps" in row for row in trace) and any(v is None for v in eps):
+        fig.add_annotation(text="epsilon 0 where not drawn", xref="paper", yref="paper", x=1.0, y=1.0,
+                           xanchor="right", yanchor="bottom", showarrow=False, font={"size": 10, "color": "#666"})
+    fig.update_layout(title={"text": title, "font": {"size": 12}}, font={"size": 11}, height=250,
+                      margin={"l": 45, "r": 10, "t": 30,
+                      "b": 10}, xaxis={"title": {"text": "evaluations", "standoff": 4}, "automargin": True},
+                      yaxis={"range": [0, 1.02], "title": {"text": "ratio"}, "automargin": True},
+                      # Below the axis title, outside the plot, as the Pareto chart's (items wrap on a narrow panel).
+                      legend={"orientation": "h", "yanchor": "top", "y": -0.3, "x": 0.0, "font": {"size": 10}})
     return fig

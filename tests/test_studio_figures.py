@@ -237,8 +237,20 @@ def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
     names = [d.name for d in fig.data]
     assert names == ["feasible (main)", "feasible (auxiliary)", "epsilon"]
     assert fig.layout.yaxis2.type == "log" and list(fig.data[0].x) == [40.0, 80.0]
+    assert not fig.layout.annotations  # epsilon is positive throughout: all of it is drawn
     nsga = make_trace_figure([{"gen": 1.0, "n_eval": 20.0, "feasible_ratio": 0.5}])
     assert [d.name for d in nsga.data] == ["feasible"] and "yaxis2" not in nsga.layout.to_plotly_json()
+    # CMOEMT before it pulls: epsilon 0, which a log axis cannot show; it is left out where 0 and a note says so.
+    push = [{"gen": 1.0, "n_eval": 40.0, "eps": 0.0, "feasible_ratio_P1": 0.0},
+            {"gen": 2.0, "n_eval": 80.0, "eps": 0.0, "feasible_ratio_P1": 0.2}]
+    fig = make_trace_figure(push, "cmoemt trace")
+    assert [d.name for d in fig.data] == ["feasible (main)"] and "yaxis2" not in fig.layout.to_plotly_json()
+    assert [a.text for a in fig.layout.annotations] == ["epsilon 0 where not drawn"]
+    pull = make_trace_figure(push + [{"gen": 3.0, "n_eval": 120.0, "eps": 0.3, "feasible_ratio_P1": 0.5}])
+    assert list(pull.data[-1].y) == [None, None, 0.3] and pull.layout.annotations
+    # Legend and axis titles do not meet: the legend hangs below the plot, the axes make room for their titles.
+    assert pull.layout.legend.yanchor == "top" and pull.layout.legend.y < 0
+    assert pull.layout.xaxis.automargin and pull.layout.yaxis2.automargin
 
 
 def test_the_grid_is_round_millimetres_covering_every_view():

@@ -105,7 +105,8 @@ class ParetoPanel:
         # algorithm's own log (feasible ratios, epsilon, task odds over evaluations) after it. viser 1.1.1
         # draws a chart ``width * aspect`` tall.
         self.plot = LazyPlotly(studio.server, self.folder, (self.view.order + self.open_large.order) / 2, 0.95, CONFIG)
-        self.trace = LazyPlotly(studio.server, self.folder, self.open_large.order + 0.5, 0.5, CONFIG)
+        # 0.8: room for the plot, its axis titles and a legend of up to five lines (figures.make_trace_figure)
+        self.trace = LazyPlotly(studio.server, self.folder, self.open_large.order + 0.5, 0.8, CONFIG)
         self.view.on_update(lambda _: self._redraw())
         self.open_large.on_click(lambda e: self._open_large(e.client))
         studio.server.on_client_disconnect(self._forget)
