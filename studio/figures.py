@@ -29,6 +29,62 @@ def _axis_range(values: F64, focus: F64) -> list[float] | None:
     return [lo - pad, hi + pad]
 
 
+# Label placement on a 2-D chart (px of the side panel's plot area, where space is scarcest; the large chart has
+# more room): the positions tried in order, a label's size, and the marker it sits beside.
+PLOT_PX = (240.0, 190.0)
+CHAR_PX, LINE_PX, MARKER_PX = 6.5, 13.0, 7.0
+POSITIONS = ("top center", "bottom center", "middle right", "middle left", "top right", "top left", "bottom right",
+             "bottom left")
+
+
+def _label_box(x: float, y: float, text: str, position: str) -> tuple[float, float, float, float]:
+    """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker at (x, y), as plotly's ``textposition`` puts it."""
+    w, h, r = CHAR_PX * len(text) + 2.0, LINE_PX, MARKER_PX
+    vert, horiz = position.split(" ")
+    cx = x if horiz == "center" else (x + r + w / 2 if horiz == "right" else x - r - w / 2)
+    cy = y if vert == "middle" else (y + r + h / 2 if vert == "top" else y - r - h / 2)
+    if vert != "middle" and horiz != "center":  # a corner: diagonal from the marker, closer in
+        sx, sy = (1 if horiz == "right" else -1), (1 if vert == "top" else -1)
+        cx, cy = x + sx * (w / 2 + r / 2), y + sy * (h / 2 + r / 2)
+    return cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2
+
+
+def _overlaps(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[float]]) -> list[str | None]:
+    """A ``textposition`` for each labelled point ``(n, 2)`` (in priority order), or None where every position
+    would cover a label placed before it (hover still names it). A position is first sought inside the plot area and
+    clear of the labelled markers too, then clear of labels only."""
+    (x0, x1), (y0, y1) = ranges
+    px = np.column_stack([(xy[:, 0] - x0) / max(x1 - x0, 1e-300) * PLOT_PX[0],
+                          (xy[:, 1] - y0) / max(y1 - y0, 1e-300) * PLOT_PX[1]])
+    r = MARKER_PX
+    markers = [(x - r, y - r, x + r, y + r) for x, y in px if np.isfinite(x) and np.isfinite(y)]
+    labels: list[tuple[float, float, float, float]] = []
+    out: list[str | None] = []
+    for (x, y), text in zip(px, texts, strict=True):
+        chosen = None
+        if np.isfinite(x) and np.isfinite(y):
+            own = (x - r, y - r, x + r, y + r)
+            for strict in (True, False):
+                for pos in POSITIONS:
+                    box = _label_box(x, y, text, pos)
+                    if any(_overlaps(box, b) for b in labels):
+                        continue
+                    inside = box[0] >= 0 and box[1] >= 0 and box[2] <= PLOT_PX[0] and box[3] <= PLOT_PX[1]
+                    if strict and (not inside or any(_overlaps(box, m) for m in markers if m != own)):
+                        continue
+                    chosen = pos
+                    labels.append(box)
+                    break
+                if chosen:
+                    break
+        out.append(chosen)
+    return out
+
+
 def objective_label(name: str, labels: Mapping[str, str]) -> str:
     """Axis title of an objective: its problem label with unit (``f1 = MSE (mm)``), else its name."""
     return labels.get(name, name)
@@ -89,15 +145,26 @@ def make_pareto_figure(
     three = coords.shape[1] == 3
     fig = go.Figure()
 
+    ranges = None if three else tuple(_axis_range(coords[:, k], coords[feasible, k]) for k in (0, 1))
+    placed: dict[int, str | None] = {}  # member -> its label's position on a 2-D chart (None: hover only)
+
     def add(name: str, idx: NDArray[np.intp] | list[int], marker: dict[str, object], text: list[str] | None = None,
             show_in_legend: bool = True) -> None:
         idx = np.asarray(idx, dtype=np.intp)
-        idx = idx[np.asarray(drawable)[idx]] if len(idx) else idx
+        keep: NDArray[np.bool_] = np.asarray(drawable)[idx] if len(idx) else np.zeros(0, dtype=bool)
+        idx = idx[keep] if len(idx) else idx
         hover = [f"member #{i}" + ("" if feasible[i] else f", violation {cv[i]:.3g}") for i in idx]
         common: dict[str, object] = {"name": name, "customdata": idx.tolist(), "hovertext": hover,
                                      "showlegend": show_in_legend, "marker": marker}
         if text is not None:
-            common.update(text=text, mode="markers+text", textposition="top center")
+            text = [t for t, k in zip(text, keep, strict=True) if k]
+            common["hovertext"] = [f"{t}: {h}" for t, h in zip(text, hover, strict=True)]
+            if three:
+                common.update(text=text, mode="markers+text", textposition="top center")
+            else:  # labels that would cover another are left to the hover
+                where = [placed.get(int(i)) for i in idx]
+                common.update(text=[t if w else "" for t, w in zip(text, where, strict=True)], mode="markers+text",
+                              textposition=[w or "top center" for w in where])
         else:
             common["mode"] = "markers"
         pts = coords[idx]
@@ -107,6 +174,14 @@ def make_pareto_figure(
             fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], cliponaxis=False, **common))
 
     size = 4 if three else 7
+    extra = [b for b in dict.fromkeys(best) if b not in knees]
+    names = [f"best {objectives[best.index(b)]}" for b in extra]
+    labelled = [int(i) for i in (*knees, *extra)]
+    if not three and ranges is not None and all(r is not None for r in ranges) and labelled:
+        ok = [i for i in labelled if bool(np.asarray(drawable)[i])]
+        texts = dict(zip(labelled, [f"K{j + 1}" for j in range(len(knees))] + names, strict=True))
+        where = place_labels(coords[ok], [texts[i] for i in ok], ranges)  # type: ignore[arg-type]
+        placed.update(zip(ok, where, strict=True))
     add("infeasible", np.flatnonzero(drawable & ~feasible),
         {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"})
     add("dominated", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.8), "size": size})
@@ -116,9 +191,7 @@ def make_pareto_figure(
         add("knee candidates", list(knees), {"color": palette.css(palette.KNEE), "size": size + 5,
                                              "symbol": "diamond", "line": {"color": "black", "width": 1}},
             text=[f"K{j + 1}" for j in range(len(knees))])
-    extra = [b for b in dict.fromkeys(best) if b not in knees]
     if extra:
-        names = [f"best {objectives[best.index(b)]}" for b in extra]
         add("best per objective", extra, {"color": palette.css(palette.BEST), "size": size + 4, "symbol": "square",
                                           "line": {"color": "black", "width": 1}}, text=names)
     if passed is not None and passed != shown and 0 <= passed < len(F):
@@ -140,8 +213,9 @@ def make_pareto_figure(
         fig.update_layout(scene={"xaxis": {"title": {"text": titles[0]}}, "yaxis": {"title": {"text": titles[1]}},
                                  "zaxis": {"title": {"text": titles[2]}}}, margin={"l": 0, "r": 0, "b": 0})
     else:
+        assert ranges is not None
         for axis, k in (("xaxis", 0), ("yaxis", 1)):
-            rng = _axis_range(coords[:, k], coords[feasible, k])
+            rng = ranges[k]
             fig.update_layout({axis: {"title": {"text": titles[k], "standoff": 4}, "showgrid": True,
                                       "gridcolor": "#e5e5e5", "zeroline": False, "nticks": 7, "automargin": True,
                                       **({"range": rng} if rng else {})}})

@@ -189,3 +189,39 @@ def test_three_objectives_project_onto_any_two():
     assert side.layout.yaxis.title.text == "c"
     i = t["knee candidates"].customdata[0]
     assert (t["knee candidates"].x[0], t["knee candidates"].y[0]) == (F[i, 0], F[i, 2])
+
+
+def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_always_has_one() -> None:
+    # A front crowded into a corner of the chart by far dominated members (seen with MOEA/D-CMT's predesign): every
+    # label "top center" printed K1..K5 and "best ..." over each other. Now each takes the first position clear of
+    # the labels before it (K1 first); one that finds none is left to the hover, which names every candidate.
+    from studio.figures import _label_box, _overlaps, place_labels
+
+    rng = np.random.default_rng(3)
+    front = np.column_stack([0.012 + 0.004 * np.linspace(0, 1, 8), 6.0 - 2.0 * np.linspace(0, 1, 8) ** 0.5])
+    far = np.column_stack([rng.uniform(0.02, 0.065, 60), rng.uniform(4.0, 35.0, 60)])
+    F = np.vstack([front, far])
+    cv = np.zeros(len(F))
+    knees, best = (3, 4, 2, 5, 1), (0, 7)
+    fig = make_pareto_figure(F, cv, objectives=("fd", "f1"), front=tuple(range(8)), knees=knees, best=best)
+    t = traces(fig)
+    ranges = (list(fig.layout.xaxis.range), list(fig.layout.yaxis.range))
+    shown = []
+    for name in ("knee candidates", "best per objective"):
+        tr = t[name]
+        assert [h.split(":")[0] for h in tr.hovertext] == ([f"K{j + 1}" for j in range(5)] if name.startswith("knee")
+                                                          else ["best fd", "best f1"])
+        for x, y, text, pos in zip(tr.x, tr.y, tr.text, tr.textposition, strict=True):
+            if text:
+                px = ((x - ranges[0][0]) / np.ptp(ranges[0]) * 240.0, (y - ranges[1][0]) / np.ptp(ranges[1]) * 190.0)
+                shown.append((text, _label_box(*px, text, pos)))
+    assert t["knee candidates"].text[0] == "K1"
+    assert len(shown) >= 3
+    for a in range(len(shown)):
+        for b in range(a + 1, len(shown)):
+            assert not _overlaps(shown[a][1], shown[b][1]), (shown[a][0], shown[b][0])
+    # Spread out, every label fits above its marker, as before.
+    spread = np.column_stack([np.linspace(0, 1, 5), np.linspace(1, 0, 5)])
+    assert place_labels(spread, ["K1", "K2", "K3", "K4", "K5"], ([-0.2, 1.2], [-0.2, 1.2])) == ["top center"] * 5
+    # A label that would leave the plot area (over the title or the ticks) goes to the other side.
+    assert place_labels(spread[:1], ["K1"], ([-0.1, 1.1], [-0.1, 1.1])) == ["bottom center"]
