@@ -145,11 +145,20 @@ def make_pareto_figure(
     three = coords.shape[1] == 3
     fig = go.Figure()
 
-    ranges = None if three else tuple(_axis_range(coords[:, k], coords[feasible, k]) for k in (0, 1))
+    # The view frames the front and the candidates (the rest within one span of them is shown too; what lies
+    # further is off the view until the user zooms out): a front crowded into a corner by far dominated members
+    # reads at a glance. With fewer than two such members it frames the feasible ones.
+    focus = on_front.copy()
+    marked = [i for i in (*knees, *best, shown, passed) if i is not None and 0 <= i < len(F)]
+    focus[np.asarray(marked, dtype=np.intp)] = True
+    focus &= drawable
+    if focus.sum() < 2:
+        focus = feasible
+    ranges = None if three else tuple(_axis_range(coords[:, k], coords[focus, k]) for k in (0, 1))
     placed: dict[int, str | None] = {}  # member -> its label's position on a 2-D chart (None: hover only)
 
     def add(name: str, idx: NDArray[np.intp] | list[int], marker: dict[str, object], text: list[str] | None = None,
-            show_in_legend: bool = True) -> None:
+            show_in_legend: bool = True, clip: bool = False) -> None:
         idx = np.asarray(idx, dtype=np.intp)
         keep: NDArray[np.bool_] = np.asarray(drawable)[idx] if len(idx) else np.zeros(0, dtype=bool)
         idx = idx[keep] if len(idx) else idx
@@ -170,8 +179,8 @@ def make_pareto_figure(
         pts = coords[idx]
         if three:
             fig.add_trace(go.Scatter3d(x=pts[:, 0], y=pts[:, 1], z=pts[:, 2], **common))
-        else:  # markers and labels at the edge are drawn whole, not cut by the plot area
-            fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], cliponaxis=False, **common))
+        else:  # markers and labels at the edge are drawn whole, not cut by the plot area (the rest off the view: cut)
+            fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], cliponaxis=clip, **common))
 
     size = 4 if three else 7
     extra = [b for b in dict.fromkeys(best) if b not in knees]
@@ -183,8 +192,9 @@ def make_pareto_figure(
         where = place_labels(coords[ok], [texts[i] for i in ok], ranges)  # type: ignore[arg-type]
         placed.update(zip(ok, where, strict=True))
     add("infeasible", np.flatnonzero(drawable & ~feasible),
-        {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"})
-    add("dominated", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.8), "size": size})
+        {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"}, clip=True)
+    add("dominated", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.8), "size": size},
+        clip=True)
     add("Pareto front", np.flatnonzero(on_front), {"color": palette.css(palette.PATH), "size": size + 2,
                                                    "line": {"color": "white", "width": 0.5}})
     if knees:

@@ -225,3 +225,26 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
     assert place_labels(spread, ["K1", "K2", "K3", "K4", "K5"], ([-0.2, 1.2], [-0.2, 1.2])) == ["top center"] * 5
     # A label that would leave the plot area (over the title or the ticks) goes to the other side.
     assert place_labels(spread[:1], ["K1"], ([-0.1, 1.1], [-0.1, 1.1])) == ["bottom center"]
+
+
+def test_a_front_crowded_by_far_dominated_members_fills_the_view() -> None:
+    # The view frames the front and the candidates, with the rest within one span of them; members further off
+    # are cut at the plot's edge (plotly shows them on zooming out), while the front and the candidates are drawn
+    # whole even on the edge.
+    rng = np.random.default_rng(5)
+    front = np.column_stack([0.012 + 0.004 * np.linspace(0, 1, 8), 6.0 - 2.0 * np.linspace(0, 1, 8) ** 0.5])
+    far = np.column_stack([rng.uniform(0.02, 0.065, 60), rng.uniform(4.0, 35.0, 60)])
+    F = np.vstack([front, far])
+    fig = make_pareto_figure(F, np.zeros(len(F)), objectives=("fd", "f1"), front=tuple(range(8)), knees=(3, 4),
+                             best=(0, 7), shown=3)
+    (x0, x1), (y0, y1) = fig.layout.xaxis.range, fig.layout.yaxis.range
+    assert x0 < front[:, 0].min() and x1 > front[:, 0].max() and y0 < front[:, 1].min() and y1 > front[:, 1].max()
+    span = np.ptp(front, axis=0)
+    assert x1 <= front[:, 0].max() + 1.2 * span[0] and y1 <= front[:, 1].max() + 1.2 * span[1]
+    assert (far[:, 1] > y1).sum() > 40  # most of the far members are off the view ...
+    t = traces(fig)
+    assert t["dominated"].cliponaxis and t["infeasible"].cliponaxis is not False  # ... and cut there
+    assert not any(t[n].cliponaxis for n in ("Pareto front", "knee candidates", "best per objective", "picked"))
+    # Too few such members: the feasible ones are framed, as they were.
+    one = make_pareto_figure(F, np.zeros(len(F)), objectives=("fd", "f1"), front=(0,))
+    assert one.layout.yaxis.range[1] > far[:, 1].max()
