@@ -387,3 +387,11 @@ def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
         np.testing.assert_array_equal(studio.session.view.design.params[0], r.X[member])
     finally:
         studio.close()
+
+
+def test_a_short_run_reads_in_hundredths_of_a_second_not_as_zero() -> None:
+    # A 60 x 25 subtask 2 takes ~0.05 s; the status said "complete (0.0 s)", which reads as if nothing ran.
+    from studio.panels.stages import seconds
+
+    assert [seconds(t) for t in (0.0, 0.004, 0.046, 0.999, 1.0, 12.34)] == \
+        ["< 0.01 s", "< 0.01 s", "0.05 s", "1.00 s", "1.0 s", "12.3 s"]
