@@ -51,7 +51,7 @@ class PickPanel:
         with self.folder:
             self.candidate = gui.add_dropdown("Candidate", (NONE,), disabled=True,
                                               hint="knee candidates (K1 best), best per objective, then the front")
-            self.slider = gui.add_slider("Front member", 1, 2, 1, 1, disabled=True,
+            self.slider = gui.add_slider("Front member", 1, 2, 1, 1, disabled=True, visible=False,
                                          hint="the front sorted by its first objective")
             self.use = gui.add_button("Use for next stage", icon=viser.Icon.ARROW_RIGHT, disabled=True,
                                       hint="pass this candidate on: the next stage searches around it")
@@ -72,6 +72,7 @@ class PickPanel:
             self._cands, self._front = (), ()
             self.candidate.options = (NONE,)
             self.candidate.disabled = self.slider.disabled = self.use.disabled = True
+            self.slider.visible = False  # no front to slide over yet (it spanned 1-2)
             self.table.content = ""
             return
         self._cands = candidates(r)

@@ -145,6 +145,8 @@ def test_a_malformed_csv_is_refused_naming_the_file_and_the_target_is_unchanged(
 
 def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_truth(
         page: Any, studio: Any, tmp_path: Path) -> None:
+    # Before any run there is no front to slide over: no slider (it used to span 1-2, disabled).
+    expect(page.locator("label", has_text="Front member")).to_have_count(0)
     r = run_stage(page, studio, SUBTASK2, "subtask2", pop=12, gens=3)
     title = "subtask2 · complete"
     # No "passed on" ring before anything is passed on: not on the automatic pick when another one is looked at.
