@@ -85,6 +85,16 @@ def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[
     return out
 
 
+def short_label(label: str) -> str:
+    """``f3 (mm^2)`` of ``f3 = (y_min + H)^2 (mm^2)``: the name and unit, for a 3-D chart's axes in a side panel
+    (its long titles printed over each other); a label without `` = `` as it is."""
+    name, sep, rest = label.partition(" = ")
+    if not sep:
+        return label
+    unit = rest[rest.rfind(" ("):] if rest.endswith(")") and " (" in rest else ""
+    return name + unit
+
+
 def objective_label(name: str, labels: Mapping[str, str]) -> str:
     """Axis title of an objective: its problem label with unit (``f1 = MSE (mm)``), else its name."""
     return labels.get(name, name)
@@ -220,8 +230,9 @@ def make_pareto_figure(
         showlegend=True,
     )
     if three:
-        fig.update_layout(scene={"xaxis": {"title": {"text": titles[0]}}, "yaxis": {"title": {"text": titles[1]}},
-                                 "zaxis": {"title": {"text": titles[2]}}}, margin={"l": 0, "r": 0, "b": 0})
+        short = [short_label(t) for t in titles]  # the full ones: in the panel's caption and the hover
+        fig.update_layout(scene={"xaxis": {"title": {"text": short[0]}}, "yaxis": {"title": {"text": short[1]}},
+                                 "zaxis": {"title": {"text": short[2]}}}, margin={"l": 0, "r": 0, "b": 0})
     else:
         assert ranges is not None
         for axis, k in (("xaxis", 0), ("yaxis", 1)):

@@ -67,6 +67,12 @@ def test_three_objectives_give_a_3d_chart_and_one_objective_plots_against_the_vi
                              front=tuple(range(12)))
     assert {type(t).__name__ for t in fig.data} == {"Scatter3d"}
     assert fig.layout.scene.zaxis.title.text == "c (mm/s)"
+    # In the side panel a 3-D chart's long axis titles printed over each other: its axes carry the name and unit
+    # (the panel's caption spells each objective out).
+    long = {"a": "a = MSE (mm)", "b": "b = width penalty (mm^2)", "c": "c = (y_min + H)^2 (mm^2)"}
+    fig = make_pareto_figure(F3, np.zeros(12), objectives=("a", "b", "c"), labels=long, front=tuple(range(12)))
+    s = fig.layout.scene
+    assert (s.xaxis.title.text, s.yaxis.title.text, s.zaxis.title.text) == ("a (mm)", "b (mm^2)", "c (mm^2)")
     F1 = rng.uniform(size=(10, 1))
     cv = np.where(np.arange(10) < 3, 1.5, 0.0)
     fig = make_pareto_figure(F1, cv, objectives=("dh6",), labels={"dh6": "|h6 - h6_t| (mm)"}, front=(3,))

@@ -15,7 +15,7 @@ import plotly.graph_objects as go
 import viser
 
 from studio.charts import target_text
-from studio.figures import make_pareto_figure, make_trace_figure
+from studio.figures import make_pareto_figure, make_trace_figure, objective_label
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import status_text
 from studio.study_view import StudyView
@@ -162,6 +162,10 @@ class ParetoPanel:
         self.trace.visible = tfig is not None
         what = ("objective against violation" if n == 1 else "2-D" if n == 2 else
                 ("3-D" if self.axes() is None else str(self.view.value)) if n >= 3 else "")
+        if n >= 3 and self.axes() is None and r is not None:  # the 3-D axes carry short titles: say what they are
+            spec = sv.specs.get(sv.viewing) if sv.viewing is not None else None
+            labels = dict(spec.problem.labels) if spec is not None else {}
+            what += ": " + " · ".join(objective_label(o, labels) for o in r.objectives[:3])
         self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
 
     def charts(self) -> tuple[LazyPlotly, ...]:

@@ -47,3 +47,6 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     assert got.suggested_filename == "pareto-subtask1.png"
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", data[16:24]) == (1000, 800)
     choose(page, "View", "3-D (all three)")
+    # The 3-D axes carry short titles (their long ones printed over each other in the panel); the caption says
+    # what each objective is.
+    expect(page.get_by_text(f"3-D: {a} = MSE (mm) · ")).to_be_visible()
