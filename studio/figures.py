@@ -165,6 +165,11 @@ def make_pareto_figure(
     if focus.sum() < 2:
         focus = feasible
     ranges = None if three else tuple(_axis_range(coords[:, k], coords[focus, k]) for k in (0, 1))
+    if n_obj == 1 and ranges is not None:  # the violation axis: from 0 (feasible) up to the largest drawn
+        v = coords[drawable, 1]
+        v = v[np.isfinite(v)]
+        top = float(v.max()) * 1.06 if len(v) and v.max() > 1e-9 else 1.0
+        ranges = (ranges[0], [-0.06 * top, top])
     placed: dict[int, str | None] = {}  # member -> its label's position on a 2-D chart (None: hover only)
 
     def add(name: str, idx: NDArray[np.intp] | list[int], marker: dict[str, object], text: list[str] | None = None,

@@ -79,6 +79,11 @@ def test_three_objectives_give_a_3d_chart_and_one_objective_plots_against_the_vi
     t = traces(fig)
     assert list(t["infeasible"].y) == [1.5, 1.5, 1.5]
     assert fig.layout.yaxis.title.text == "violation (0 = feasible)"
+    lo, hi = fig.layout.yaxis.range
+    assert -0.1 < lo < 0 < 1.5 <= hi  # from 0 up: the feasible members on the floor, the violations above
+    done = make_pareto_figure(F1, np.zeros(10), objectives=("dh6",), front=(3,), knees=(3,))
+    lo, hi = done.layout.yaxis.range  # every member feasible: no negative violations on the axis
+    assert -0.1 < lo < 0 < hi and abs(lo) < 0.1 * hi
 
 
 def test_the_passed_on_member_is_marked_when_another_is_picked() -> None:
