@@ -199,11 +199,12 @@ def make_pareto_figure(
 
     size = 4 if three else 7
     extra = [b for b in dict.fromkeys(best) if b not in knees]
+    knee_names = [f"K{j + 1}" for j in range(len(knees))]
     names = [f"best {objectives[best.index(b)]}" for b in extra]
     labelled = [int(i) for i in (*knees, *extra)]
     if not three and ranges is not None and all(r is not None for r in ranges) and labelled:
         ok = [i for i in labelled if bool(np.asarray(drawable)[i])]
-        texts = dict(zip(labelled, [f"K{j + 1}" for j in range(len(knees))] + names, strict=True))
+        texts = dict(zip(labelled, knee_names + names, strict=True))
         where = place_labels(coords[ok], [texts[i] for i in ok], ranges)  # type: ignore[arg-type]
         placed.update(zip(ok, where, strict=True))
     add("infeasible", np.flatnonzero(drawable & ~feasible),
@@ -215,7 +216,7 @@ def make_pareto_figure(
     if knees:
         add("knee candidates", list(knees), {"color": palette.css(palette.KNEE), "size": size + 5,
                                              "symbol": "diamond", "line": {"color": "black", "width": 1}},
-            text=[f"K{j + 1}" for j in range(len(knees))])
+            text=knee_names)
     if extra:
         add("best per objective", extra, {"color": palette.css(palette.BEST), "size": size + 4, "symbol": "square",
                                           "line": {"color": "black", "width": 1}}, text=names)

@@ -90,11 +90,19 @@ def make_children(op: int, ks: I64, pp: I64, pi: I64, XA: F64, XB: F64, nums: F6
         x0, x1 = _parent(XA, XB, pp, pi, c, 0), _parent(XA, XB, pp, pi, c, 1)
         v = nums[c]
         if op == DE:
-            de_row(x0, x1, _parent(XA, XB, pp, pi, c, 2), v[:d], v[d:2 * d], v[2 * d:3 * d], lo, hi, C[r])
+            de_row(x0, x1, _parent(XA, XB, pp, pi, c, 2), v[:d], v[d:2 * d], v[2 * d:3 * d], lo, hi, C[r], 0.5, 1.0,
+                   1.0 / d, 20.0)
         else:
             ga_half_row(x0, x1, v[:d], below[c], above[c], v[d:2 * d], v[2 * d:3 * d], v[3 * d],
                         v[3 * d + 1:4 * d + 1], v[4 * d + 1:5 * d + 1], lo, hi, C[r])
     return C
+
+
+def flat_pools(pools: list[I64]) -> tuple[I64, I64]:
+    """The children's pools as one array and offsets: child j's pool is ``flat[offs[j]:offs[j + 1]]``."""
+    offs = np.zeros(len(pools) + 1, dtype=np.int64)
+    offs[1:] = np.cumsum([len(q) for q in pools])
+    return np.concatenate(pools).astype(np.int64), offs
 
 
 def numbers(op: int, d: int) -> int:

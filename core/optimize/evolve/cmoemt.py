@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.ahead import DE, Ahead, make_children, numbers, stale
+from core.optimize.evolve.ahead import DE, Ahead, flat_pools, make_children, numbers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
@@ -156,9 +156,7 @@ class CMOEMT(ArrayAlgorithm):
                 rng.random(out=nums[len(base)])
                 base.append(int(i))
         m = len(base)
-        offs = np.zeros(m + 1, dtype=np.int64)
-        offs[1:] = np.cumsum([len(q) for q in pools])
-        flat = np.concatenate(pools).astype(np.int64)
+        flat, offs = flat_pools(pools)
         pp = np.zeros((m, 3), dtype=np.int64)
         pi = np.stack([np.array(base, dtype=np.int64), flat[offs[:-1]], flat[offs[:-1] + 1]], 1)
         return flat, offs, pp, pi, nums[:m]

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, make_children, numbers, powers, stale
+from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, flat_pools, make_children, numbers, powers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import cmt_differences, cmt_replace, fmin_into, pbi_replace
 from core.optimize.evolve.weights import das_dennis, neighbours
@@ -112,9 +112,7 @@ class MOEADCMT(ArrayAlgorithm):
         for i in range(n):
             pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
             rng.random(out=nums[i])
-        offs = np.zeros(n + 1, dtype=np.int64)
-        offs[1:] = np.cumsum([len(q) for q in pools])
-        flat = np.concatenate(pools).astype(np.int64)
+        flat, offs = flat_pools(pools)
         a, b = flat[offs[:-1]], flat[offs[:-1] + 1]
         near = nums[:, 0] < RMP  # the mate's source: the child's own task's population
         src = np.where(near, 0, 1) if k == 0 else np.where(near, 1, 0)

@@ -218,28 +218,23 @@ def de_rand_1(X1: F64, X2: F64, X3: F64, xl: F64, xu: F64, rng: np.random.Genera
 
 
 @numba.njit(cache=True)
-def de_row(x1: F64, x2: F64, x3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F64, out: F64, F: float = 0.5,
-           CR: float = 1.0, eta_m: float = 20.0) -> None:  # pragma: no cover - compiled
-    """One DE/rand/1 child into ``out`` ``(d,)`` from its numbers (``r`` for CR, ``site`` and ``u`` for the
-    mutation at 1/d): :func:`de_rand_1` with scalar ``F`` and ``CR`` on one row, the same numbers."""
-    d = len(x1)
-    for j in range(d):
+def de_row(x1: F64, x2: F64, x3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F64, out: F64, F: float, CR: float,
+           pm: float, eta_m: float) -> None:  # pragma: no cover - compiled
+    """One DE/rand/1 child into ``out`` ``(d,)`` from its numbers: ``x1 + F (x2 - x3)`` where ``r < CR``, clipped (NaN
+    passes through, as in np.clip), then polynomial mutation (``site`` against ``pm``, ``u``): :func:`de_rand_1`
+    with scalar ``F`` and ``CR`` on one row, the same numbers."""
+    for j in range(len(x1)):
         c = x1[j] + F * (x2[j] - x3[j]) if r[j] < CR else x1[j]
         out[j] = _clip(c, lo[j], hi[j])
-    _pm_row(out, lo, hi, site, u, 1.0 / d, eta_m)
+    _pm_row(out, lo, hi, site, u, pm, eta_m)
 
 
 @numba.njit(cache=True)
 def _de_pm(X1: F64, X2: F64, X3: F64, r: F64, site: F64, u: F64, lo: F64, hi: F64, F: float, CR: float, pm: float,
            eta: float) -> F64:  # pragma: no cover - compiled
-    # x1 + F (x2 - x3) where r < CR, clipped (np.clip's NaN passes through), then _pm's mutation
-    n, d = X1.shape
-    C = np.empty((n, d))
-    for i in range(n):
-        for j in range(d):
-            c = X1[i, j] + F * (X2[i, j] - X3[i, j]) if r[i, j] < CR else X1[i, j]
-            C[i, j] = _clip(c, lo[j], hi[j])
-        _pm_row(C[i], lo, hi, site[i], u[i], pm, eta)
+    C = np.empty(X1.shape)
+    for i in range(X1.shape[0]):
+        de_row(X1[i], X2[i], X3[i], r[i], site[i], u[i], lo, hi, C[i], F, CR, pm, eta)
     return C
 
 
