@@ -172,11 +172,11 @@ def test_spea2_select_fills_with_the_best_dominated_when_too_few_are_non_dominat
     assert order.tolist() == [0, 1] and mask.tolist() == [True, True, False, False]
 
 
-def select_by_definition(F, n, cv=None, fit_F=None):
+def select_by_definition(F, n, cv=None, fit_F=None, fill=True):
     """SPEA2's environmental selection as written: every member's fitness, then fill or truncate."""
-    fit = spea2.fitness(F if fit_F is None else fit_F, cv)
+    fit = spea2.fitness(F if fit_F is None else fit_F, cv)  # itself checked against the definition above
     marked = fit < 1.0
-    if marked.sum() < n:
+    if marked.sum() < n and fill:
         mask = np.isin(np.arange(len(F)), np.argsort(fit, kind="stable")[:n])
     elif marked.sum() > n:
         idx = np.flatnonzero(marked)
@@ -199,10 +199,28 @@ def test_spea2_select_equals_its_definition(size, m, seed, kind):
         F[rng.random(size) < 0.2] = np.inf
     cv = np.where(rng.random(size) < 0.4, rng.random(size), 0.0) if kind == "cv" else None
     fit_F = np.hstack([F, rng.random((size, 1))]) if kind == "fit_F" else None
+    if seed % 7 == 0:  # exact copies, computed once
+        F[size // 2 :] = F[: size - size // 2]
     for n in sorted({1, max(1, size // 3), max(1, size // 2), size, size + 2}):
-        got, want = spea2.select(F, n, cv, fit_F), select_by_definition(F, n, cv, fit_F)
-        assert got[0].tolist() == want[0].tolist() and got[2].tolist() == want[2].tolist()
-        assert got[1].tolist() == want[1].tolist()
+        for fill in (True, False):  # without fill: the non-dominated members only (CMOES's EvenSearch)
+            got, want = spea2.select(F, n, cv, fit_F, fill=fill), select_by_definition(F, n, cv, fit_F, fill)
+            assert got[0].tolist() == want[0].tolist() and got[2].tolist() == want[2].tolist()
+            assert got[1].tolist() == want[1].tolist()
+
+
+def test_spea2_cuts_are_reused_for_the_same_members_only():
+    # CMOES cuts P1's and P2's non-dominated members with one dict: the same rows and keep give the first
+    # result (a copy: the caller may change it), anything else is cut anew
+    rng = np.random.default_rng(4)
+    F = rng.normal(size=(40, 2))
+    cuts: spea2.Cuts = {}
+    first = spea2.truncate(F, 10, cuts)
+    assert len(cuts) == 1 and first.tolist() == truncate_by_definition(F, 10).tolist()
+    first[:] = False
+    assert spea2.truncate(F.copy(), 10, cuts).tolist() == truncate_by_definition(F, 10).tolist()
+    assert spea2.truncate(F, 12, cuts).tolist() == truncate_by_definition(F, 12).tolist()
+    assert spea2.truncate(F[::-1], 10, cuts).tolist() == truncate_by_definition(F[::-1], 10).tolist()
+    assert len(cuts) == 3
 
 
 def test_tournament_lower_key_wins_and_ties_go_to_the_first_drawn():

@@ -55,19 +55,17 @@ def _in_region(F: F64, R: F64) -> NDArray[np.bool_]:  # pragma: no cover - compi
     return out
 
 
-def even_search(pool: Arrays, R: F64, n: int, tau: float, max_cv: float) -> tuple[Arrays, F64, Arrays, F64, int]:
+def even_search(pool: Arrays, R: F64, n: int, tau: float, max_cv: float,
+                cuts: spea2.Cuts | None = None) -> tuple[Arrays, F64, Arrays, F64, int]:
     """EvenSearch (spec §3): P2 (the region's unconstrained non-dominated members, at most n, not filled up),
-    their fitness; P3 (the region's members with CV <= maxCV (1 - tau)^2, at most n), their CV; and |Q|."""
+    their fitness; P3 (the region's members with CV <= maxCV (1 - tau)^2, at most n), their CV; and |Q|.
+    ``cuts``: truncations made earlier in the generation (P1's selection, when its members are the same)."""
     Q = pool.take(np.flatnonzero(in_region(pool.F, R)))
-    fit = spea2.fitness(Q.F)
-    nd_all = np.flatnonzero(fit < 1.0)
-    nd = nd_all[spea2.truncate(Q.F[nd_all], n)] if len(nd_all) > n else nd_all
-    eps = max_cv * (1.0 - tau) ** 2
-    ok = np.flatnonzero(Q.cv <= eps)
-    if len(ok) > n:  # the same members as P2's (every one feasible and non-dominated): the same cut
-        ok = nd if np.array_equal(ok, nd_all) else ok[spea2.truncate(Q.F[ok], n)]
-    nd = nd[np.argsort(fit[nd], kind="stable")]
-    return Q.take(nd), fit[nd], Q.take(ok), Q.cv[ok], len(Q)
+    nd, fit, _ = spea2.select(Q.F, n, fill=False, cuts=cuts)
+    ok = np.flatnonzero(Q.cv <= max_cv * (1.0 - tau) ** 2)
+    if len(ok) > n:
+        ok = ok[spea2.truncate(Q.F[ok], n, cuts)]
+    return Q.take(nd), fit, Q.take(ok), Q.cv[ok], len(Q)
 
 
 class CMOES(ArrayAlgorithm):
@@ -166,8 +164,9 @@ class CMOES(ArrayAlgorithm):
             parts.append(self._children(self.p3.X, (self.key3,), 2 * len(self.p3), half=True))
         off = self.evaluate(self.repaired(np.vstack(parts)))
         pool = Arrays.concat(union, off)
-        order, self.fit1, _ = spea2.select(pool.F, n, pool.cv)
+        cuts: spea2.Cuts = {}
+        order, self.fit1, _ = spea2.select(pool.F, n, pool.cv, cuts=cuts)
         self.arrays = pool.take(order)
         R = self.arrays.F[self.arrays.cv <= 0]
-        self.p2, self.fit2, self.p3, self.key3, q = even_search(pool, R, n, tau, self.max_cv)
+        self.p2, self.fit2, self.p3, self.key3, q = even_search(pool, R, n, tau, self.max_cv, cuts)
         self._log(2, tau, self.max_cv * (1.0 - tau) ** 2, q, len(off))

@@ -7,7 +7,9 @@ Used by CMOEMT, CMOES, DRLOS-EMCMO, IMTCMO, MCCMO and MOEA/D-CMT's archive. Dist
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
+import moocore
 import numba
 import numpy as np
 from numpy.typing import NDArray
@@ -65,10 +67,9 @@ def distances(F: F64) -> F64:
 
 
 @numba.njit(cache=True)
-def _push(heap: F64, r: int, v: float) -> None:  # pragma: no cover - compiled
-    # Replace the largest value of row r's max-heap (heap[r, 0]) with a smaller v and sift it down. (A row
-    # index, not a row view: a view costs a reference count each call.)
-    k = heap.shape[1]
+def _push(heap: F64, r: int, v: float, k: int) -> None:  # pragma: no cover - compiled
+    # Replace the largest value of row r's max-heap of k values (heap[r, :k], largest at heap[r, 0]) with a
+    # smaller v and sift it down. (A row index, not a row view: a view costs a reference count each call.)
     p = 0
     while True:
         c = 2 * p + 1
@@ -84,56 +85,103 @@ def _push(heap: F64, r: int, v: float) -> None:  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _raw(FT: F64, c: F64) -> F64:  # pragma: no cover - compiled
-    # R(i) = sum of S over i's dominators, S(i) = how many i dominates (constraint domination on c; equal c:
-    # Pareto). Row by row over the objectives' columns (FT is (m, n)): the counts of objectives where i is
-    # better / worse than each j run over contiguous memory and vectorize.
+def _groups(FT: F64, c: F64) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:  # pragma: no cover
+    # Members sorted by the first objective (FT is (m, n)), grouped into exact copies (every objective and the
+    # violation equal): each member's group, each group's first member, and its size; groups are numbered in
+    # order of first appearance. Copies are looked for among the run of equal first objectives before each
+    # member. A member with an infinite objective is its own group: two such copies are at distance inf - inf
+    # (NaN, read as +inf), not 0.
     m, n = FT.shape
-    better = np.empty(n, dtype=np.int32)
-    worse = np.empty(n, dtype=np.int32)
-    dominated_by = np.empty((n, n), dtype=np.int8)
-    S = np.zeros(n, dtype=np.int64)
+    gid = np.empty(n, dtype=np.int64)
+    first = np.empty(n, dtype=np.int64)
+    size = np.zeros(n, dtype=np.int64)
+    u = 0
     for i in range(n):
-        for j in range(n):
-            better[j], worse[j] = 0, 0
+        g = -1
+        finite = True
         for q in range(m):
-            a, col = FT[q, i], FT[q]
-            for j in range(n):
-                b = col[j]
-                better[j] += np.int32(a < b)
-                worse[j] += np.int32(a > b)
-        ci, s, row = c[i], np.int64(0), dominated_by[i]
-        for j in range(n):
-            cj = c[j]
-            eq = ci == cj
-            s += np.int64((ci < cj) | (eq & (worse[j] == 0) & (better[j] > 0)))
-            row[j] = np.int8((cj < ci) | (eq & (better[j] == 0) & (worse[j] > 0)))
-        S[i] = s
-    R = np.empty(n)
-    for i in range(n):
-        r, row = 0, dominated_by[i]
-        for j in range(n):
-            r += row[j] * S[j]
-        R[i] = r
-    return R
+            finite &= abs(FT[q, i]) < np.inf
+        p = i - 1
+        while finite and p >= 0 and FT[0, p] == FT[0, i]:
+            same = c[p] == c[i]
+            for q in range(1, m):
+                same &= FT[q, p] == FT[q, i]
+            if same:
+                g = gid[p]
+                break
+            p -= 1
+        if g < 0:
+            g, first[u] = u, i
+            u += 1
+        gid[i] = g
+        size[g] += 1
+    return gid, first[:u], size[:u]
 
 
 @numba.njit(cache=True)
-def _kth(FT: F64, rows: NDArray[np.int64], k: int) -> F64:  # pragma: no cover - compiled
-    # For each of ``rows`` (in that order; FT is (m, n), members sorted by the first objective), the k-th
-    # smallest squared distance to the other n - 1 members (sqrt is monotone: it is taken of that one only).
+def _raw(FT: F64, c: F64, w: NDArray[np.int64]) -> F64:  # pragma: no cover - compiled
+    # R(i) = sum of S over i's dominators, S(i) = how many i dominates (constraint domination on c; equal c:
+    # Pareto), over distinct members each standing for w of them. Each pair is compared once, row i against
+    # the earlier rows j < i, over the objectives' columns (FT is (m, n)): the counts of objectives where i is
+    # better / worse than each j run over contiguous memory and vectorize, and so do the updates of the j's
+    # (S, then R) from row i's relations, which are kept for the second pass.
+    m, n = FT.shape
+    better = np.empty(n, dtype=np.int32)
+    worse = np.empty(n, dtype=np.int32)
+    rel = np.empty((n, n), dtype=np.int8)  # rel[i, j], j < i: 1 if j dominates i, 2 if i dominates j, else 0
+    S = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        for j in range(i):
+            better[j], worse[j] = 0, 0
+        for q in range(m):
+            a, col = FT[q, i], FT[q]
+            for j in range(i):
+                b = col[j]
+                better[j] += np.int32(a < b)
+                worse[j] += np.int32(a > b)
+        ci, wi, s, row = c[i], w[i], np.int64(0), rel[i]
+        for j in range(i):
+            cj = c[j]
+            eq = ci == cj
+            i_dom = (ci < cj) | (eq & (worse[j] == 0) & (better[j] > 0))
+            j_dom = (cj < ci) | (eq & (better[j] == 0) & (worse[j] > 0))
+            s += w[j] * np.int64(i_dom)
+            S[j] += wi * np.int64(j_dom)
+            row[j] = np.int8(j_dom) + np.int8(2) * np.int8(i_dom)
+        S[i] += s
+    wS = w * S
+    R = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        r, wSi, row = np.int64(0), wS[i], rel[i]
+        for j in range(i):
+            x = row[j]
+            r += np.int64(x == 1) * wS[j]
+            R[j] += np.int64(x == 2) * wSi
+        R[i] += r
+    return R.astype(np.float64)
+
+
+@numba.njit(cache=True)
+def _kth(FT: F64, w: NDArray[np.int64], rows: NDArray[np.int64], k: int) -> F64:  # pragma: no cover - compiled
+    # For each of ``rows`` (in that order; FT is (m, n), distinct members sorted by the first objective, each
+    # standing for w of them), the k-th smallest squared distance to the other members: w[i] - 1 copies at 0,
+    # then each other distinct member w[j] times (sqrt is monotone: it is taken of that one only).
     # It is selected among the values under an upper bound: the row's nearest earlier row e has k others within
     # sigma(e), so the row has k others within d(i, e) + sigma(e) (triangle inequality). The result is exact
     # whatever the bound: with fewer than k values under it, the whole row is used.
     n = FT.shape[1]
     d2 = np.empty(n)
-    cand = np.empty(n)
+    cand = np.empty(n, dtype=np.int64)  # the candidates' indices
     sig2 = np.empty(len(rows))
     near = np.empty((1, k))
     for t in range(len(rows)):
         i = rows[t]
         _squared_row(FT, i, d2)
         d2[i] = np.inf
+        kk = k - (w[i] - 1)  # the copies of i fill the first places
+        if kk <= 0:
+            sig2[t] = 0.0
+            continue
         bound, nearest, e = np.inf, np.inf, -1
         for p in range(t):
             v = d2[rows[p]]
@@ -144,28 +192,50 @@ def _kth(FT: F64, rows: NDArray[np.int64], k: int) -> F64:  # pragma: no cover -
             bound = bound * bound * (1.0 + 1e-9)  # a margin for rounding: more candidates, same result
         count = 0
         for j in range(n):
-            v = d2[j]
-            cand[count] = v
-            count += v <= bound  # NaN (inf - inf) never: it counts as +inf, which a heap of +inf ignores
-        for u in range(k):
+            cand[count] = j
+            count += d2[j] <= bound  # NaN (inf - inf) never: it counts as +inf, which a heap of +inf ignores
+        total = 0
+        for p in range(count):
+            total += w[cand[p]]
+        if total < kk:
+            count = n
+            for j in range(n):
+                cand[j] = j
+        for u in range(kk):
             near[0, u] = np.inf
-        values = cand if count >= k else d2
-        for j in range(count if count >= k else n):
-            if values[j] < near[0, 0]:
-                _push(near, 0, values[j])
+        for p in range(count):
+            j = cand[p]
+            v, copies = d2[j], w[j]
+            while copies > 0 and v < near[0, 0]:
+                _push(near, 0, v, kk)
+                copies -= 1
         sig2[t] = near[0, 0]
     return sig2
 
 
-def _prepared(F: F64, cv: F64 | None) -> tuple[F64, F64, NDArray[np.int64], int]:
-    """The kernels' inputs: ``(m, n)`` objectives sorted by the first one (NaN as +inf), violations likewise,
-    the sorting order, and k = floor(sqrt(n)) (at most n - 1)."""
+class _Pool(NamedTuple):
+    """The kernels' inputs: the distinct members sorted by the first objective (NaN read as +inf)."""
+
+    FT: F64  # (m, u) their objectives
+    c: F64  # (u,) their violations
+    w: NDArray[np.int64]  # (u,) how many members each stands for
+    of: NDArray[np.int64]  # (n,) which one stands for each input member
+    k: int  # floor(sqrt(n)), at most n - 1
+
+
+def _prepared(F: F64, cv: F64 | None) -> _Pool:
     n = len(F)
     Fa = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64)).reshape(n, -1)
     c = np.zeros(n) if cv is None else np.where(np.isnan(cv), np.inf, np.asarray(cv, dtype=np.float64))
     order = np.argsort(Fa[:, 0], kind="stable")  # nearby earlier members: tight bounds (same values in any order)
+    FT, cs = np.ascontiguousarray(Fa[order].T), np.ascontiguousarray(c[order])
+    gid, first, w = _groups(FT, cs)
+    of = np.empty(n, dtype=np.int64)
+    of[order] = gid
     k = min(int(math.floor(math.sqrt(n))), n - 1)
-    return np.ascontiguousarray(Fa[order].T), np.ascontiguousarray(c[order]), order, k
+    if len(w) < n:
+        FT, cs = np.ascontiguousarray(FT[:, first]), cs[first]
+    return _Pool(FT, cs, w, of, k)
 
 
 def _density(R: F64, sig2: F64) -> F64:
@@ -177,17 +247,15 @@ def fitness(F: F64, cv: F64 | None = None) -> F64:
 
     S(i) counts whom i dominates, R(i) sums S over i's dominators, σ_i is the distance to the k-th nearest
     other member with k = floor(sqrt(n)). Dominance as :func:`dominance` (NaN objectives and violations count
-    as +inf).
+    as +inf). Exact copies are computed once.
     """
     n = len(F)
     if n == 0:
         return np.zeros(0)
     if n == 1:
         return np.full(1, 0.5)
-    FT, c, order, k = _prepared(F, cv)
-    out = np.empty(n)
-    out[order] = _density(_raw(FT, c), _kth(FT, np.arange(n), k))
-    return out
+    p = _prepared(F, cv)
+    return _density(_raw(p.FT, p.c, p.w), _kth(p.FT, p.w, np.arange(len(p.w)), p.k))[p.of]
 
 
 @numba.njit(cache=True)
@@ -414,56 +482,90 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     return alive
 
 
-def truncate(F: F64, keep: int) -> B:
+Cuts = dict[tuple[int, tuple[int, ...], bytes], B]
+"""Truncations already made (keep, shape and bytes of F -> mask): an algorithm that cuts the same members twice
+in a generation (CMOES: P1's and P2's non-dominated members in an all-feasible pool) passes one dict to both."""
+
+
+def truncate(F: F64, keep: int, cuts: Cuts | None = None) -> B:
     """``(n,)`` mask of the members kept when cutting n down to ``keep``: repeatedly drop the member whose
-    ascending distances to the other remaining members are lexicographically smallest (ties: lowest index)."""
+    ascending distances to the other remaining members are lexicographically smallest (ties: lowest index).
+    ``cuts``: earlier results, looked up and added to."""
     n = len(F)
     if keep >= n:
         return np.ones(n, dtype=bool)
     F = np.ascontiguousarray(F, dtype=np.float64).reshape(n, -1)
+    if cuts is None:
+        return _cut(F, keep)
+    key = (int(keep), F.shape, F.tobytes())
+    if key not in cuts:
+        cuts[key] = _cut(F, keep)
+    return cuts[key].copy()
+
+
+def _cut(F: F64, keep: int) -> B:
+    n = len(F)
+    p = _prepared(F, None)
+    if keep <= len(p.w) < n:
+        # Exact copies go first, each point's last one stays (see _truncate): the rest is truncated among the
+        # distinct points alone, unless two of them are at distance 0 (a difference that underflows).
+        last = np.sort(np.argsort(p.of, kind="stable")[np.cumsum(p.w) - 1])
+        D = distances(F[last])
+        if not (D == 0.0).any():
+            mask = np.zeros(n, dtype=bool)
+            mask[last[_truncate(D, F[last], int(keep))]] = True
+            return mask
     return _truncate(np.ascontiguousarray(distances(F)), F, int(keep))
 
 
-def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None) -> tuple[NDArray[np.int64], F64, B]:
+def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None, fill: bool = True,
+           cuts: Cuts | None = None) -> tuple[NDArray[np.int64], F64, B]:
     """SPEA2 environmental selection of n members (spec §1.3).
 
     ``fit_F`` (optional) is the space the fitness is computed in when it differs from the truncation's
-    (IMTCMO: fitness on [f, CV], truncation on f).
+    (IMTCMO: fitness on [f, CV], truncation on f). ``fill=False`` keeps only non-dominated members, fewer than
+    n if so (CMOES's EvenSearch). ``cuts``: truncations already made, passed on to :func:`truncate`.
 
     Returns:
-        order: ``(n,)`` survivor indices sorted by ascending fitness (stable);
-        fit: ``(n,)`` their fitness;
+        order: survivor indices sorted by ascending fitness (stable), n of them (fewer without ``fill``);
+        fit: their fitness;
         mask: ``(len(F),)`` survivor mask over the input pool.
 
-    When at least n members are non-dominated (fitness < 1 is R = 0), only the survivors' densities are
-    computed: the others' fitness decides nothing (a third of the rows in a pool of 3N).
+    When at least n members are non-dominated (R = 0), they are found by a non-dominated filter and only the
+    survivors' densities are computed: R of the others decides nothing.
     """
     space = F if fit_F is None else fit_F
     size = len(space)
-    if size < 2 or n <= 0:
+    if size < 2 or n <= 0:  # nobody, or one member (non-dominated)
         return _lowest(fitness(space, cv), n)
-    FT, c, by_first, k = _prepared(space, cv)
-    R = np.empty(size)
-    R[by_first] = _raw(FT, c)
-    marked = R == 0.0
-    if marked.sum() < n:
-        fit = np.empty(size)
-        fit[by_first] = _density(R[by_first], _kth(FT, np.arange(size), k))
+    p = _prepared(space, cv)
+    marked = _nondominated(p)[p.of]
+    if marked.sum() < n and fill:
+        R = _raw(p.FT, p.c, p.w)[p.of]
+        fit = _density(R, _kth(p.FT, p.w, np.arange(len(p.w)), p.k)[p.of])
         return _lowest(fit, n)
     if marked.sum() > n:
         idx = np.flatnonzero(marked)
         mask = np.zeros(size, dtype=bool)
-        mask[idx[truncate(np.asarray(F)[idx], n)]] = True
+        mask[idx[truncate(np.asarray(F)[idx], n, cuts)]] = True
     else:
         mask = marked
     surv = np.flatnonzero(mask)
-    position = np.empty(size, dtype=np.int64)
-    position[by_first] = np.arange(size)
-    rows = np.sort(position[surv])  # in the kernels' order, for tight bounds
-    fit_rows = _density(R[by_first[rows]], _kth(FT, rows, k))
+    rows = np.unique(p.of[surv])  # in the kernels' order, for tight bounds
+    sigma2 = np.empty(len(p.w))
+    sigma2[rows] = _kth(p.FT, p.w, rows, p.k)
     fit = np.empty(size)
-    fit[by_first[rows]] = fit_rows
+    fit[surv] = _density(np.zeros(len(surv)), sigma2[p.of[surv]])
     return _ordered(fit, mask)
+
+
+def _nondominated(p: _Pool) -> B:
+    """``(u,)`` True for the distinct members no other dominates: under constraint domination, the Pareto set
+    of the members with the smallest violation (moocore's filter: O(u log u) for 2 and 3 objectives)."""
+    least = np.flatnonzero(p.c == p.c.min())
+    out = np.zeros(len(p.c), dtype=bool)
+    out[least] = moocore.is_nondominated(np.ascontiguousarray(p.FT[:, least].T), keep_weakly=True)
+    return out
 
 
 def _lowest(fit: F64, n: int) -> tuple[NDArray[np.int64], F64, B]:
