@@ -206,6 +206,8 @@ def test_spea2_select_equals_its_definition(size, m, seed, kind):
             got, want = spea2.select(F, n, cv, fit_F, fill=fill), select_by_definition(F, n, cv, fit_F, fill)
             assert got[0].tolist() == want[0].tolist() and got[2].tolist() == want[2].tolist()
             assert got[1].tolist() == want[1].tolist()
+        if fit_F is None:  # the mask alone (DRLOS-EMCMO's success counts)
+            assert spea2.survivors(F, n, cv).tolist() == select_by_definition(F, n, cv)[2].tolist()
 
 
 def test_spea2_cuts_are_reused_for_the_same_members_only():

@@ -236,7 +236,7 @@ class CMOEMT(ArrayAlgorithm):
         """Second half: a trial selection over everything counts survivors from task 2 and task 3; P1 then takes
         population and offspring only from the task that contributed more."""
         trial = Arrays.concat(p1, o1, P2, o2, self.p3, o3)
-        _, _, mask = spea2.select(trial.F, self.n, trial.cv)
+        mask = spea2.survivors(trial.F, self.n, trial.cv)
         a = len(p1) + len(o1)
         from2 = int(mask[a : a + len(P2) + len(o2)].sum())
         from3 = int(mask[a + len(P2) + len(o2) :].sum())

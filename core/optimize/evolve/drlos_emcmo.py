@@ -152,9 +152,10 @@ class DRLOSEMCMO(ArrayAlgorithm):
                 self.phase = 2
         else:
             d1, d2 = (100.0, 50.0) if self.success_kind == "platemo" else (float(n), float(len(o1)))
-            m2 = spea2.select(Arrays.concat(p2, o2).F, n, Arrays.concat(p2, o2).cv)[2]
+            trial2 = Arrays.concat(p2, o2)
+            m2 = spea2.survivors(trial2.F, n, trial2.cv)
             succ1 = m2[: len(p2)].sum() / d1 - m2[len(p2) :].sum() / d2
-            m1 = spea2.select(Arrays.concat(p1, o1).F, n, None)[2]
+            m1 = spea2.survivors(Arrays.concat(p1, o1).F, n)
             succ2 = m1[: len(p1)].sum() / d1 - m1[len(p1) :].sum() / d2
             extra1 = p2.take(rng.choice(len(p2), n // 2, replace=False)) if succ1 > 0 else o2
             pool1 = Arrays.concat(p1, o1, extra1)

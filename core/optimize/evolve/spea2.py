@@ -518,13 +518,21 @@ def _cut(F: F64, keep: int) -> B:
     return _truncate(np.ascontiguousarray(distances(F)), F, int(keep))
 
 
+def survivors(F: F64, n: int, cv: F64 | None = None) -> B:
+    """``(len(F),)`` the mask of :func:`select`'s survivors, without their fitness and order where they are not
+    needed to find them (at least n non-dominated members): DRLOS-EMCMO's success counts."""
+    return select(F, n, cv, rank=False)[2]
+
+
 def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None, fill: bool = True,
-           cuts: Cuts | None = None) -> tuple[NDArray[np.int64], F64, B]:
+           cuts: Cuts | None = None, rank: bool = True) -> tuple[NDArray[np.int64], F64, B]:
     """SPEA2 environmental selection of n members (spec §1.3).
 
     ``fit_F`` (optional) is the space the fitness is computed in when it differs from the truncation's
     (IMTCMO: fitness on [f, CV], truncation on f). ``fill=False`` keeps only non-dominated members, fewer than
     n if so (CMOES's EvenSearch). ``cuts``: truncations already made, passed on to :func:`truncate`.
+    ``rank=False`` (see :func:`survivors`): the survivors in index order with fitness 0 when at least n are
+    non-dominated.
 
     Returns:
         order: survivor indices sorted by ascending fitness (stable), n of them (fewer without ``fill``);
@@ -551,6 +559,8 @@ def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None, fill
     else:
         mask = marked
     surv = np.flatnonzero(mask)
+    if not rank:
+        return surv, np.zeros(len(surv)), mask
     rows = np.unique(p.of[surv])  # in the kernels' order, for tight bounds
     sigma2 = np.empty(len(p.w))
     sigma2[rows] = _kth(p.FT, p.w, rows, p.k)
