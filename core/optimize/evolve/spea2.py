@@ -176,12 +176,12 @@ def _kth(FT: F64, w: NDArray[np.int64], rows: NDArray[np.int64], k: int) -> F64:
     near = np.empty((1, k))
     for t in range(len(rows)):
         i = rows[t]
-        _squared_row(FT, i, d2)
-        d2[i] = np.inf
         kk = k - (w[i] - 1)  # the copies of i fill the first places
         if kk <= 0:
             sig2[t] = 0.0
             continue
+        _squared_row(FT, i, d2)
+        d2[i] = np.inf
         bound, nearest, e = np.inf, np.inf, -1
         for p in range(t):
             v = d2[rows[p]]
@@ -504,6 +504,7 @@ def truncate(F: F64, keep: int, cuts: Cuts | None = None) -> B:
 
 
 def _cut(F: F64, keep: int) -> B:
+    """:func:`truncate` of a contiguous ``(n, m)`` F to ``keep`` < n members."""
     n = len(F)
     p = _prepared(F, None)
     if keep <= len(p.w) < n:
@@ -548,11 +549,12 @@ def select(F: F64, n: int, cv: F64 | None = None, fit_F: F64 | None = None, fill
         return _lowest(fitness(space, cv), n)
     p = _prepared(space, cv)
     marked = _nondominated(p)[p.of]
-    if marked.sum() < n and fill:
+    count = int(marked.sum())
+    if count < n and fill:
         R = _raw(p.FT, p.c, p.w)[p.of]
         fit = _density(R, _kth(p.FT, p.w, np.arange(len(p.w)), p.k)[p.of])
         return _lowest(fit, n)
-    if marked.sum() > n:
+    if count > n:
         idx = np.flatnonzero(marked)
         mask = np.zeros(size, dtype=bool)
         mask[idx[truncate(np.asarray(F)[idx], n, cuts)]] = True
