@@ -57,31 +57,33 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     keep_freed_memory()
     studio: Studio | None = None
-    try:
-        token = None if args.token is None else check_token(args.token) if args.token else new_token()
-        if args.session is not None and args.session.exists():
-            session = load_session(args.session)
-        else:
-            session = Session.default()
-        if args.session is not None:
-            save_session(session, args.session)  # fail now, not on the first autosave
-        # viser checks no Host, Origin or token: it listens on a free loopback port behind the gate. It also
-        # prints its own address box; the one line below is the address to open.
-        with contextlib.redirect_stdout(io.StringIO()):
-            studio = Studio(session, "127.0.0.1", 0, session_path=args.session)
-        gate = Gate(args.host, args.port, studio.server.get_port(), token, on_page=studio.page_requested)
-        port = gate.get_port()
-    except (OSError, ValueError) as exc:
-        if studio is not None:
+    gate: Gate | None = None
+    try:  # Ctrl-C from here on stops the studio cleanly, whenever it comes (even while the address is printed)
+        try:
+            token = None if args.token is None else check_token(args.token) if args.token else new_token()
+            if args.session is not None and args.session.exists():
+                session = load_session(args.session)
+            else:
+                session = Session.default()
+            if args.session is not None:
+                save_session(session, args.session)  # fail now, not on the first autosave
+            # viser checks no Host, Origin or token: it listens on a free loopback port behind the gate. It also
+            # prints its own address box; the one line below is the address to open.
             with contextlib.redirect_stdout(io.StringIO()):
-                studio.close()
-        print(f"clm-studio: error: {exc}", file=sys.stderr)
-        return 2
-    warning = exposure_warning(args.host, port, token is not None)
-    if warning is not None:
-        print(warning, file=sys.stderr, flush=True)
-    print(f"CLM Studio: {url_for(args.host, port, token)}  (Ctrl-C to stop)", flush=True)
-    try:
+                studio = Studio(session, "127.0.0.1", 0, session_path=args.session)
+            gate = Gate(args.host, args.port, studio.server.get_port(), token, on_page=studio.page_requested)
+            port = gate.get_port()
+        except (OSError, ValueError) as exc:
+            if studio is not None:
+                with contextlib.redirect_stdout(io.StringIO()):
+                    studio.close()
+                studio = None
+            print(f"clm-studio: error: {exc}", file=sys.stderr)
+            return 2
+        warning = exposure_warning(args.host, port, token is not None)
+        if warning is not None:
+            print(warning, file=sys.stderr, flush=True)
+        print(f"CLM Studio: {url_for(args.host, port, token)}  (Ctrl-C to stop)", flush=True)
         # A timed wait: Ctrl-C's KeyboardInterrupt is raised in this thread, but the kernel may deliver SIGINT to
         # any of the server's threads, and then an untimed wait here never wakes (1 in 8 stops hung so).
         idle = threading.Event()
@@ -90,8 +92,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     finally:
-        gate.close()
-        studio.close()
+        if gate is not None:
+            gate.close()
+        if studio is not None:
+            studio.close()
     print("CLM Studio stopped.", flush=True)
     return 0
 
