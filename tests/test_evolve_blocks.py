@@ -155,6 +155,10 @@ def test_spea2_truncation_with_copies_equals_its_definition(keep):
     tiny[-1] = tiny[0] + np.array([1e-200, 0.0])
     assert spea2.distances(tiny)[0, -1] == 0.0
     assert spea2.truncate(tiny, keep).tolist() == truncate_by_definition(tiny, keep).tolist()
+    # the distinct points' kernel reports such a pair instead of cutting (it does not look for copies)
+    distinct = np.vstack([base, tiny[-1]])
+    assert spea2._truncate(spea2.distances(distinct), distinct, min(keep, 10), True)[1] == spea2.ZERO
+    assert spea2._truncate(spea2.distances(base), base, min(keep, 9), True)[1] != spea2.ZERO
 
 
 def test_spea2_truncation_drops_the_most_crowded_member():
@@ -211,8 +215,8 @@ def test_spea2_select_equals_its_definition(size, m, seed, kind):
 
 
 def test_spea2_cuts_are_reused_for_the_same_members_only():
-    # CMOES cuts P1's and P2's non-dominated members with one dict: the same rows and keep give the first
-    # result (a copy: the caller may change it), anything else is cut anew
+    # CMOES, CMOEMT and IMTCMO cut their populations' non-dominated members with one dict: the same rows and keep,
+    # in any order, give the first result (a new array: the caller may change it); anything else is cut anew
     rng = np.random.default_rng(4)
     F = rng.normal(size=(40, 2))
     cuts: spea2.Cuts = {}
@@ -221,8 +225,30 @@ def test_spea2_cuts_are_reused_for_the_same_members_only():
     first[:] = False
     assert spea2.truncate(F.copy(), 10, cuts).tolist() == truncate_by_definition(F, 10).tolist()
     assert spea2.truncate(F, 12, cuts).tolist() == truncate_by_definition(F, 12).tolist()
-    assert spea2.truncate(F[::-1], 10, cuts).tolist() == truncate_by_definition(F[::-1], 10).tolist()
+    assert len(cuts) == 2
+    perm = rng.permutation(40)
+    assert spea2.truncate(F[perm], 10, cuts).tolist() == truncate_by_definition(F[perm], 10).tolist()
+    assert len(cuts) == 2  # reused: no removal was decided by index
+    G = F.copy()
+    G[0, 0] += 1e-9
+    assert spea2.truncate(G, 10, cuts).tolist() == truncate_by_definition(G, 10).tolist()
     assert len(cuts) == 3
+
+
+@settings(max_examples=120, deadline=None)
+@given(st.integers(2, 30), st.integers(0, 2**32 - 1))
+def test_spea2_cuts_of_the_same_points_in_another_order_equal_the_definition(size, seed):
+    # a reused cut must be what cutting the permuted rows gives: on small grids many removals are decided by
+    # index (equal rows), and copies keep their last one in either order
+    rng = np.random.default_rng(seed)
+    F = rng.integers(0, 4, size=(size, 2)).astype(float) if seed % 2 else rng.normal(size=(size, 2))
+    if seed % 3 == 0:
+        F[size // 2 :] = F[: size - size // 2]
+    keep = int(rng.integers(1, size + 1))
+    perm = rng.permutation(size)
+    cuts: spea2.Cuts = {}
+    assert spea2.truncate(F, keep, cuts).tolist() == truncate_by_definition(F, keep).tolist()
+    assert spea2.truncate(F[perm], keep, cuts).tolist() == truncate_by_definition(F[perm], keep).tolist()
 
 
 def test_tournament_lower_key_wins_and_ties_go_to_the_first_drawn():

@@ -205,13 +205,14 @@ class CMOEMT(ArrayAlgorithm):
         else:
             pool = Arrays.concat(p1, P2, self.p3, offspring)
             sources = np.repeat([0, 1, 2, 3, 4, 5], [len(p1), len(P2), len(self.p3), len(o1), len(o2), len(o3)])
-        order, self.fit1, _ = spea2.select(pool.F, n, pool.cv)
+        cuts: spea2.Cuts = {}  # all feasible: P1's and P3's selections cut the same members
+        order, self.fit1, _ = spea2.select(pool.F, n, pool.cv, cuts=cuts)
         new1 = pool.take(order)
         if not transfer:
             pool3 = Arrays.concat(self.p3, offspring)
         else:  # P3 selects with the P1 just selected (PlatEMO assigns in order: spec pitfall 7)
             pool3 = Arrays.concat(new1, P2, self.p3, offspring)
-        order3, self.fit3, _ = spea2.select(pool3.F, n, None)
+        order3, self.fit3, _ = spea2.select(pool3.F, n, None, cuts=cuts)
         self.p3 = pool3.take(order3)
         self.arrays = new1
         if self.variant == "author_repo":

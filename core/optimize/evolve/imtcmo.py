@@ -41,23 +41,24 @@ def epsilon_schedule(var0: float) -> tuple[float, float]:
     return var0, (-math.log(var0) - 6.0) / math.log(0.5)
 
 
-def aux_select(F: F64, cv: F64, n: int, var: float) -> tuple[I64, F64, int]:
-    """AuxSel (spec §5): the n survivors (best first), their fitness, and how many were epsilon-feasible."""
+def aux_select(F: F64, cv: F64, n: int, var: float, cuts: spea2.Cuts | None = None) -> tuple[I64, F64, int]:
+    """AuxSel (spec §5): the n survivors (best first), their fitness, and how many were epsilon-feasible.
+    ``cuts``: truncations made earlier in the generation (P1's selection)."""
     feas = np.flatnonzero(cv <= var)
     infeas = np.flatnonzero(cv > var)
     if feas.size == 0:
-        order, fit, _ = spea2.select(F, n, cv)
+        order, fit, _ = spea2.select(F, n, cv, cuts=cuts)
         return order, fit, 0
     aug = np.column_stack([F, cv])
     if feas.size > n:
-        o, fit, _ = spea2.select(F[feas], n, None, fit_F=aug[feas])
+        o, fit, _ = spea2.select(F[feas], n, None, fit_F=aug[feas], cuts=cuts)
         return feas[o], fit, n
     fit_f = spea2.fitness(aug[feas])
     o = np.argsort(fit_f, kind="stable")
     order, fit = feas[o], fit_f[o]
     rest = n - feas.size
     if rest > 0 and infeas.size:
-        oi, fi, _ = spea2.select(F[infeas], rest, cv[infeas])
+        oi, fi, _ = spea2.select(F[infeas], rest, cv[infeas], cuts=cuts)
         order = np.concatenate([order, infeas[oi]])
         fit = np.concatenate([fit, fi + (fit_f.max() if fit_f.size else 0.0)])
     return order, fit, int(feas.size)
@@ -178,9 +179,10 @@ class IMTCMO(ArrayAlgorithm):
         self.z1 = np.minimum(self.z1, o1.F.min(axis=0))
         self.z2 = np.minimum(self.z2, o2.F.min(axis=0))
         pool1 = Arrays.concat(p1, o1, o2)
-        order, self.fit1, _ = spea2.select(pool1.F, n, pool1.cv)
+        cuts: spea2.Cuts = {}  # all feasible: P1's and P2's pools cut the same members
+        order, self.fit1, _ = spea2.select(pool1.F, n, pool1.cv, cuts=cuts)
         pool2 = Arrays.concat(p2, o2, o1)
-        order2, self.fit2, n_feas = aux_select(pool2.F, pool2.cv, n, var)
+        order2, self.fit2, n_feas = aux_select(pool2.F, pool2.cv, n, var, cuts)
         self.p2 = pool2.take(order2)
         self.arrays = pool1.take(order)
         self.x += n / self.max_fe

@@ -44,18 +44,33 @@ def _squared_row(FT: F64, i: int, out: F64) -> None:  # pragma: no cover - compi
             out[j] += d * d
 
 
+BLOCK = 64  # columns of a distance row computed at a time, in a buffer that stays in the L1 cache
+
+
 @numba.njit(cache=True)
 def _distances(FT: F64) -> F64:  # pragma: no cover - compiled
-    # Row by row over the objectives' columns (FT is (m, n)): each row's loops run over contiguous memory and
-    # vectorize; a symmetric fill wrote every other entry down a column.
-    n = FT.shape[1]
+    # Row by row over the objectives' columns (FT is (m, n)): the squared distances of a block of columns are
+    # summed in a small buffer over contiguous memory (the loops vectorize), then rooted into the row, so each
+    # entry of the large matrix is written once (writing it is what costs; a symmetric fill wrote down columns).
+    m, n = FT.shape
     D = np.empty((n, n))
+    buf = np.empty(BLOCK)
     for i in range(n):
         row = D[i]
-        _squared_row(FT, i, row)
-        for j in range(n):
-            v = np.sqrt(row[j])
-            row[j] = np.inf if np.isnan(v) else v  # inf - inf (penalised members)
+        for j0 in range(0, n, BLOCK):
+            w = min(BLOCK, n - j0)
+            a, col = FT[0, i], FT[0, j0 : j0 + w]
+            for j in range(w):
+                d = a - col[j]
+                buf[j] = d * d
+            for q in range(1, m):
+                a, col = FT[q, i], FT[q, j0 : j0 + w]
+                for j in range(w):
+                    d = a - col[j]
+                    buf[j] += d * d
+            for j in range(w):
+                v = np.sqrt(buf[j])
+                row[j0 + j] = np.inf if np.isnan(v) else v  # inf - inf (penalised members)
         row[i] = np.inf
     return D
 
@@ -402,8 +417,14 @@ def _smallest(a: F64) -> float:  # pragma: no cover - compiled
     return m
 
 
+FREE, TIED, ZERO = 0, 1, 2  # _truncate's status
+
+
 @numba.njit(cache=True)
-def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
+def _truncate(D: F64, F: F64, keep: int, distinct: bool) -> tuple[B, int]:  # pragma: no cover - compiled
+    # The alive mask and a status: FREE (no removal was decided by index: the same points in another order
+    # lose the same members), TIED (one may have been: two candidate rows were equal), or ZERO (``distinct``,
+    # the rows are distinct points and copies are not looked for, but two are at distance 0: nothing was cut).
     # Each alive row keeps its LEVELS smallest distinct distances to alive members and their counts; a removal
     # updates the rows it touches (a count drops; a level whose count reaches zero is dropped and the last
     # level found again by one scan). Only rows with the smallest first value are candidates, compared by
@@ -421,7 +442,7 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
     # stays, and the rest is truncated among distinct points. Taken in one step when the removals cover all the
     # copies, and when every distance of 0 is between copies (not two points whose difference underflows).
     copies, exact = 0, True
-    for i in range(r):
+    for i in range(0 if distinct else r):
         for j in range(i + 1, r):
             if D[i, j] == 0.0:
                 if _same_point(F, i, j):
@@ -447,18 +468,24 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
         cap = np.inf if e < 0 or L >= r - 1 else (nearest + lv[e, L - 1]) * (1.0 + 1e-9)
         _relist(D, alive, i, -np.inf, lv, li, cap)
         _fill(D, alive, i, near, 0, lv, li)
+        if distinct and near[i, 0] == 0.0:
+            return alive, ZERO
     last = 2 * LEVELS - 2
     # Contiguous copies of each row's first and last level (dead rows: +inf, -inf), so the two scans a removal
     # makes over all rows are plain comparisons over arrays: the smallest first level, and the rows whose
     # levels reach the removed member's distance (the few that change).
     lead, tail = near[:, 0].copy(), np.where(alive, near[:, last], -np.inf)
     hit = np.empty(r, dtype=np.bool_)
+    tied = copies > 0
     for _ in range(r - keep - copies):
         m = _smallest(lead)
         best = -1
         for i in range(r):  # ascending: ties go to the lowest index
-            if lead[i] == m and alive[i] and (best < 0 or _less(D, F, order, sorted_, alive, near, i, best)):
-                best = i
+            if lead[i] == m and alive[i]:
+                if best < 0 or _less(D, F, order, sorted_, alive, near, i, best):
+                    best = i
+                elif not _less(D, F, order, sorted_, alive, near, best, i):
+                    tied = True
         alive[best] = False
         lead[best], tail[best] = np.inf, -np.inf
         row = D[best]  # D is symmetric: the row is contiguous, the column is not
@@ -479,44 +506,55 @@ def _truncate(D: F64, F: F64, keep: int) -> B:  # pragma: no cover - compiled
                     break
                 if d < near[i, 2 * j]:
                     break
-    return alive
+    return alive, TIED if tied else FREE
 
 
-Cuts = dict[tuple[int, tuple[int, ...], bytes], B]
-"""Truncations already made (keep, shape and bytes of F -> mask): an algorithm that cuts the same members twice
-in a generation (CMOES: P1's and P2's non-dominated members in an all-feasible pool) passes one dict to both."""
+Cuts = dict[tuple[int, tuple[int, ...], bytes], tuple[B, bool, NDArray[np.int64]]]
+"""Truncations already made in a generation, keyed on keep and the rows in lexicographic order (the same points
+in any order): the mask in that order, whether it holds for any order, and the order it was made in. Selections
+that cut the same members pass one dict: CMOES's P1 and P2, CMOEMT's P1 and P3, IMTCMO's P1 and P2 when every
+member is feasible."""
 
 
 def truncate(F: F64, keep: int, cuts: Cuts | None = None) -> B:
     """``(n,)`` mask of the members kept when cutting n down to ``keep``: repeatedly drop the member whose
     ascending distances to the other remaining members are lexicographically smallest (ties: lowest index).
-    ``cuts``: earlier results, looked up and added to."""
+    ``cuts``: earlier results, looked up and added to. A result is reused for the same rows in another order
+    when no removal was decided by index; copies of a point keep their last one in either order."""
     n = len(F)
     if keep >= n:
         return np.ones(n, dtype=bool)
     F = np.ascontiguousarray(F, dtype=np.float64).reshape(n, -1)
     if cuts is None:
-        return _cut(F, keep)
-    key = (int(keep), F.shape, F.tobytes())
-    if key not in cuts:
-        cuts[key] = _cut(F, keep)
-    return cuts[key].copy()
+        return _cut(F, keep)[0]
+    lex = np.lexsort(F.T[::-1])  # stable: copies stay in input order
+    key = (int(keep), F.shape, F[lex].tobytes())
+    got = cuts.get(key)
+    if got is not None and (got[1] or np.array_equal(got[2], lex)):
+        mask = np.empty(n, dtype=bool)
+        mask[lex] = got[0]
+        return mask
+    mask, free = _cut(F, keep)
+    if got is None:
+        cuts[key] = (mask[lex], free, lex)
+    return mask
 
 
-def _cut(F: F64, keep: int) -> B:
-    """:func:`truncate` of a contiguous ``(n, m)`` F to ``keep`` < n members."""
+def _cut(F: F64, keep: int) -> tuple[B, bool]:
+    """:func:`truncate` of a contiguous ``(n, m)`` F to ``keep`` < n members, and whether the same points in any
+    order give the same mask (no removal decided by index)."""
     n = len(F)
     p = _prepared(F, None)
-    if keep <= len(p.w) < n:
+    if keep <= len(p.w) < n or len(p.w) == n:
         # Exact copies go first, each point's last one stays (see _truncate): the rest is truncated among the
         # distinct points alone, unless two of them are at distance 0 (a difference that underflows).
         last = np.sort(np.argsort(p.of, kind="stable")[np.cumsum(p.w) - 1])
-        D = distances(F[last])
-        if not (D == 0.0).any():
+        alive, status = _truncate(distances(F[last]), F[last], int(keep), True)
+        if status != ZERO:
             mask = np.zeros(n, dtype=bool)
-            mask[last[_truncate(D, F[last], int(keep))]] = True
-            return mask
-    return _truncate(np.ascontiguousarray(distances(F)), F, int(keep))
+            mask[last[alive]] = True
+            return mask, status == FREE
+    return _truncate(distances(F), F, int(keep), False)[0], False
 
 
 def survivors(F: F64, n: int, cv: F64 | None = None) -> B:
