@@ -144,9 +144,11 @@ class DRLOSEMCMO(ArrayAlgorithm):
         o1, o2 = off.take(np.arange(len(c1))), off.take(np.arange(len(c1), len(off)))
         succ1 = succ2 = float("nan")
         t1 = t2 = -1.0
+        cuts: spea2.Cuts | None = None
         if self.phase == 1:
             pool1, pool2 = Arrays.concat(p1, o1, o2), Arrays.concat(p2, o2, o1)
-            order, self.fit1, _ = spea2.select(pool1.F, n, pool1.cv)
+            cuts = {}  # all feasible: P1's and P2's pools cut the same members
+            order, self.fit1, _ = spea2.select(pool1.F, n, pool1.cv, cuts=cuts)
             new1 = pool1.take(order)
             if self.evaluator.n_eval / self.max_fe >= SWITCH:
                 self.phase = 2
@@ -164,7 +166,7 @@ class DRLOSEMCMO(ArrayAlgorithm):
             extra2 = new1.take(rng.choice(len(new1), n // 2, replace=False)) if succ2 > 0 else o1  # pitfall 7
             pool2 = Arrays.concat(p2, o2, extra2)
             t1, t2 = float(succ1 > 0), float(succ2 > 0)
-        order2, self.fit2, _ = spea2.select(pool2.F, n, None)
+        order2, self.fit2, _ = spea2.select(pool2.F, n, None, cuts=cuts)
         self.p2 = pool2.take(order2)
         self.arrays = new1
         s_next = state(new1)

@@ -510,10 +510,10 @@ def _truncate(D: F64, F: F64, keep: int, distinct: bool) -> tuple[B, int]:  # pr
 
 
 Cuts = dict[tuple[int, tuple[int, ...], bytes], tuple[B, bool, NDArray[np.int64]]]
-"""Truncations already made in a generation, keyed on keep and the rows in lexicographic order (the same points
-in any order): the mask in that order, whether it holds for any order, and the order it was made in. Selections
-that cut the same members pass one dict: CMOES's P1 and P2, CMOEMT's P1 and P3, IMTCMO's P1 and P2 when every
-member is feasible."""
+"""Truncations already made in a generation, keyed on keep and the rows sorted by their first objective (the same
+points in any order): the mask in that order, whether it holds for any order, and the order it was made in.
+Selections that cut the same members pass one dict: CMOES's P1 and P2; CMOEMT's P1 and P3, IMTCMO's and
+DRLOS-EMCMO's P1 and P2 when every member is feasible."""
 
 
 def truncate(F: F64, keep: int, cuts: Cuts | None = None) -> B:
@@ -527,7 +527,8 @@ def truncate(F: F64, keep: int, cuts: Cuts | None = None) -> B:
     F = np.ascontiguousarray(F, dtype=np.float64).reshape(n, -1)
     if cuts is None:
         return _cut(F, keep)[0]
-    lex = np.lexsort(F.T[::-1])  # stable: copies stay in input order
+    lex = np.argsort(F[:, 0], kind="stable")  # copies stay in input order; equal first objectives of other
+    # points too, so such points in another order are a new key (cut anew): a sort by every objective cost 6x
     key = (int(keep), F.shape, F[lex].tobytes())
     got = cuts.get(key)
     if got is not None and (got[1] or np.array_equal(got[2], lex)):
