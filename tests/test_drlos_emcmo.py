@@ -1,5 +1,6 @@
-"""DRLOS-EMCMO (spec §4): its state and reward, the numpy Q-network, evaluation accounting per operator, the
-transfer switch, exploration then Q-network choices with periodic updates, determinism, and feasibility."""
+"""DRLOS-EMCMO (spec §4): its state and reward, the compiled Q-network against its matrix form, evaluation
+accounting per operator, the transfer switch, exploration then Q-network choices with periodic updates,
+determinism, and feasibility."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from pymoo.optimize import minimize
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
 from core.optimize.evolve.base import Arrays
 from core.optimize.evolve.drlos_emcmo import DRLOSEMCMO, reward, state
-from core.optimize.evolve.qnet import QNet, Scaler
+from core.optimize.evolve.qnet import BATCH, DECAY, DROP_HID, DROP_IN, LR, QNet, Scaler
 from core.optimize.moea import problem_by_name
 
 
@@ -43,6 +44,47 @@ def test_the_q_network_learns_a_simple_value_function():
     net.fit(X, np.repeat(y[:, None], 4, axis=1), 20_000)
     pred = np.mean([net.predict(X) for _ in range(20)], axis=0)  # dropout stays on: average a few passes
     assert np.corrcoef(pred, y)[0, 1] > 0.9
+
+
+def sgd_as_written(net, Xs, Ys, steps):
+    """The network's SGD in numpy matrix form: each step draws its rows, then the input and hidden masks."""
+    for _ in range(steps):
+        idx = net.rng.integers(0, len(Xs), BATCH)
+        x0 = Xs[idx] * (net.rng.random((BATCH, 4)) >= DROP_IN) / (1.0 - DROP_IN)
+        z1 = x0 @ net.W1 + net.b1
+        m1 = (net.rng.random(z1.shape) >= DROP_HID) / (1.0 - DROP_HID)
+        h1d = np.maximum(z1, 0.0) * m1
+        h2 = np.tanh(h1d @ net.W2 + net.b2)
+        d3 = h2 @ net.W3 + net.b3 - Ys[idx]
+        d2 = (d3 @ net.W3.T) * (1.0 - h2 * h2)
+        d1 = (d2 @ net.W2.T) * m1 * (z1 > 0)
+        for W, b, dW, d in ((net.W1, net.b1, x0.T @ d1, d1), (net.W2, net.b2, h1d.T @ d2, d2),
+                            (net.W3, net.b3, h2.T @ d3, d3)):
+            W -= LR * (dW + DECAY * W) / BATCH
+            b -= LR * d.sum(axis=0) / BATCH
+
+
+def test_the_compiled_sgd_is_the_networks_gradient_descent():
+    # the compiled steps equal the matrix form up to rounding (numpy's products and tanh round differently),
+    # draw the same numbers (the generators agree afterwards), and the pass predict uses is the same network
+    data = np.random.default_rng(3)
+    X, Y = data.random((50, 4)), data.random((50, 4))
+    fast, slow = QNet(np.random.default_rng(5)), QNet(np.random.default_rng(5))
+    fast.fit(X, Y, 300)
+    slow.x_scale, slow.y_scale = Scaler(X), Scaler(Y)
+    sgd_as_written(slow, slow.x_scale.apply(X), slow.y_scale.apply(Y), 300)
+    for a, b in zip(fast.params(), slow.params(), strict=True):
+        assert np.abs(a - b).max() < 1e-12
+    assert not np.allclose(fast.W2, QNet(np.random.default_rng(5)).W2)  # it moved
+    assert fast.rng.random() == slow.rng.random()
+    x = fast.x_scale.apply(X[:3])
+    fast.rng, rng = np.random.default_rng(9), np.random.default_rng(9)
+    got = fast.forward(x)[-1]
+    x0 = x * (rng.random(x.shape) >= DROP_IN) / (1.0 - DROP_IN)
+    z1 = x0 @ fast.W1 + fast.b1
+    h1d = np.maximum(z1, 0.0) * (rng.random(z1.shape) >= DROP_HID) / (1.0 - DROP_HID)
+    want = np.tanh(h1d @ fast.W2 + fast.b2) @ fast.W3 + fast.b3
+    assert got.shape == (3, 4) and np.abs(got - want).max() < 1e-12
 
 
 def run(name, evals, seed=1, pop=100, **options):
