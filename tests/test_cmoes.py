@@ -26,6 +26,19 @@ def test_the_promising_region_is_what_no_feasible_member_dominates():
     assert in_region(F, np.zeros((0, 2))).all()  # no feasible member yet: everything is in
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_the_promising_region_equals_its_definition_with_ties_and_nan(seed):
+    # small integer grids: many equal objectives; a NaN in R never dominates, a NaN in F counts as +inf
+    rng = np.random.default_rng(seed)
+    m = 1 + seed % 3
+    F, R = rng.integers(0, 3, (40, m)).astype(float), rng.integers(0, 3, (25, m)).astype(float)
+    R[rng.random(R.shape) < 0.1] = np.nan
+    F[rng.random(F.shape) < 0.05] = np.nan
+    Fi = np.where(np.isnan(F), np.inf, F)
+    want = [not any((r <= f).all() and (r < f).any() for r in R) for f in Fi]
+    assert in_region(F, R).tolist() == want
+
+
 def arrays(F, cv):
     F = np.asarray(F, dtype=float)
     return Arrays(np.arange(len(F), dtype=float)[:, None], F, np.asarray(cv, dtype=float)[:, None],

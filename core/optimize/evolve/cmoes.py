@@ -37,21 +37,30 @@ def in_region(F: F64, R: F64) -> NDArray[np.bool_]:
     F = np.where(np.isnan(F), np.inf, np.asarray(F, dtype=np.float64))
     if len(R) == 0 or len(F) == 0:
         return np.ones(len(F), dtype=bool)
-    return _in_region(np.ascontiguousarray(F), np.ascontiguousarray(R, dtype=np.float64))
+    return _in_region(np.ascontiguousarray(F), np.ascontiguousarray(np.asarray(R, dtype=np.float64).T))
 
 
 @numba.njit(cache=True)
-def _in_region(F: F64, R: F64) -> NDArray[np.bool_]:  # pragma: no cover - compiled
-    out = np.ones(F.shape[0], dtype=np.bool_)
-    for i in range(F.shape[0]):
-        for r in range(R.shape[0]):
-            lt, gt = 0, 0
-            for q in range(F.shape[1]):
-                lt += R[r, q] < F[i, q]
-                gt += not R[r, q] <= F[i, q]  # NaN in R: not <=, so never dominating
-            if gt == 0 and lt > 0:
-                out[i] = False
-                break
+def _in_region(F: F64, RT: F64) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    # Per member, how many objectives of each R row (RT is (m, k)) are <= and < its own, counted over R's
+    # contiguous columns (the loops vectorize; stopping at the first dominating row did not): dominated where
+    # a row has all m <= and at least one <. A NaN in R is never <=, so never dominates.
+    n, m = F.shape
+    k = RT.shape[1]
+    out = np.ones(n, dtype=np.bool_)
+    le = np.empty(k, dtype=np.int32)
+    lt = np.empty(k, dtype=np.int32)
+    for i in range(n):
+        le[:], lt[:] = 0, 0
+        for q in range(m):
+            f, row = F[i, q], RT[q]
+            for r in range(k):
+                le[r] += row[r] <= f
+                lt[r] += row[r] < f
+        hit = 0
+        for r in range(k):
+            hit += (le[r] == m) & (lt[r] > 0)
+        out[i] = hit == 0
     return out
 
 
