@@ -98,11 +98,30 @@ def make_children(op: int, ks: I64, pp: I64, pi: I64, XA: F64, XB: F64, nums: F6
     return C
 
 
-def flat_pools(pools: list[I64]) -> tuple[I64, I64]:
-    """The children's pools as one array and offsets: child j's pool is ``flat[offs[j]:offs[j + 1]]``."""
-    offs = np.zeros(len(pools) + 1, dtype=np.int64)
-    offs[1:] = np.cumsum([len(q) for q in pools])
-    return np.concatenate(pools).astype(np.int64), offs
+def draw_pools(rng: np.random.Generator, B: I64, members: I64, n: int, delta: float,
+               nums: F64) -> tuple[I64, I64]:
+    """The published loop's draws for one child of each subproblem in ``members``, in turn: a number choosing
+    its pool (below ``delta``: the subproblem's neighbourhood ``B[i]``, else the whole population of n), the
+    pool permuted, then the child's row of ``nums`` (filled in place). Returns the pools as one array and offsets:
+    child t's pool is ``flat[offs[t]:offs[t + 1]]``.
+    Compiled: numba's generator draws numpy's numbers in numpy's way, without a Python call per draw."""
+    return _draw_pools(rng, np.ascontiguousarray(B, dtype=np.int64), np.asarray(members, dtype=np.int64), int(n),
+                       float(delta), nums)
+
+
+@numba.njit(cache=True)
+def _draw_pools(rng: np.random.Generator, B: I64, members: I64, n: int, delta: float,
+                nums: F64) -> tuple[I64, I64]:  # pragma: no cover - compiled
+    m = len(members)
+    offs = np.zeros(m + 1, dtype=np.int64)
+    flat = np.empty(m * max(n, B.shape[1]), dtype=np.int64)
+    for t in range(m):
+        pool = rng.permutation(B[members[t]]) if rng.random() < delta else rng.permutation(n)
+        offs[t + 1] = offs[t] + len(pool)
+        flat[offs[t] : offs[t + 1]] = pool
+        for j in range(nums.shape[1]):
+            nums[t, j] = rng.random()
+    return flat[: offs[m]].copy(), offs
 
 
 def numbers(op: int, d: int) -> int:

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.ahead import DE, Ahead, flat_pools, make_children, numbers, stale
+from core.optimize.evolve.ahead import DE, Ahead, draw_pools, make_children, numbers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
@@ -147,18 +147,21 @@ class CMOEMT(ArrayAlgorithm):
         its pool (neighbourhood or population, permuted) and its DE numbers. Returns the pools (flat, offsets), the
         parents (population 0 = P2; member: the subproblem's, then the pool's first two) and the numbers."""
         rng, n, d = self.random_state, self.n, self.problem.n_var
-        base: list[int] = []
-        pools: list[I64] = []
+        subsets: list[I64] = []
+        flats: list[I64] = []
+        ends = [np.zeros(1, dtype=np.int64)]
         nums = np.empty((ROUNDS * max(n // 5, 1), numbers(DE, d)))
+        m = 0
         for _ in range(ROUNDS):
-            for i in self._subset():
-                pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
-                rng.random(out=nums[len(base)])
-                base.append(int(i))
-        m = len(base)
-        flat, offs = flat_pools(pools)
+            members = self._subset()
+            flat, offs = draw_pools(rng, self.B, members, n, DELTA, nums[m : m + len(members)])
+            ends.append(offs[1:] + ends[-1][-1])
+            subsets.append(members)
+            flats.append(flat)
+            m += len(members)
+        base, flat, offs = np.concatenate(subsets), np.concatenate(flats), np.concatenate(ends)
         pp = np.zeros((m, 3), dtype=np.int64)
-        pi = np.stack([np.array(base, dtype=np.int64), flat[offs[:-1]], flat[offs[:-1] + 1]], 1)
+        pi = np.stack([base.astype(np.int64), flat[offs[:-1]], flat[offs[:-1] + 1]], 1)
         return flat, offs, pp, pi, nums[:m]
 
     def _task2(self) -> tuple[Arrays, int]:

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, flat_pools, make_children, numbers, powers, stale
+from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, draw_pools, make_children, numbers, powers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import cmt_differences, cmt_replace, fmin_into, pbi_replace
 from core.optimize.evolve.weights import das_dennis, neighbours
@@ -108,11 +108,7 @@ class MOEADCMT(ArrayAlgorithm):
         rng, n, d = self.random_state, len(self.W), self.problem.n_var
         op = DE if k == 0 else GA_HALF
         nums = np.empty((n, 1 + numbers(op, d)))
-        pools = []
-        for i in range(n):
-            pools.append(rng.permutation(self.B[i]) if rng.random() < DELTA else rng.permutation(n))
-            rng.random(out=nums[i])
-        flat, offs = flat_pools(pools)
+        flat, offs = draw_pools(rng, self.B, np.arange(n), n, DELTA, nums)
         a, b = flat[offs[:-1]], flat[offs[:-1] + 1]
         near = nums[:, 0] < RMP  # the mate's source: the child's own task's population
         src = np.where(near, 0, 1) if k == 0 else np.where(near, 1, 0)
