@@ -238,17 +238,25 @@ def test_spea2_cuts_are_reused_for_the_same_members_only():
 @settings(max_examples=120, deadline=None)
 @given(st.integers(2, 30), st.integers(0, 2**32 - 1))
 def test_spea2_cuts_of_the_same_points_in_another_order_equal_the_definition(size, seed):
-    # a reused cut must be what cutting the permuted rows gives: on small grids many removals are decided by
-    # index (equal rows), and copies keep their last one in either order
+    # A reused cut must be what cutting the permuted rows gives. Distinct first objectives keep the key the same
+    # in any order, and small integers in the others make many removals be decided by index (equal rows), whose
+    # cuts must not be reused; copies keep their last one in either order; +inf, NaN and -0.0 rows ride along.
     rng = np.random.default_rng(seed)
-    F = rng.integers(0, 4, size=(size, 2)).astype(float) if seed % 2 else rng.normal(size=(size, 2))
-    if seed % 3 == 0:
+    m = 2 + seed % 2
+    first = rng.permutation(2 * size)[:size].astype(float)
+    F = np.column_stack([first] + [rng.integers(0, 1 + seed % 4, size).astype(float) for _ in range(m - 1)])
+    if seed % 3 == 0:  # copies
         F[size // 2 :] = F[: size - size // 2]
+    if seed % 5 == 0:  # a penalised member, an undefined one, a signed zero
+        F[rng.integers(0, size), 1] = np.inf
+        F[rng.integers(0, size), m - 1] = np.nan
+        F[rng.integers(0, size), 1] = -0.0
     keep = int(rng.integers(1, size + 1))
-    perm = rng.permutation(size)
     cuts: spea2.Cuts = {}
     assert spea2.truncate(F, keep, cuts).tolist() == truncate_by_definition(F, keep).tolist()
-    assert spea2.truncate(F[perm], keep, cuts).tolist() == truncate_by_definition(F[perm], keep).tolist()
+    for _ in range(3):
+        G = F[rng.permutation(size)]
+        assert spea2.truncate(G, keep, cuts).tolist() == truncate_by_definition(G, keep).tolist()
 
 
 def test_tournament_lower_key_wins_and_ties_go_to_the_first_drawn():
