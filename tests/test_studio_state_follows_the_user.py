@@ -341,3 +341,33 @@ def test_curves_a_session_carries_are_read_once_and_written_only_for_a_file_that
     huge["study"]["curves"][key]["points"] = [[float(i), 0.0] for i in range(target.MAX_CURVE_POINTS + 1)]
     with pytest.raises(ValueError, match="too many"):
         Session.from_dict(huge)
+
+
+def test_an_edit_goes_to_the_stage_the_fields_show_while_the_stage_dropdown_lags():
+    # A refresh that began before a stage change sets the Stage dropdown back to the old stage until the next
+    # refresh; a Population typed in between went to the old stage while the page showed it on the new one (the
+    # browser test's 'subtask2 settings did not reach the server': the page 8, the server 40).
+    from studio.app import Studio
+    from studio.panels._inputs import set_value
+    from studio.state import Session
+
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        chain = s.chain()
+        first, shown = chain[0], next(c for c in chain if c.name == "subtask2")
+        with s.session.lock:
+            s.session.study.next_stage = shown.name
+            s.session.study.touch()
+        s.refresh()
+        field = s.stages.pop_size
+        assert field.handle.value == str(s.session.study.settings_for(shown).pop_size)
+        before = s.session.study.settings_for(first)
+        set_value(s.stages.stage, first.title)  # the stale refresh's dropdown
+        field.handle._impl.value = "8"  # the designer's text reaches the server
+        field.arrived("8")
+        field.edit(None)  # type: ignore[arg-type]
+        assert s.session.study.settings_for(shown).pop_size == 8
+        assert s.session.study.settings_for(first) == before
+        assert s.stages._getter("pop_size")() == 8.0
+    finally:
+        s.close()

@@ -147,13 +147,22 @@ class StagesPanel:
             session.study.touch()
         self.studio.refresh()
 
+    def _shown_stage(self) -> str | None:
+        """The stage whose settings the fields show: the study's next stage, resolved as the view resolves it.
+        Call with the session's lock held. (Not the Stage dropdown's value on the server: a refresh that
+        began before a stage change sets the dropdown back to the old stage until the next one, and an edit
+        in between went to the old stage while the page showed it on the new one.)"""
+        names = [c.name for c in self.studio.chain()]
+        nxt = self.studio.session.study.next_stage
+        return nxt if nxt in names else (names[0] if names else None)
+
     def _change(self, **values: object) -> RunSettings:
         """Change the selected stage's settings; ValueError (nothing changed) if invalid."""
-        name = self._stage_name()
-        if name is None:
-            raise ValueError("no stage selected")
         session = self.studio.session
         with session.lock:
+            name = self._shown_stage()
+            if name is None:
+                raise ValueError("no stage selected")
             if session.study.status.running:
                 raise ValueError("a stage is running")
             stage = find(self.studio.chain(), name)
@@ -172,9 +181,9 @@ class StagesPanel:
 
     def _getter(self, key: str) -> Callable[[], float]:
         def get() -> float:
-            name = self._stage_name()
             session = self.studio.session
             with session.lock:
+                name = self._shown_stage()
                 if name is None:
                     return float(getattr(RunSettings(problem="-"), key))
                 return float(getattr(session.study.settings_for(find(self.studio.chain(), name)), key))
