@@ -227,13 +227,16 @@ def measure(quick: bool, direct_hold: bool = False, ready_only: bool = False) ->
             deadline = time.monotonic() + 30
             while studio.session.study.next_stage != STAGE and time.monotonic() < deadline:
                 time.sleep(0.05)
-            field(page, "Population").fill(str(pop))
-            field(page, "Generations").fill(str(gens))
-            while time.monotonic() < deadline:
-                s = studio.session.study.settings.get(STAGE)
-                if s is not None and (s.pop_size, s.n_gen) == (pop, gens):
-                    break
-                time.sleep(0.05)
+            # One field at a time, each until the server has it: the page sends the panel's input at most every
+            # 50 ms and keeps only the newest message waiting, so two fields typed within 50 ms lose the first.
+            for name, value, got in (("Population", pop, lambda s: s.pop_size == pop),
+                                     ("Generations", gens, lambda s: (s.pop_size, s.n_gen) == (pop, gens))):
+                field(page, name).fill(str(value))
+                while time.monotonic() < deadline:
+                    s = studio.session.study.settings.get(STAGE)
+                    if s is not None and got(s):
+                        break
+                    time.sleep(0.05)
             clock = ServerClock(studio, time.time)  # the page's clock (Date.now) is the same one
             page.evaluate(PRESS_CLOCK)
             stop_called: list[float] = []

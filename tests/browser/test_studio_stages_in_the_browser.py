@@ -48,19 +48,29 @@ def settle(page: Any, studio: Any, stage: str, pop: int, gens: int) -> None:
     """Type a population and a number of generations and wait until the server has them.
 
     First wait until the panel shows the chosen stage's own settings, so the server's mirror of
-    them cannot overwrite what is typed next.
+    them cannot overwrite what is typed next. Then one field at a time, each until the server has it:
+    viser's page sends the whole panel's input through one sender that passes a message at most every
+    50 ms and keeps only the newest one waiting, so a field typed within 50 ms of another message and
+    followed by a second field within the same 50 ms is never sent (the Population lost while the
+    Generations arrived, in about one CI run in three). A person never types that fast; a test does.
     """
     wait_for(lambda: studio.session.study.next_stage == stage, f"{stage} to be chosen")
     default = studio.session.study.settings_for(find(chain_for(studio.session.view.design.mechanism), stage))
     expect(field(page, "Population")).to_have_value(str(default.pop_size))
     expect(field(page, "Generations")).to_have_value(str(default.n_gen))
     field(page, "Population").fill(str(pop))
+    reached(page, studio, stage, lambda s: s.pop_size == pop)
     field(page, "Generations").fill(str(gens))
+    reached(page, studio, stage, lambda s: (s.pop_size, s.n_gen) == (pop, gens))
+
+
+def reached(page: Any, studio: Any, stage: str, holds: Any) -> None:
+    """Wait until the server's settings of ``stage`` (still the chosen one) satisfy ``holds``."""
 
     def ready() -> bool:
         st = studio.session.study
         s = st.settings.get(stage)
-        return st.next_stage == stage and s is not None and (s.pop_size, s.n_gen) == (pop, gens)
+        return st.next_stage == stage and s is not None and bool(holds(s))
 
     deadline = time.monotonic() + 30.0
     while not ready():
