@@ -55,11 +55,17 @@ class StudyView:
         return self.results[self.names.index(name)]
 
 
+def next_stage(study: Study, chain: tuple[ChainStage, ...]) -> str | None:
+    """The stage the Run button launches and whose settings the Stages panel shows: the study's next stage if
+    the chain offers it, else the chain's first (call under the session lock)."""
+    return study.next_stage if study.next_stage in {c.name for c in chain} else (chain[0].name if chain else None)
+
+
 def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], target: TargetSpec) -> StudyView:
     """Snapshot the study (call under the session lock)."""
     pipe = study.pipeline
     names = study.stage_names()
-    nxt = study.next_stage if study.next_stage in {c.name for c in chain} else (chain[0].name if chain else None)
+    nxt = next_stage(study, chain)
     stage = next((c for c in chain if c.name == nxt), None)
     box, note = None, ""
     if stage is not None:

@@ -18,7 +18,7 @@ from core.optimize.algorithms import ALGORITHMS
 from core.optimize.problem import problem_names
 from studio.chains import MAX_GEN, MAX_POP, RunSettings, find
 from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
-from studio.study_view import StudyView
+from studio.study_view import StudyView, next_stage
 from studio.tables import box_html
 
 if TYPE_CHECKING:
@@ -148,13 +148,9 @@ class StagesPanel:
         self.studio.refresh()
 
     def _shown_stage(self) -> str | None:
-        """The stage whose settings the fields show: the study's next stage, resolved as the view resolves it.
-        Call with the session's lock held. (Not the Stage dropdown's value on the server: a refresh that
-        began before a stage change sets the dropdown back to the old stage until the next one, and an edit
-        in between went to the old stage while the page showed it on the new one.)"""
-        names = [c.name for c in self.studio.chain()]
-        nxt = self.studio.session.study.next_stage
-        return nxt if nxt in names else (names[0] if names else None)
+        """The stage whose settings the fields show (call with the session's lock held). Not the Stage dropdown's
+        value on the server: a refresh begun before a stage change sets it back to the old stage until the next."""
+        return next_stage(self.studio.session.study, self.studio.chain())
 
     def _change(self, **values: object) -> RunSettings:
         """Change the selected stage's settings; ValueError (nothing changed) if invalid."""
