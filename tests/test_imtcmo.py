@@ -4,6 +4,7 @@ feasibility on the constrained test problems."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -13,7 +14,8 @@ from hypothesis import strategies as st
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
-from core.optimize.evolve.imtcmo import IMTCMO, aux_select, epsilon_schedule, most_similar
+from core.optimize.evolve.base import Arrays
+from core.optimize.evolve.imtcmo import IMTCMO, aux_select, epsilon_schedule, most_similar, neighbour_de
 from core.optimize.moea import problem_by_name
 
 
@@ -47,6 +49,20 @@ def test_aux_selection_ranks_epsilon_feasible_members_first():
     assert np.all(np.diff(fit) >= 0)
     order, _, n_feas = aux_select(F, cv, 2, var=-1.0)  # nothing epsilon-feasible: SPEA2 under CDP
     assert n_feas == 0 and order.tolist() == [0, 2]
+
+
+def test_neighbour_de_takes_penalised_members_quietly():
+    # The predesign penalises an unassemblable design with infinite objectives: its direction is undefined
+    # (inf - inf), it is nobody's neighbour, and numpy says nothing about it on the console.
+    rng = np.random.default_rng(3)
+    X = rng.random((12, 4))
+    F = rng.random((12, 2))
+    F[[2, 7]] = np.inf
+    a = Arrays(X, F, np.zeros((12, 0)), np.zeros(12))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        child = neighbour_de(a, np.array([np.inf, 0.0]), 6, np.zeros(4), np.ones(4), rng)
+    assert child.shape == (6, 4) and np.all((child >= 0) & (child <= 1))
 
 
 def run(name: str, evals: int, seed: int = 1, pop: int = 40):

@@ -101,10 +101,9 @@ def neighbour_de(a: Arrays, z: F64, n: int, xl: F64, xu: F64, rng: np.random.Gen
     direction (cosine of objectives translated by the ideal point z)."""
     N = len(a)
     pool = rng.permutation(N)
-    U = a.F[pool] - z
-    norm = np.linalg.norm(U, axis=1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        U = U / norm
+    with np.errstate(invalid="ignore", divide="ignore"):  # penalised members: inf - inf, 0 / 0
+        U = a.F[pool] - z
+        U = U / np.linalg.norm(U, axis=1, keepdims=True)
         cos = (U @ U.T)[:n]  # only the n parents' rows are used
     cos = np.where(np.isnan(cos), -np.inf, cos)
     cos[np.arange(n), np.arange(n)] = -np.inf
