@@ -5,6 +5,10 @@ package, and IGD and HV measured as PlatEMO measures them (spec §1.7). Used by 
 Both indicators use the feasible non-dominated members of the final population only; IGD is NaN when
 there is none. HV normalises by ``(F - fmin) / ((fmax - fmin) * 1.1)`` with ``fmin = min(min F, 0)`` and
 ``fmax`` the reference front's maximum, drops points with a coordinate > 1, reference point (1, ..., 1).
+
+Some problems compute NaN objectives outside their defined region (MW11's square root of a negative, CTP3's
+0 / 0); the algorithms read NaN as +inf (never better than anything), so numpy's warnings about them are not
+printed during a run.
 """
 
 from __future__ import annotations
@@ -96,7 +100,8 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
     p = problem_by_name(problem)
     alg = make_algorithm(AlgorithmSpec(algorithm, pop, options or {}), p.n_obj, seed)
     t = time.perf_counter()
-    res = minimize(p, alg, ("n_eval", evals), seed=seed)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # see the module's docstring
+        res = minimize(p, alg, ("n_eval", evals), seed=seed)
     wall = time.perf_counter() - t
     pop_ = res.pop
     F = np.asarray(pop_.get("F"), dtype=np.float64)
