@@ -1,6 +1,7 @@
 """``clm-studio``: serve the design studio on localhost.
 
     clm-studio [--host 127.0.0.1] [--port 8080] [--session FILE] [--token [TOKEN]]
+    clm-studio --warm-up     # compile the numeric kernels into numba's cache, then exit (studio.warmup)
 
 Opens on the paper's Stephenson-I X3 design, animating, against the compound-cycloid target
 (or on the session in FILE, which is then saved back after every change). The studio sits behind
@@ -15,6 +16,7 @@ import contextlib
 import io
 import sys
 import threading
+import time
 from pathlib import Path
 from typing import NoReturn
 
@@ -49,6 +51,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--token", nargs="?", const="", metavar="TOKEN",
                    help="admit only browsers that open the printed URL, which carries this token (without a "
                         "value: a random one, which also keeps it out of the process list)")
+    p.add_argument("--warm-up", action="store_true",
+                   help="compile the numeric kernels (every stage with every algorithm, tiny) and exit: the first "
+                        "Run of a fresh install then starts at once (scripts/studio does it once per change)")
     return p
 
 
@@ -56,6 +61,14 @@ def main(argv: list[str] | None = None) -> int:
     """Run the studio until Ctrl-C; returns the exit status."""
     args = _parser().parse_args(argv)
     keep_freed_memory()
+    if args.warm_up:
+        from studio.warmup import warm_up
+
+        t = time.perf_counter()
+        print("CLM Studio: compiling the numeric kernels (numba caches them on disk)", flush=True)
+        warm_up(lambda line: print(line, flush=True))
+        print(f"CLM Studio: kernels ready in {time.perf_counter() - t:.0f} s", flush=True)
+        return 0
     studio: Studio | None = None
     gate: Gate | None = None
     try:  # Ctrl-C from here on stops the studio cleanly, whenever it comes (even while the address is printed)

@@ -1,0 +1,52 @@
+"""Compile the studio's numeric kernels before the first page: ``clm-studio --warm-up``.
+
+numba compiles a kernel on its first call and caches the machine code on disk (``NUMBA_CACHE_DIR``). On a fresh
+install the designer's first Run of the predesign waited ~20 s for that on a 2-core machine, and the first run of
+each constrained MOEA a few seconds more, behind a progress bar that did not move. ``scripts/studio`` runs this
+once per change of the sources, before the studio starts: every stage of the opening design with every algorithm
+of the Algorithm dropdown, at a small population for two generations, and what a short run may not reach:
+DRLOS-EMCMO's DE action (drawn at random each generation) and its Q-network (built after generation 200). With
+the cache warm it only loads it (a few seconds).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from core.optimize.algorithms import ALGORITHMS
+from core.optimize.evolve.qnet import QNet
+from core.optimize.evolve.variation import de_rand_1
+from core.optimize.pipeline import Pipeline
+from studio.chains import RunSettings, chain_for, stage_spec
+from studio.state import Session
+
+POP, GENERATIONS = 12, 2  # 12: the smallest population every algorithm accepts (CMOEMT needs 10)
+
+
+def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str]]:
+    """Run every (algorithm, stage) of the opening design once, tiny; returns the pairs run, in order."""
+    session = Session.default()
+    design, target = session.view.design, session.view.target
+    chain = chain_for(design.mechanism)
+    done: list[tuple[str, str]] = []
+    for name in ALGORITHMS:
+        t = time.perf_counter()
+        for stage in chain:
+            spec = stage_spec(stage, RunSettings(stage.name, name, POP, GENERATIONS, 1), target)
+            run = Pipeline([spec], design).stage(0)
+            with np.errstate(all="ignore"):  # results thrown away: pymoo's SPEA2 warns on a degenerate front
+                run.setup()
+                while run.has_next():
+                    run.next()
+            done.append((name, stage.name))
+        say(f"  {name:<12} {time.perf_counter() - t:5.1f} s")
+    rng = np.random.default_rng(0)
+    rows = rng.random((8, 4))
+    de_rand_1(rows, rows[::-1], rows[np.roll(np.arange(8), 1)], np.zeros(4), np.ones(4), rng)  # DRLOS-EMCMO's DE
+    net = QNet(rng)  # action is a random choice a generation, its network is built after generation 200
+    net.fit(rows, rows, 2)
+    net.predict(rows[:2])
+    return done
