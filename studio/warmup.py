@@ -37,10 +37,9 @@ def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str]]:
         for stage in chain:
             spec = stage_spec(stage, RunSettings(stage.name, name, POP, GENERATIONS, 1), target)
             run = Pipeline([spec], design).stage(0)
-            with np.errstate(all="ignore"):  # results thrown away: pymoo's SPEA2 warns on a degenerate front
-                run.setup()
-                while run.has_next():
-                    run.next()
+            run.setup()
+            while run.has_next():
+                run.next()
             done.append((name, stage.name))
         say(f"  {name:<12} {time.perf_counter() - t:5.1f} s")
     rng = np.random.default_rng(0)

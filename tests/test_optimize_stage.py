@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -240,3 +241,12 @@ def test_an_evaluation_budget_ends_the_stage_within_one_generation(algorithm: st
 def test_the_generation_limit_still_binds_first_when_it_is_smaller() -> None:
     res = Stage(spec(n_gen=3, pop=10, max_evals=10**6), X0).run()
     assert res.generation == 3 and res.n_evals == 30
+
+
+def test_a_generation_s_nan_and_inf_print_no_numpy_warning() -> None:
+    # pymoo's SPEA2 normalises subtask 1's front by (nadir - ideal), 0 / 0 on this seed; the stage reads NaN as a
+    # penalty, and the studio's, CLI's and study workers' consoles stay clean.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = Stage(spec("subtask1", "spea2", pop=12, n_gen=6), X0).run()
+    assert result.status == "complete" and result.pop == 12

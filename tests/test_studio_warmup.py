@@ -48,10 +48,9 @@ for name in ALGORITHMS:
     for stage in chain_for(session.view.design.mechanism):
         spec = stage_spec(stage, RunSettings(stage.name, name, 20, 3, 7), session.view.target)
         run = Pipeline([spec], session.view.design).stage(0)
-        with np.errstate(all="ignore"):
-            run.setup()
-            while run.has_next():
-                run.next()
+        run.setup()
+        while run.has_next():
+            run.next()
 net = QNet(np.random.default_rng(5))
 rows = np.random.default_rng(6).random((30, 4))
 net.fit(rows, rows, 5)

@@ -287,7 +287,11 @@ class Stage:
             raise RuntimeError(f"stage {self.spec.name!r} has no generation left ({self.status})")
         assert self.algorithm is not None
         t = time.perf_counter()
-        self.algorithm.next()
+        # NaN and inf are part of a generation (unassemblable designs, pymoo's SPEA2 normalising a front whose
+        # nadir equals its ideal): the algorithms read them as penalties, and numpy's warnings would only clutter
+        # the console of the studio, the CLI and the study workers.
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            self.algorithm.next()
         self.generation += 1
         self._cached = None
         X, F, G, cv = self._population()
