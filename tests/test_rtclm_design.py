@@ -10,6 +10,7 @@ from core.kinematics.design import Design
 from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions, switching_state
 from core.kinematics.presets import get
 from core.optimize import AlgorithmSpec, Pipeline, StageSpec, make_problem, seeded
+from core.optimize.algorithms import make_algorithm, reference_directions
 from core.optimize.rtclm import rtclm_metrics
 
 N = 72
@@ -97,3 +98,20 @@ def test_early_stop_ends_a_stage_at_the_first_generation_with_a_member_below_the
     assert res.status == "stopped"
     assert seen[-1] and not any(seen[:-1])
     assert res.generation == len(seen) < 40
+
+
+@pytest.mark.parametrize("name", ["nsga3", "unsga3", "moead_cmt", "cmoemt"])
+def test_reference_direction_algorithms_run_subtask1_s_single_objective(name: str) -> None:
+    # The most Das-Dennis partitions under the population size never ended for one objective (one direction
+    # whatever the partitions): setup hung and the studio's Stop could not reach it.
+    spec = StageSpec("rtclm1", make_problem("rtclm1", n_samples=N), algorithm=AlgorithmSpec(name, 20), n_gen=2, seed=5)
+    start = Design(RTCLM_PRIMARY, 0.5 * (RTCLM_PRIMARY.lower + RTCLM_PRIMARY.upper))
+    res = Pipeline([spec], start).run()[0]
+    assert res.status == "complete" and res.pop >= 20 and res.F.shape[1] == 1
+
+
+def test_c_taea_refuses_a_single_objective_by_name() -> None:
+    # Its population is one member per reference direction: one, for one objective.
+    with pytest.raises(ValueError, match="ctaea needs at least two objectives.*has 1"):
+        make_algorithm(AlgorithmSpec("ctaea", 20), 1, 5)
+    assert np.array_equal(reference_directions(1, 20), [[1.0]])

@@ -73,7 +73,10 @@ class AlgorithmInfo:
 
 
 def reference_directions(n_obj: int, n_max: int, n_partitions: int | None = None) -> NDArray[np.float64]:
-    """Das-Dennis directions: the most partitions giving at most ``n_max`` directions (at least 1)."""
+    """Das-Dennis directions: the most partitions giving at most ``n_max`` directions (at least 1). One objective
+    has the single direction (1,) whatever the partitions (the search for the most would never end)."""
+    if n_obj < 2:
+        return np.ones((1, max(n_obj, 1)))
     if n_partitions is None:
         n_partitions = 1
         while comb(n_partitions + 1 + n_obj - 1, n_obj - 1) <= n_max:
@@ -154,6 +157,9 @@ def _ref(cls_path: str, ops: Callable[[], dict[str, Any]], fixed_pop: bool = Fal
         dirs = reference_directions(n_obj, spec.pop_size, opts.pop("n_partitions", None))
         kw = {**_sbx_pm(opts, ALGORITHMS[spec.name].defaults), **ops()}
         if fixed_pop:  # C-TAEA's population is its set of reference directions
+            if n_obj < 2:
+                raise ValueError(f"{spec.name} needs at least two objectives (its population is one member per "
+                                 f"reference direction); this problem has {n_obj}")
             return cls(dirs, seed=seed, **kw)
         return cls(dirs, pop_size=max(spec.pop_size, len(dirs)), seed=seed, **kw)
 
