@@ -4,7 +4,8 @@ numba compiles a kernel on its first call and caches the machine code on disk (`
 install the designer's first Run of the predesign waited ~20 s for that on a 2-core machine, and the first run of
 each constrained MOEA a few seconds more, behind a progress bar that did not move. ``scripts/studio`` runs this
 once per change of the sources, before the studio starts: every stage of the opening design with every algorithm
-of the Algorithm dropdown, at a small population for two generations, and what a short run may not reach:
+of the Algorithm dropdown, at a small population for two generations, the stages of the other topologies (the
+RTCLM's problems have kernels of their own), and what a short run may not reach:
 DRLOS-EMCMO's DE action (drawn at random each generation) and its Q-network (built after generation 200). With
 the cache warm it only loads it (a few seconds).
 """
@@ -16,32 +17,45 @@ from collections.abc import Callable
 
 import numpy as np
 
+from core.kinematics import presets
 from core.optimize.algorithms import ALGORITHMS
 from core.optimize.evolve.qnet import QNet
 from core.optimize.evolve.variation import de_rand_1
 from core.optimize.pipeline import Pipeline
 from studio.chains import RunSettings, chain_for, stage_spec
-from studio.state import Session
+from studio.state import DEFAULT_PRESET, Session
 
 POP, GENERATIONS = 12, 2  # 12: the smallest population every algorithm accepts (CMOEMT needs 10)
 
 
-def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str]]:
-    """Run every (algorithm, stage) of the opening design once, tiny; returns the pairs run, in order."""
+def first_presets() -> list[str]:
+    """The opening preset, then the first preset of each other mechanism (a topology the studio can switch to)."""
+    seen = {presets.get(DEFAULT_PRESET).mechanism.name: DEFAULT_PRESET}
+    for name in presets.PRESETS:
+        seen.setdefault(presets.get(name).mechanism.name, name)
+    return list(seen.values())
+
+
+def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str, str]]:
+    """Run every stage of each mechanism's first preset once, tiny: with every algorithm on the opening design,
+    with NSGA-II on the others (their stages' problems; the algorithms' kernels do not depend on them). Returns
+    the (preset, algorithm, stage) runs, in order."""
     session = Session.default()
-    design, target = session.view.design, session.view.target
-    chain = chain_for(design.mechanism)
-    done: list[tuple[str, str]] = []
-    for name in ALGORITHMS:
-        t = time.perf_counter()
-        for stage in chain:
-            spec = stage_spec(stage, RunSettings(stage.name, name, POP, GENERATIONS, 1), target)
-            run = Pipeline([spec], design).stage(0)
-            run.setup()
-            while run.has_next():
-                run.next()
-            done.append((name, stage.name))
-        say(f"  {name:<12} {time.perf_counter() - t:5.1f} s")
+    done: list[tuple[str, str, str]] = []
+    for preset in first_presets():
+        view = session.load_preset(preset)
+        chain = chain_for(view.design.mechanism)
+        for name in ALGORITHMS if preset == DEFAULT_PRESET else ("nsga2",):
+            t = time.perf_counter()
+            for stage in chain:
+                spec = stage_spec(stage, RunSettings(stage.name, name, POP, GENERATIONS, 1), view.target)
+                run = Pipeline([spec], view.design).stage(0)
+                run.setup()
+                while run.has_next():
+                    run.next()
+                done.append((preset, name, stage.name))
+            if chain:
+                say(f"  {preset:<22} {name:<12} {time.perf_counter() - t:5.1f} s")
     rng = np.random.default_rng(0)
     rows = rng.random((8, 4))
     de_rand_1(rows, rows[::-1], rows[np.roll(np.arange(8), 1)], np.zeros(4), np.ones(4), rng)  # DRLOS-EMCMO's DE
