@@ -47,7 +47,6 @@ def test_bad_arguments_are_one_line_errors(argv, capsys):
     assert err.startswith("clm: error: ") and err.count("\n") == 1
 
 
-
 @pytest.mark.parametrize("problem", ["mw11", "ctp3"])
 def test_a_problem_s_own_nan_objectives_raise_no_numpy_warning(problem):
     # Both problems compute NaN objectives for some of CMOEMT's children (numpy warns where they do); the user
