@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from core.kinematics.design import Design
+from core.optimize.algorithms import make_algorithm
 from core.optimize.box import Box
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
@@ -338,6 +339,9 @@ class Study:
         from stage k-1's pick (the pipeline is kept as a branch first if stage k already ran).
         """
         spec = stage_spec(stage, settings, target)
+        # The algorithm is built here too (cheap, nothing evaluated): settings it refuses (a population too small
+        # for CMOEMT, C-TAEA on one objective) stop the click with its reason before the pipeline is switched.
+        make_algorithm(spec.algorithm, spec.problem.n_obj, spec.seed)
         if not from_pick:
             c = chain.index(stage)
             specs = [spec] + [stage_spec(s, self.settings_for(s), target) for s in chain[c + 1 :]]

@@ -161,6 +161,25 @@ def test_a_failing_problem_is_reported_and_the_studio_stays_idle(session: Sessio
     assert st.state == "idle" and not st.ok and "failed" in st.message and "placement" in st.message
 
 
+@pytest.mark.parametrize(("preset", "stage", "settings", "message"), [
+    ("stephenson1/X3", "subtask1", RunSettings("subtask1", "cmoemt", 8, 2), "cmoemt needs a population of at least 10"),
+    ("rtclm/case1", "rtclm1", RunSettings("rtclm1", "ctaea", 20, 2), "ctaea needs at least two objectives"),
+])
+def test_settings_the_algorithm_refuses_stop_the_click_and_change_nothing(session: Session, preset, stage, settings,
+                                                                          message) -> None:
+    session.load_preset(preset)
+    chain = chain_for(session.view.design.mechanism)
+    run(session, chain[0].name, from_pick=False)  # some work the designer has: a pipeline with a result
+    pipe, branches = session.study.pipeline, list(session.study.branches)
+    session.study.settings[stage] = settings
+    runner = Runner(session.lock, lambda: session.study, lambda p: None, lambda: None)
+    view = session.view
+    with pytest.raises(ValueError, match=message):
+        runner.start(lambda s: s.plan(find(chain, stage), settings, view.design, view.target, False, chain))
+    assert not runner.busy and session.study.pipeline is pipe and session.study.branches == branches
+    assert not session.study.status.running
+
+
 # Picks, next stage, branches ----------------------------------------------------------------------
 
 
