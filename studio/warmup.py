@@ -49,13 +49,9 @@ def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str, str]]:
             t = time.perf_counter()
             for stage in chain:
                 spec = stage_spec(stage, RunSettings(stage.name, name, POP, GENERATIONS, 1), view.target)
-                run = Pipeline([spec], view.design).stage(0)
-                run.setup()
-                while run.has_next():
-                    run.next()
+                Pipeline([spec], view.design).stage(0).run()
                 done.append((preset, name, stage.name))
-            if chain:
-                say(f"  {preset:<22} {name:<12} {time.perf_counter() - t:5.1f} s")
+            say(f"  {preset:<22} {name:<12} {time.perf_counter() - t:5.1f} s")
     rng = np.random.default_rng(0)
     rows = rng.random((8, 4))
     de_rand_1(rows, rows[::-1], rows[np.roll(np.arange(8), 1)], np.zeros(4), np.ones(4), rng)  # DRLOS-EMCMO's DE

@@ -56,8 +56,7 @@ for preset in first_presets():
                 run.setup()
             except ValueError:  # C-TAEA refuses the RTCLM's single objective by name
                 continue
-            while run.has_next():
-                run.next()
+            run.run()
 net = QNet(np.random.default_rng(5))
 rows = np.random.default_rng(6).random((30, 4))
 net.fit(rows, rows, 5)
