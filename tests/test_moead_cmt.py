@@ -48,7 +48,7 @@ def test_same_seed_same_archive_and_another_seed_another():
 def test_reaches_a_feasible_archive_at_20000_evaluations(name):
     res, _ = run(name, 20000, pop=100)
     assert (res.pop.get("CV")[:, 0] <= 0).mean() > 0.5
-    # MW1 is not asserted: the published algorithm reaches it at 20 000 with 5 of 20 seeds (docs/algorithms.md)
+    # MW1 is not asserted: the published algorithm reaches it at 20 000 with 8 of seeds 1-40 (docs/algorithms.md)
 
 
 def _member(alg, F, cv):
