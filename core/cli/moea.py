@@ -12,12 +12,13 @@ from core.cli import jsonable
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "moea",
-        help="run an algorithm on a constrained test problem (MW, CTP, DAS-CMOP, ZDT)",
+        help="run an algorithm on a test problem (MW, CTP, DAS-CMOP, ZDT, DTLZ, C-DTLZ)",
         description="Run any registered algorithm on one of pymoo's test problems for a budget of function "
         "evaluations and print IGD and HV (PlatEMO's normalisation, on the feasible non-dominated members), the "
         "evaluations spent, the feasible count and the wall time. Reference fronts ship with the package.",
     )
-    p.add_argument("--problem", required=True, help="mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3")
+    p.add_argument("--problem", required=True, help="mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, "
+                   "dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4 (3 objectives)")
     p.add_argument("--algorithm", default="nsga2", help="a registered algorithm (default nsga2)")
     p.add_argument("--pop", type=int, default=100, help="population size (default 100)")
     p.add_argument("--evals", type=int, default=20_000, help="function evaluations (default 20000)")
@@ -38,6 +39,6 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(jsonable(r)))
         return 0
     print(f"{r['algorithm']} on {r['problem']} (pop {r['pop']}, seed {r['seed']}): IGD {_fmt(r['igd'])}, "
-          f"HV {_fmt(r['hv'])}, {r['n_eval']} evaluations, {r['feasible']} of {r['pop']} feasible, "
+          f"HV {_fmt(r['hv'])}, {r['n_eval']} evaluations, {r['feasible']} of {r['size']} feasible, "
           f"front {r['front_size']}, {r['wall_time']:.2f} s")
     return 0

@@ -30,30 +30,46 @@ from core.optimize.decision import pareto_front
 F64 = NDArray[np.float64]
 FRONTS = Path(__file__).resolve().parent / "evolve" / "fronts"
 DASCMOP_DIFFICULTY = 8  # PlatEMO's (0.5, 0.5, 0.5) for DAS-CMOP3-9 (spec §8.1)
+# DTLZ and constrained DTLZ at 3 objectives with PlatEMO's numbers of variables (M + 4 for the DTLZ1 family and
+# C3-DTLZ4, M + 9 for DTLZ2-4, C1-DTLZ3 and C2-DTLZ2); pymoo's defaults differ for DTLZ2-4 and C1-DTLZ1.
+DTLZ = {"dtlz1": 7, "dtlz2": 12, "dtlz3": 12, "dtlz4": 12, "c1dtlz1": 7, "c1dtlz3": 12, "c2dtlz2": 12, "c3dtlz4": 7}
 PROBLEMS = (*(f"mw{i}" for i in range(1, 15)), *(f"ctp{i}" for i in range(1, 9)),
-            *(f"dascmop{i}" for i in range(1, 10)), "zdt1", "zdt2", "zdt3")
+            *(f"dascmop{i}" for i in range(1, 10)), "zdt1", "zdt2", "zdt3", *DTLZ)
+KNOWN = "mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4"
+LATTICE = 5050  # reference points of a 3-objective DTLZ front (Das-Dennis, H = 99), before C2-DTLZ2's cut
 MAX_EVALS = 10**8
 
 
 def problem_by_name(name: str) -> Problem:
     """A pymoo test problem by name (``mw1``…``mw14``, ``ctp1``…``ctp8``, ``dascmop1``…``dascmop9`` at
-    difficulty 8, ``zdt1``…``zdt3``); ValueError naming the known ones otherwise."""
+    difficulty 8, ``zdt1``…``zdt3``, the DTLZ and constrained DTLZ problems of :data:`DTLZ` at 3 objectives);
+    ValueError naming the known ones otherwise."""
     from pymoo.problems import get_problem
 
     key = name.lower()
     if key not in PROBLEMS:
-        raise ValueError(f"unknown problem {name!r}; known: mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3")
+        raise ValueError(f"unknown problem {name!r}; known: {KNOWN}")
+    if key in DTLZ:
+        return get_problem(key, n_var=DTLZ[key], n_obj=3)
     return get_problem(key, DASCMOP_DIFFICULTY) if key.startswith("dascmop") else get_problem(key)
 
 
 def reference_front(name: str) -> F64 | None:
-    """The problem's true Pareto front: a shipped file (MW, CTP), pymoo's analytic one (ZDT), else None."""
+    """The problem's true Pareto front: a shipped file (MW, CTP, DAS-CMOP), pymoo's analytic one (ZDT; DTLZ and
+    constrained DTLZ on a Das-Dennis lattice of 5050 directions, C2-DTLZ2's cut to its feasible parts), else
+    None."""
     key = name.lower()
     for f in (FRONTS / f"{key.upper()}.pf", FRONTS / f"{key}.pf"):
         if f.is_file():
             return np.loadtxt(f, ndmin=2)
     if key.startswith("zdt"):
         return np.asarray(problem_by_name(key).pareto_front(), dtype=np.float64)
+    if key in DTLZ:
+        from core.optimize.evolve.weights import das_dennis
+
+        directions = das_dennis(LATTICE, 3)
+        directions[directions <= 1e-6] = 0.0  # the lattice's own points (das_dennis clips zeros for Tchebycheff)
+        return np.asarray(problem_by_name(key).pareto_front(ref_dirs=directions), dtype=np.float64)
     return None
 
 
@@ -89,8 +105,9 @@ def hv_platemo(F: F64, pf: F64 | None) -> float:
 
 def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: dict[str, Any] | None = None
         ) -> dict[str, Any]:
-    """Run an algorithm on a test problem for ``evals`` function evaluations; IGD, HV, evaluations, feasible
-    count and wall time."""
+    """Run an algorithm on a test problem for ``evals`` function evaluations; IGD, HV, evaluations, the final
+    population's size (``size``: the Das-Dennis N of the decomposition-based ones, e.g. 91 for ``pop`` 100) and
+    feasible count, and wall time."""
     if not 4 <= pop <= 100_000:
         raise ValueError(f"--pop must be between 4 and 100000, got {pop}")
     if not 1 <= evals <= MAX_EVALS:
@@ -110,5 +127,5 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
     pf = reference_front(problem)
     return {"problem": problem.lower(), "algorithm": algorithm, "pop": pop, "seed": seed,
             "igd": igd(front, pf), "hv": hv_platemo(front, pf), "n_eval": int(res.algorithm.evaluator.n_eval),
-            "feasible": int((cv <= 0).sum()), "front_size": int(len(front)), "wall_time": wall,
+            "feasible": int((cv <= 0).sum()), "size": int(len(cv)), "front_size": int(len(front)), "wall_time": wall,
             "reference_points": 0 if pf is None else int(len(pf))}
