@@ -15,7 +15,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="run an algorithm on a test problem (MW, CTP, DAS-CMOP, ZDT, DTLZ, C-DTLZ)",
         description="Run any registered algorithm on one of pymoo's test problems for a budget of function "
         "evaluations and print IGD and HV (PlatEMO's normalisation, on the feasible non-dominated members), the "
-        "evaluations spent, the feasible count and the wall time. Reference fronts ship with the package.",
+        "evaluations spent, the feasible count and the wall time. Reference fronts need no download: they ship with "
+        "the package or are computed from the problem's definition.",
     )
     p.add_argument("--problem", required=True, help="mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, "
                    "dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4 (3 objectives)")
