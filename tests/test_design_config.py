@@ -125,6 +125,13 @@ BAD = [
     ("workers", "many", "workers: 'many' is not one of auto"),
     ("stages.0.algorithm.pop_size", 0, "stages[0].algorithm.pop_size: must be >= 2"),
     ("baseline.n_gen", 5, "baseline: only for the DP methods"),
+    # What only the algorithm refuses is refused at load, before the first stage runs (it used to surface when
+    # its stage started, after the earlier stages' work, and nothing was written).
+    ("stages.2.algorithm", {"name": "cmoemt", "pop_size": 5},
+     "stages[2].algorithm: cmoemt needs a population of at least 10, got 5"),
+    ("stages.1.algorithm", {"name": "cmoemt", "options": {"variant": "nope"}},
+     "stages[1].algorithm: cmoemt variant must be one of"),
+    ("algorithm", {"name": "imtcmo", "pop_size": 11}, "algorithm: imtcmo needs an even population"),
 ]
 
 

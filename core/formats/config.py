@@ -35,7 +35,7 @@ from core.kinematics.mechanisms import MECHANISMS
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.kinematics.params import Param
 from core.optimize import problem as problem_registry
-from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, validate
+from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, make_algorithm, validate
 from core.optimize.baselines import DP_METHODS, BaselineSettings
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.design_config import PAPER_OUTPUT, DesignConfig, StageConfig, placeholder
@@ -284,6 +284,11 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
         if n not in mech.param_names:
             raise _fail(f"{key}.fixed[{j}]", f"{mech.name} has no parameter {n!r}")
     alg = _algorithm(t.algorithm, f"{key}.algorithm", algorithm) if t.algorithm is not None else algorithm
+    try:  # what only the algorithm itself refuses (a population below CMOEMT's 10, a bad variant): before any run
+        make_algorithm(alg, spec.n_obj, 0)
+    except ValueError as e:
+        raise _fail(f"{key}.algorithm" if t.algorithm is not None else "algorithm",
+                    str(e) if t.algorithm is not None else f"{e} (in stage {t.name!r})") from None
     if spec.repair is not None:  # placement needs a mechanism that can follow a similarity transform
         from core.optimize.predesign import placement
 
