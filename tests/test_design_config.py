@@ -65,6 +65,7 @@ BAD = [
     ("algorithm.pop_size", 1, "algorithm.pop_size: must be >= 2"),
     ("algorithm.options.mutation_rate", 0.1, "algorithm.options.mutation_rate: unknown key"),
     ("algorithm.options.crossover_eta", "high", "algorithm.options.crossover_eta: expected a number"),
+    ("algorithm.options.crossover_prob", 2.0, "algorithm.options.crossover_prob: must be <= 1"),
     ("stages", [], "stages: missing"),
     ("stages.0.n_gen", 0, "stages[0].n_gen: must be >= 1"),
     ("stages.0.n_gen", "many", "stages[0].n_gen: expected an integer"),

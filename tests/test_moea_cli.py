@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from core.cli import main
-from core.optimize.moea import PROBLEMS, hv_platemo, igd, reference_front
+from core.optimize.moea import PROBLEMS, hv_platemo, igd, reference_front, run
 
 
 def test_indicators_by_hand():
@@ -40,6 +40,9 @@ def test_clm_moea_prints_json_with_the_budget_spent(capsys):
     ["moea", "--problem", "mw1", "--evals", "0"], ["moea", "--problem", "mw1", "--evals", "-5"],
     ["moea", "--problem", "mw1", "--pop", "0"], ["moea", "--problem", "mw1", "--seed", "-1"],
     ["moea", "--problem", "mw1", "--seed", str(10**30)], ["moea"], ["moea", "--problem", "mw1", "--pop", "x"],
+    ["moea", "--problem", "mw1", "--algorithm", "imtcmo", "--option", "operator=de"],
+    ["moea", "--problem", "mw1", "--option", "crossover_prob=2"], ["moea", "--problem", "mw1", "--option", "de"],
+    ["moea", "--problem", "mw1", "--algorithm", "cmoes", "--option", "operator=DE"],
 ])
 def test_bad_arguments_are_one_line_errors(argv, capsys):
     assert main(argv) == 2
@@ -54,3 +57,18 @@ def test_a_problem_s_own_nan_objectives_raise_no_numpy_warning(problem):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert main(["moea", "--problem", problem, "--algorithm", "cmoemt", "--pop", "40", "--evals", "4000"]) == 0
+
+
+def test_options_reach_the_algorithm_as_a_configuration_s_do(capsys):
+    # MCCMO with PlatEMO's DE operator (its choice for DAS-CMOP): the same run as the library's with the option,
+    # another run than the default GA one.
+    argv = ["moea", "--problem", "ctp2", "--algorithm", "mccmo", "--pop", "20", "--evals", "1000", "--json"]
+    assert main([*argv, "--option", "operator=de"]) == 0
+    de = json.loads(capsys.readouterr().out)
+    assert main(argv) == 0
+    ga = json.loads(capsys.readouterr().out)
+    ref = run("ctp2", "mccmo", 20, 1000, 1, {"operator": "de"})
+    assert de["igd"] == ref["igd"] and de["igd"] != ga["igd"]
+    # Typed as in a configuration: false is a bool, 0.5 a number.
+    assert main(["moea", "--problem", "ctp2", "--pop", "20", "--evals", "400", "--option", "eliminate_duplicates=false",
+                 "--option", "crossover_prob=0.5"]) == 0

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import tomllib
+from typing import Any
 
 from core.cli import jsonable
 
@@ -24,6 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pop", type=int, default=100, help="population size (default 100)")
     p.add_argument("--evals", type=int, default=20_000, help="function evaluations (default 20000)")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
+    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="an algorithm option, as in a configuration's [algorithm] options (repeatable), e.g. "
+                   "operator=de for cmoes or mccmo, variant=author_repo for cmoemt; see docs/algorithms.md")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
 
@@ -32,10 +37,29 @@ def _fmt(v: float) -> str:
     return "-" if not math.isfinite(v) else f"{v:.6g}"
 
 
+def options(algorithm: str, given: list[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` strings as typed options: VALUE read as a TOML value (true, 15, 0.9), else as a string."""
+    from core.formats.config import algorithm_options
+    from core.optimize.algorithms import ALGORITHMS
+
+    raw: dict[str, Any] = {}
+    for item in given:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--option expects KEY=VALUE, got {item!r}")
+        try:
+            raw[key.strip()] = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            raw[key.strip()] = value.strip()
+    if algorithm not in ALGORITHMS:
+        raise ValueError(f"unknown algorithm {algorithm!r}; known: {', '.join(ALGORITHMS)}")
+    return algorithm_options(algorithm, raw, "--option")
+
+
 def run(args: argparse.Namespace) -> int:
     from core.optimize.moea import run as run_moea
 
-    r = run_moea(args.problem, args.algorithm, args.pop, args.evals, args.seed)
+    r = run_moea(args.problem, args.algorithm, args.pop, args.evals, args.seed, options(args.algorithm, args.option))
     if args.json:
         print(json.dumps(jsonable(r)))
         return 0

@@ -12,7 +12,7 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import msgspec
 from msgspec import Struct
@@ -145,8 +145,10 @@ def _target(t: Target, base: Path) -> str:
 
 
 # Algorithm option types by name (any other option is a number >= 0).
-ALGORITHM_OPTIONS: dict[str, Any] = {"variant": str, "operator": Literal["ga", "de"], "eliminate_duplicates": bool,
-                                     "ahead": bool,
+Prob = Annotated[float, msgspec.Meta(ge=0, le=1)]
+ALGORITHM_OPTIONS: dict[str, Any] = {"crossover_prob": Prob, "mutation_prob": Prob, "mutation_prob_var": Prob,
+                                     "CR": Prob, "variant": str, "operator": Literal["ga", "de"],
+                                     "eliminate_duplicates": bool, "ahead": bool,
                                      "n_partitions": PosInt, "reward": Literal["platemo", "improvement"],
                                      "replay": Literal["platemo", "fifo"], "success": Literal["platemo", "size"],
                                      "F": NonNeg | list[NonNeg]}
@@ -163,15 +165,23 @@ def _given(struct: type[Struct], given: dict[str, Any], key: str) -> dict[str, A
     return {k: getattr(decoded, k) for k in given}
 
 
+def algorithm_options(name: str, given: Mapping[str, Any], key: str = "options") -> dict[str, Any]:
+    """The options of algorithm ``name`` decoded as a configuration's ``[algorithm] options`` are (types, ranges,
+    known keys); ValueError naming ``key.<option>`` otherwise."""
+    known = ALGORITHMS[name].options
+    if not known and given:
+        raise _fail(f"{key}.{next(iter(given))}", f"{name} takes no options")
+    struct = _options_struct(f"{name}_options", [(k, ALGORITHM_OPTIONS.get(k, NonNeg)) for k in known])
+    return _given(struct, dict(given), key)
+
+
 def _algorithm(t: Algorithm, key: str, base: AlgorithmSpec | None) -> AlgorithmSpec:
     if t.name is not None and t.name not in ALGORITHMS:
         raise _fail(f"{key}.name", f"{t.name!r} is not one of {', '.join(ALGORITHMS)}")
     name = t.name if t.name is not None else (base.name if base else "nsga2")
     pop = t.pop_size if t.pop_size is not None else (base.pop_size if base else 200)
     opts = dict(base.options) if base is not None and name == base.name else {}
-    known = ALGORITHMS[name].options
-    struct = _options_struct(f"{name}_options", [(k, ALGORITHM_OPTIONS.get(k, NonNeg)) for k in known])
-    opts.update(_given(struct, t.options, f"{key}.options"))
+    opts.update(algorithm_options(name, t.options, f"{key}.options"))
     spec = AlgorithmSpec(name, pop, opts)
     try:
         validate(spec)
