@@ -50,6 +50,31 @@ def test_callbacks_see_pymoo_populations_every_generation():
     assert cb.data["sizes"] == [30] * 6
 
 
+@pytest.mark.parametrize(("problem", "name", "columns"), [
+    ("mw3", "nsga2", "cv_min"), ("mw3", "cmoes", "cv_min"), ("ctp2", "moead_cmt", "cv_avg"),
+    ("sphere", "nsga2", "f_min"),
+])
+def test_verbose_prints_pymoo_s_progress_table(problem, name, columns, capsys):
+    # minimize(..., verbose=True) printed nothing for the array algorithms: they had no output object.
+    from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+
+    p = get_problem(problem)
+    minimize(p, make_algorithm(AlgorithmSpec(name, 20), p.n_obj, 1), ("n_gen", 3), seed=1, verbose=True)
+    out = capsys.readouterr().out
+    assert "n_gen" in out and columns in out and len([ln for ln in out.splitlines() if ln.strip()[:1].isdigit()]) == 3
+    minimize(p, make_algorithm(AlgorithmSpec(name, 20), p.n_obj, 1), ("n_gen", 3), seed=1)
+    assert capsys.readouterr().out == ""
+
+
+def test_ask_says_ask_and_tell_is_not_supported():
+    alg = NSGA2(pop_size=10)
+    alg.setup(get_problem("zdt1"), termination=("n_gen", 3), seed=1)
+    with pytest.raises(NotImplementedError, match="not ask/tell"):
+        alg.ask()
+    alg.next()  # next() still runs the generation
+    assert len(alg.pop) == 10
+
+
 def test_population_is_kept_inside_the_bounds_and_duplicates_are_eliminated():
     p = get_problem("zdt1", n_var=4)
     r = minimize(p, NSGA2(pop_size=50), ("n_gen", 20), seed=2)

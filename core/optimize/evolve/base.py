@@ -71,6 +71,21 @@ class ArrayAlgorithm(Algorithm):
         self.initialization = Initialization()
         self.trace: list[dict[str, float]] = []
 
+    def setup(self, problem: Any, verbose: bool = False, progress: bool = False, **kwargs: Any) -> Algorithm:
+        """pymoo's setup, with pymoo's progress table for ``minimize(..., verbose=True)`` (none was set)."""
+        if getattr(self, "output", None) is None:
+            from pymoo.util.display.multi import MultiObjectiveOutput
+            from pymoo.util.display.single import SingleObjectiveOutput
+
+            self.output = SingleObjectiveOutput() if problem.n_obj == 1 else MultiObjectiveOutput()
+        return super().setup(problem, verbose=verbose, progress=progress, **kwargs)
+
+    def ask(self) -> Population | None:
+        """Not supported: a generation evaluates inside ``advance`` (sometimes child by child), so there is no
+        population to hand out; pymoo's ``ask`` returned None here and the caller failed later."""
+        raise NotImplementedError(f"{type(self).__name__} runs its generations on arrays and evaluates inside "
+                                  "them: use minimize() or next(), not ask/tell")
+
     # pymoo's pop/opt, built on demand from the arrays.
     @property
     def arrays(self) -> Arrays | None:
