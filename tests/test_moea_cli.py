@@ -72,3 +72,17 @@ def test_options_reach_the_algorithm_as_a_configuration_s_do(capsys):
     # Typed as in a configuration: false is a bool, 0.5 a number.
     assert main(["moea", "--problem", "ctp2", "--pop", "20", "--evals", "400", "--option", "eliminate_duplicates=false",
                  "--option", "crossover_prob=0.5"]) == 0
+
+
+def test_the_front_counts_distinct_points():
+    # CMOEMT's final population holds exact copies (its tasks share members); the front is the distinct points.
+    from pymoo.optimize import minimize
+
+    from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+    from core.optimize.moea import feasible_front, problem_by_name
+
+    res = minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("cmoemt", 40), 2, 1), ("n_eval", 4000), seed=1)
+    front = feasible_front(res.pop.get("F"), res.pop.get("CV")[:, 0])
+    distinct = len(np.unique(front, axis=0))
+    assert 0 < distinct < len(front)  # copies on the front
+    assert run("mw3", "cmoemt", 40, 4000, 1)["front_size"] == distinct

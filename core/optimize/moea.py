@@ -127,5 +127,6 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
     pf = reference_front(problem)
     return {"problem": problem.lower(), "algorithm": algorithm, "pop": pop, "seed": seed,
             "igd": igd(front, pf), "hv": hv_platemo(front, pf), "n_eval": int(res.algorithm.evaluator.n_eval),
-            "feasible": int((cv <= 0).sum()), "size": int(len(cv)), "front_size": int(len(front)), "wall_time": wall,
+            "feasible": int((cv <= 0).sum()), "size": int(len(cv)),
+            "front_size": int(len(np.unique(front, axis=0))) if len(front) else 0, "wall_time": wall,
             "reference_points": 0 if pf is None else int(len(pf))}
