@@ -86,3 +86,17 @@ def test_the_front_counts_distinct_points():
     distinct = len(np.unique(front, axis=0))
     assert 0 < distinct < len(front)  # copies on the front
     assert run("mw3", "cmoemt", 40, 4000, 1)["front_size"] == distinct
+
+
+@pytest.mark.parametrize(("name", "options", "message"), [
+    ("nsga2", {"mutation_eta": -1}, "option 'mutation_eta' of nsga2 must be a number in [0, inf], got -1"),
+    ("nsga2", {"crossover_prob": 1.5}, "option 'crossover_prob' of nsga2 must be a number in [0, 1], got 1.5"),
+    ("nsga2", {"mutation_prob": True}, "option 'mutation_prob' of nsga2 must be a number"),
+    ("imtcmo", {"operator": "de"}, "unknown option 'operator' for imtcmo; it takes no options"),
+])
+def test_the_library_checks_option_values_as_the_cli_does(name, options, message):
+    # The Python path (core.optimize.moea.run, make_algorithm) used to pass mutation_eta = -1 on to a division by
+    # zero inside the mutation.
+    with pytest.raises(ValueError) as e:
+        run("mw3", name, 20, 400, 1, options)
+    assert str(e.value).startswith(message)

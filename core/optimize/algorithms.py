@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from math import comb
+from math import comb, inf
 from typing import Any
 
 import numpy as np
@@ -37,6 +37,9 @@ GA_OPTIONS = ("crossover_prob", "crossover_eta", "mutation_prob", "mutation_prob
               "eliminate_duplicates")
 REF_OPTIONS = ("n_partitions",)
 DE_OPTIONS = ("variant", "CR", "F")
+# Numeric options and their closed ranges (checked however the spec was made: config, CLI, studio or Python).
+RANGES = {"crossover_prob": (0.0, 1.0), "mutation_prob": (0.0, 1.0), "mutation_prob_var": (0.0, 1.0),
+          "CR": (0.0, 1.0), "crossover_eta": (0.0, inf), "mutation_eta": (0.0, inf), "F": (0.0, inf)}
 
 
 @dataclass(frozen=True)
@@ -275,9 +278,17 @@ def validate(spec: AlgorithmSpec) -> None:
     if not isinstance(spec.pop_size, int) or isinstance(spec.pop_size, bool) or spec.pop_size < 2:
         raise ValueError(f"algorithm pop_size must be an integer >= 2, got {spec.pop_size!r}")
     info = ALGORITHMS[spec.name]
-    for key in spec.options:
+    for key, value in spec.options.items():
         if key not in info.options:
-            raise ValueError(f"unknown option {key!r} for {spec.name}; known: {', '.join(info.options)}")
+            known = ", ".join(info.options)
+            raise ValueError(f"unknown option {key!r} for {spec.name}; " + (f"known: {known}" if known else
+                                                                             "it takes no options"))
+        if key in RANGES and value is not None:
+            lo, hi = RANGES[key]
+            values = value if isinstance(value, (list, tuple)) else [value]
+            for v in values:
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+                    raise ValueError(f"option {key!r} of {spec.name} must be a number in [{lo:g}, {hi:g}], got {v!r}")
 
 
 def make_algorithm(spec: AlgorithmSpec, n_obj: int, seed: int, repair: Repair | None = None) -> Algorithm:
