@@ -51,9 +51,8 @@ def options(algorithm: str, given: list[str]) -> dict[str, Any]:
             raw[key.strip()] = tomllib.loads(f"v = {value.strip()}")["v"]
         except tomllib.TOMLDecodeError:
             raw[key.strip()] = value.strip()
-    if algorithm not in ALGORITHMS:
-        raise ValueError(f"unknown algorithm {algorithm!r}; known: {', '.join(ALGORITHMS)}")
-    return algorithm_options(algorithm, raw, "--option")
+    # An unknown algorithm is reported by the run itself (make_algorithm), with or without options.
+    return algorithm_options(algorithm, raw, "--option") if algorithm in ALGORITHMS else raw
 
 
 def run(args: argparse.Namespace) -> int:

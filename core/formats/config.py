@@ -8,6 +8,7 @@ configuration is ``core.optimize.run``.
 from __future__ import annotations
 
 import inspect
+import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
@@ -35,7 +36,7 @@ from core.kinematics.mechanisms import MECHANISMS
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.kinematics.params import Param
 from core.optimize import problem as problem_registry
-from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, make_algorithm, validate
+from core.optimize.algorithms import ALGORITHMS, RANGES, AlgorithmSpec, make_algorithm, validate
 from core.optimize.baselines import DP_METHODS, BaselineSettings
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.design_config import PAPER_OUTPUT, DesignConfig, StageConfig, placeholder
@@ -144,10 +145,13 @@ def _target(t: Target, base: Path) -> str:
     return str(p)
 
 
-# Algorithm option types by name (any other option is a number >= 0).
-Prob = Annotated[float, msgspec.Meta(ge=0, le=1)]
-ALGORITHM_OPTIONS: dict[str, Any] = {"crossover_prob": Prob, "mutation_prob": Prob, "mutation_prob_var": Prob,
-                                     "CR": Prob, "variant": str, "operator": Literal["ga", "de"],
+def _ranged(lo: float, hi: float) -> Any:
+    return Annotated[float, msgspec.Meta(ge=lo, le=hi)] if hi < math.inf else Annotated[float, msgspec.Meta(ge=lo)]
+
+
+# Algorithm option types by name (any other option is a number >= 0); the numeric ranges are the algorithms' own.
+ALGORITHM_OPTIONS: dict[str, Any] = {**{k: _ranged(*r) for k, r in RANGES.items() if k != "F"},
+                                     "variant": str, "operator": Literal["ga", "de"],
                                      "eliminate_duplicates": bool, "ahead": bool,
                                      "n_partitions": PosInt, "reward": Literal["platemo", "improvement"],
                                      "replay": Literal["platemo", "fifo"], "success": Literal["platemo", "size"],
