@@ -117,20 +117,23 @@ def choose(page: Any, label: str, option: str) -> None:
     """Open a dropdown and click an option; open it again if a click during a layout shift missed.
 
     A chart that appears above a dropdown moves it while Playwright clicks (seen in CI: the list
-    never opened), and a person would simply click again.
+    never opened, or it opened and closed before the click on the option), and a person would simply
+    click again.
     """
     from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
     box = page.get_by_label(label, exact=True)
     want = page.get_by_role("option", name=option, exact=True)
-    for _ in range(6):  # a list opened before the server's new options arrived is opened again
+    for _ in range(5):  # a list opened before the server's new options arrived is opened again
         box.scroll_into_view_if_needed()
         box.click()
         try:
             want.wait_for(state="visible", timeout=5000)
-            break
+            want.click(timeout=5000)  # the list can close again under the click when a chart shifts the panel
+            return
         except PlaywrightTimeout:
             page.keyboard.press("Escape")
+    box.click()
     want.click()
 
 
