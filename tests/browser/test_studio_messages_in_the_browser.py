@@ -160,6 +160,7 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
 
     # The candidate list names each member, and each design, once.
     page.get_by_label("Candidate", exact=True).click()
+    page.get_by_role("option").first.wait_for(state="visible")  # the list opens after the click returns
     options = page.get_by_role("option").all_text_contents()
     page.keyboard.press("Escape")
     members = [int(m.group(1)) for o in options if (m := re.search(r"· #(\d+) ·", o))]
