@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from ctrl_c import sigint_as_in_a_terminal
 
 from studio.app import Studio
 from studio.gate import Gate, host_name
@@ -151,7 +152,8 @@ def test_a_taken_port_moves_the_gate_to_the_next_free_one(gated):
 
 def test_clm_studio_with_a_random_token_prints_a_url_that_opens_and_stops_on_ctrl_c():
     proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0", "--token"], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=sigint_as_in_a_terminal)
     try:
         assert proc.stdout is not None
         line = proc.stdout.readline()
@@ -180,7 +182,7 @@ def test_ctrl_c_stops_clm_studio_whichever_of_its_threads_the_kernel_hands_it_to
     import ctypes
 
     proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0"], cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+                            stderr=subprocess.STDOUT, text=True, preexec_fn=sigint_as_in_a_terminal)
     try:
         assert proc.stdout is not None
         assert "CLM Studio:" in proc.stdout.readline()

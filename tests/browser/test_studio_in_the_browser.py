@@ -17,6 +17,7 @@ from test_studio_stages_in_the_browser import choose, field
 
 from core.kinematics import presets
 from studio.panels._inputs import format_number
+from tests.ctrl_c import sigint_as_in_a_terminal
 
 ROOT = Path(__file__).resolve().parents[2]
 X3 = presets.get("stephenson1/X3")
@@ -148,7 +149,8 @@ def test_choosing_another_preset_loads_it(page: Any, studio: Any) -> None:
 def test_clm_studio_serves_on_loopback_opens_animating_and_stops_on_ctrl_c(browser: Any, ready: Any) -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0"], cwd=ROOT, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=sigint_as_in_a_terminal)
     try:
         assert proc.stdout is not None
         line = ""
