@@ -21,7 +21,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "the package or are computed from the problem's definition.",
     )
     p.add_argument("--problem", required=True, help="mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, "
-                   "dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4 (3 objectives)")
+                   "dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4, dc1dtlz1, dc1dtlz3, dc2dtlz1, dc2dtlz3, "
+                   "dc3dtlz1, dc3dtlz3 (3 objectives)")
     p.add_argument("--algorithm", default="nsga2", help="a registered algorithm (default nsga2)")
     p.add_argument("--pop", type=int, default=100, help="population size (default 100)")
     p.add_argument("--evals", type=int, default=20_000, help="function evaluations (default 20000)")

@@ -25,6 +25,7 @@ from pymoo.indicators.igd import IGD
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+from core.optimize.dcdtlz import DCDTLZ
 from core.optimize.decision import pareto_front
 
 F64 = NDArray[np.float64]
@@ -33,17 +34,20 @@ DASCMOP_DIFFICULTY = 8  # PlatEMO's (0.5, 0.5, 0.5) for DAS-CMOP3-9 (spec §8.1)
 # DTLZ and constrained DTLZ at 3 objectives with PlatEMO's numbers of variables (M + 4 for the DTLZ1 family and
 # C3-DTLZ4, M + 9 for DTLZ2-4, C1-DTLZ3 and C2-DTLZ2); pymoo's defaults differ for DTLZ2-4 and C1-DTLZ1.
 DTLZ = {"dtlz1": 7, "dtlz2": 12, "dtlz3": 12, "dtlz4": 12, "c1dtlz1": 7, "c1dtlz3": 12, "c2dtlz2": 12, "c3dtlz4": 7}
+# DC-DTLZ as PlatEMO defines it (core/optimize/dcdtlz.py; pymoo's classes of these names are other problems).
+DC_DTLZ = tuple(f"dc{kind}dtlz{base}" for kind in (1, 2, 3) for base in (1, 3))
 PROBLEMS = (*(f"mw{i}" for i in range(1, 15)), *(f"ctp{i}" for i in range(1, 9)),
-            *(f"dascmop{i}" for i in range(1, 10)), "zdt1", "zdt2", "zdt3", *DTLZ)
-KNOWN = "mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4"
+            *(f"dascmop{i}" for i in range(1, 10)), "zdt1", "zdt2", "zdt3", *DTLZ, *DC_DTLZ)
+KNOWN = ("mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4, "
+         "dc1dtlz1, dc1dtlz3, dc2dtlz1, dc2dtlz3, dc3dtlz1, dc3dtlz3")
 LATTICE = 5050  # reference points of a 3-objective DTLZ front (Das-Dennis, H = 99), before C2-DTLZ2's cut
 MAX_EVALS = 10**8
 
 
 def problem_by_name(name: str) -> Problem:
     """A pymoo test problem by name (``mw1``…``mw14``, ``ctp1``…``ctp8``, ``dascmop1``…``dascmop9`` at
-    difficulty 8, ``zdt1``…``zdt3``, the DTLZ and constrained DTLZ problems of :data:`DTLZ` at 3 objectives);
-    ValueError naming the known ones otherwise."""
+    difficulty 8, ``zdt1``…``zdt3``, the DTLZ and constrained DTLZ problems of :data:`DTLZ` and PlatEMO's DC-DTLZ
+    at 3 objectives); ValueError naming the known ones otherwise."""
     from pymoo.problems import get_problem
 
     key = name.lower()
@@ -51,20 +55,22 @@ def problem_by_name(name: str) -> Problem:
         raise ValueError(f"unknown problem {name!r}; known: {KNOWN}")
     if key in DTLZ:
         return get_problem(key, n_var=DTLZ[key], n_obj=3)
+    if key in DC_DTLZ:
+        return DCDTLZ(int(key[2]), int(key[-1]), 3)
     return get_problem(key, DASCMOP_DIFFICULTY) if key.startswith("dascmop") else get_problem(key)
 
 
 def reference_front(name: str) -> F64 | None:
     """The problem's true Pareto front: a shipped file (MW, CTP, DAS-CMOP), pymoo's analytic one (ZDT; DTLZ and
-    constrained DTLZ on a Das-Dennis lattice of 5050 directions, C2-DTLZ2's cut to its feasible parts), else
-    None."""
+    constrained DTLZ on a Das-Dennis lattice of 5050 directions, C2-DTLZ2's and DC-DTLZ's cut to their feasible
+    parts), else None."""
     key = name.lower()
     for f in (FRONTS / f"{key.upper()}.pf", FRONTS / f"{key}.pf"):
         if f.is_file():
             return np.loadtxt(f, ndmin=2)
     if key.startswith("zdt"):
         return np.asarray(problem_by_name(key).pareto_front(), dtype=np.float64)
-    if key in DTLZ:
+    if key in DTLZ or key in DC_DTLZ:
         from core.optimize.evolve.weights import das_dennis
 
         directions = das_dennis(LATTICE, 3)
