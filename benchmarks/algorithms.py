@@ -155,30 +155,36 @@ def _one(job: tuple[str, str, int, int]) -> tuple[str, str, int, float, float]:
 
 
 def quality(names: list[str], problems: list[str], seeds: range, evals: int, jobs: int = 1,
-            cache: Path | None = None) -> list[list[str]]:
+            cache: Path | None = None) -> tuple[list[list[str]], set[str]]:
     """Median IGD / HV per problem and algorithm with the rank-sum verdict on IGD against the reference;
-    printed, and returned as rows of cells (problem first). With ``cache`` (a JSON-lines file), each finished
-    run is appended to it as it ends and runs found in it are not run again: a long table survives an
-    interruption and can be grown problem by problem."""
+    printed, and returned as rows of cells (problem first) with the codes (:func:`code_version`) the runs were
+    made with. With ``cache`` (a JSON-lines file), each finished run is appended to it as it ends, with its code,
+    and runs found in it are not run again: a long table survives an interruption and can be grown problem by
+    problem. A cached run keeps the code it was made with, so a table from runs of older code says so."""
     import json
 
     work = [(p, n, evals, s) for p in problems for n in names for s in seeds]
+    code = code_version()
     known: dict[tuple[str, str, int, int], tuple[float, float]] = {}
+    made: dict[tuple[str, str, int, int], str] = {}  # the code each run was made with
     if cache is not None and cache.exists():
         for line in cache.read_text().splitlines():
             if line.strip():
                 r = json.loads(line)
-                known[(r["problem"], r["algorithm"], r["evals"], r["seed"])] = (float(r["igd"]), float(r["hv"]))
+                key = (r["problem"], r["algorithm"], r["evals"], r["seed"])
+                known[key] = (float(r["igd"]), float(r["hv"]))
+                made[key] = str(r.get("code", "unknown"))
     todo = [w for w in work if (w[0], w[1], w[2], w[3]) not in known]
     print(f"{len(work) - len(todo)} of {len(work)} runs found in the cache, {len(todo)} to run", flush=True)
 
     def keep(r: tuple[str, str, int, float, float]) -> None:
         prob, name, seed, ig, hv = r
         known[(prob, name, evals, seed)] = (ig, hv)
+        made[(prob, name, evals, seed)] = code
         if cache is not None:
             with cache.open("a") as fh:
                 fh.write(json.dumps({"problem": prob, "algorithm": name, "evals": evals, "seed": seed,
-                                     "igd": ig, "hv": hv}) + "\n")
+                                     "igd": ig, "hv": hv, "code": code}) + "\n")
 
     if jobs > 1 and todo:
         import multiprocessing as mp
@@ -220,7 +226,7 @@ def quality(names: list[str], problems: list[str], seeds: range, evals: int, job
         cells = [f"{r:.2f}" for r in ranks]
         rows.append(["mean rank", *cells])
         print(f"{'mean rank':<10}" + "".join(c.rjust(26) for c in cells))
-    return rows
+    return rows, {made[w] for w in work}
 
 
 def mean_ranks(igds: list[list[list[float]]]) -> NDArray[np.float64]:
@@ -234,22 +240,29 @@ def mean_ranks(igds: list[list[list[float]]]) -> NDArray[np.float64]:
 
 
 def code_version() -> str:
-    """`` at commit abc1234`` (`` plus uncommitted changes to core/`` when there are), or "" outside git: a table
-    says which code made it, so a table left behind by a later change to an algorithm can be told apart."""
+    """The algorithms' code a run is made with: the last commit that changed core/ (``e4a941b``), with ``+dirty``
+    when core/ has uncommitted changes, or ``unknown`` outside git."""
     import subprocess
 
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+
     try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
-                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "core"], cwd=ROOT, capture_output=True,
-                               text=True, check=True).stdout.strip()
+        head = git("log", "-1", "--format=%h", "--", "core")
+        dirty = git("status", "--porcelain", "--untracked-files=no", "--", "core")
     except (OSError, subprocess.CalledProcessError):
-        return ""
-    return f" at commit {head}" + (" plus uncommitted changes to core/" if dirty else "")
+        return "unknown"
+    return (head or "unknown") + ("+dirty" if dirty else "")
+
+
+def made_with(codes: set[str]) -> str:
+    """The table's note on the code its runs were made with (cached runs keep the code they were made with)."""
+    listed = ", ".join(sorted(codes))
+    return f"; its runs were made with core/ as of commit{'s' if len(codes) > 1 else ''} {listed}"
 
 
 def write_markdown(path: Path, names: list[str], rows: list[list[str]], seeds: int, evals: int,
-                   marker: str = "quality-table", problems: str | None = None) -> None:
+                   marker: str = "quality-table", problems: str | None = None, codes: set[str] | None = None) -> None:
     """Put the table between ``<!-- {marker} -->`` and ``<!-- /{marker} -->`` in ``path``."""
     algorithms = ",".join(n for n in names if n != REFERENCE)
     command = (f"python benchmarks/algorithms.py --no-timing --algorithms {algorithms}"
@@ -262,7 +275,7 @@ def write_markdown(path: Path, names: list[str], rows: list[list[str]], seeds: i
             f"+ / - / ≈: IGD significantly better / worse / no different than {REFERENCE} (Wilcoxon rank-sum, 5 %; "
             f"a run without a feasible member counts as the worst). Mean rank: each algorithm's rank by median IGD "
             "on each problem (1 best, a run without a feasible member as the worst, ties shared), averaged over the "
-            f"problems. Generated by `{command}`{code_version()}.\n\n")
+            f"problems. Generated by `{command}`{made_with(codes or {code_version()})}.\n\n")
     table = "| problem | " + " | ".join(names) + " |\n|---|" + "---|" * len(names) + "\n"
     table += "".join("| " + " | ".join(r) + " |\n" for r in rows)
     text = path.read_text()
@@ -313,9 +326,9 @@ def main(argv: list[str] | None = None) -> int:
         problems = [p for p in PROBLEMS if p.startswith(("mw", "ctp", "dascmop"))]  # the issue's table
     seeds = args.seeds or (3 if args.quick else 10)
     evals = args.evals or (5000 if args.quick else 50_000)
-    rows = quality(names, problems, range(1, seeds + 1), evals, args.jobs, args.cache)
+    rows, codes = quality(names, problems, range(1, seeds + 1), evals, args.jobs, args.cache)
     if args.markdown is not None:
-        write_markdown(args.markdown, names, rows, seeds, evals, args.marker, args.problems)
+        write_markdown(args.markdown, names, rows, seeds, evals, args.marker, args.problems, codes)
     return 0
 
 
