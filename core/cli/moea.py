@@ -14,11 +14,11 @@ from core.cli import jsonable
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "moea",
-        help="run an algorithm on a test problem (MW, CTP, DAS-CMOP, ZDT, DTLZ, C-DTLZ)",
-        description="Run any registered algorithm on one of pymoo's test problems for a budget of function "
-        "evaluations and print IGD and HV (PlatEMO's normalisation, on the feasible non-dominated members), the "
-        "evaluations spent, the feasible count and the wall time. Reference fronts need no download: they ship with "
-        "the package or are computed from the problem's definition.",
+        help="run an algorithm on a test problem (MW, CTP, DAS-CMOP, ZDT, DTLZ, C-DTLZ, DC-DTLZ)",
+        description="Run any registered algorithm on a test problem (pymoo's, and PlatEMO's DC-DTLZ) for a budget "
+        "of function evaluations and print IGD and HV (PlatEMO's normalisation, on the feasible non-dominated "
+        "members), the evaluations spent, the feasible count and the wall time. Reference fronts need no download: "
+        "they ship with the package or are computed from the problem's definition.",
     )
     p.add_argument("--problem", required=True, help="mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, "
                    "dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4, dc1dtlz1, dc1dtlz3, dc2dtlz1, dc2dtlz3, "
