@@ -1,6 +1,6 @@
-"""Algorithms on pymoo's constrained test problems: problems by name, reference fronts shipped with the
-package, and IGD and HV measured as PlatEMO measures them (spec §1.7). Used by ``clm moea`` and
-``benchmarks/algorithms.py``.
+"""Algorithms on constrained test problems (pymoo's, and PlatEMO's DC-DTLZ from :mod:`core.optimize.dcdtlz`):
+problems by name, reference fronts shipped with the package or computed, and IGD and HV measured as PlatEMO
+measures them (spec §1.7). Used by ``clm moea`` and ``benchmarks/algorithms.py``.
 
 Both indicators use the feasible non-dominated members of the final population only; IGD is NaN when
 there is none. HV normalises by ``(F - fmin) / ((fmax - fmin) * 1.1)`` with ``fmin = min(min F, 0)`` and
