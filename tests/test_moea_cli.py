@@ -10,6 +10,7 @@ import pytest
 
 from core.cli import main
 from core.optimize.moea import PROBLEMS, hv_platemo, igd, reference_front, run
+from core.optimize.problem_names import KNOWN
 
 
 def test_indicators_by_hand():
@@ -20,6 +21,20 @@ def test_indicators_by_hand():
     # HV: (0.5, 0.5) normalised by fmax * 1.1 = 1.1 -> (0.4545..), box to (1, 1): (1 - 0.5/1.1)^2.
     assert hv_platemo(np.array([[0.5, 0.5]]), pf) == pytest.approx((1 - 0.5 / 1.1) ** 2)
     assert hv_platemo(np.array([[2.0, 2.0]]), pf) == 0.0  # outside the normalised box
+
+
+def test_the_listing_in_help_and_errors_names_exactly_the_problems(capsys):
+    names = []
+    for part in KNOWN.split(", "):
+        first, _, last = part.partition("..")
+        if not last:
+            names.append(first)
+            continue
+        stem = first.rstrip("0123456789")
+        names += [f"{stem}{i}" for i in range(int(first[len(stem):]), int(last[len(stem):]) + 1)]
+    assert sorted(names) == sorted(PROBLEMS) and len(names) == len(set(names))
+    assert main(["moea", "--help"]) == 0
+    assert "dc3dtlz3" in " ".join(capsys.readouterr().out.split())
 
 
 @pytest.mark.parametrize("name", [p for p in PROBLEMS if p.startswith(("mw", "ctp"))])

@@ -9,6 +9,7 @@ import tomllib
 from typing import Any
 
 from core.cli import jsonable
+from core.optimize.problem_names import KNOWN
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,9 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "members), the evaluations spent, the feasible count and the wall time. Reference fronts need no download: "
         "they ship with the package or are computed from the problem's definition.",
     )
-    p.add_argument("--problem", required=True, help="mw1..mw14, ctp1..ctp8, dascmop1..dascmop9, zdt1..zdt3, "
-                   "dtlz1..dtlz4, c1dtlz1, c1dtlz3, c2dtlz2, c3dtlz4, dc1dtlz1, dc1dtlz3, dc2dtlz1, dc2dtlz3, "
-                   "dc3dtlz1, dc3dtlz3 (3 objectives)")
+    p.add_argument("--problem", required=True, help=f"{KNOWN} (DTLZ families at 3 objectives)")
     p.add_argument("--algorithm", default="nsga2", help="a registered algorithm (default nsga2)")
     p.add_argument("--pop", type=int, default=100, help="population size (default 100)")
     p.add_argument("--evals", type=int, default=20_000, help="function evaluations (default 20000)")
