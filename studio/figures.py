@@ -5,6 +5,7 @@ Tests call them directly; the panels hand the result to ``GuiPlotlyHandle.figure
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -250,30 +251,54 @@ def make_pareto_figure(
 
 
 TRACE_RATIOS = {"feasible_ratio": "feasible", "feasible_ratio_P1": "feasible (main)",
-                "feasible_ratio_P2": "feasible (auxiliary)", "feasible_ratio_archive": "feasible (archive)",
-                "p1": "P(task 1)"}
+                "feasible_ratio_P2": "feasible (auxiliary)", "feasible_ratio_P3": "feasible (second auxiliary)",
+                "feasible_ratio_archive": "feasible (archive)", "feasible_ratio_A": "feasible (archive)",
+                "feasible_ratio_P0": "feasible (P0, unconstrained)", "p1": "P(task 1)"}
+"""Trace columns drawn as ratios, and their legend names; any other ``feasible_ratio_X`` is drawn as
+"feasible (X)"."""
+
+
+def _eps_note(trace: Sequence[Mapping[str, float]]) -> str:
+    """What the chart says of epsilon: that the algorithm has none, or where the drawn line is missing."""
+    if not any("eps" in row for row in trace):
+        return "no epsilon in this algorithm"
+    values = [row.get("eps", math.nan) for row in trace]
+    where = [w for w, hit in (("0", any(v == 0 for v in values)),
+                              ("not in use", any(math.isnan(v) for v in values))) if hit]
+    return f"epsilon not drawn where {' or '.join(where)}" if where else ""
 
 
 def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> go.Figure | None:
     """Feasible ratios (and task probabilities) over evaluations, and the epsilon level on a log axis
-    when the algorithm has one (where it is 0 it is not drawn, and a note says so); None for an empty trace."""
+    when the algorithm has one; the title says where epsilon is not drawn (0 or NaN: not in use, as in CMOES's
+    first stage) or that there is none. None for an empty trace."""
     if not trace:
         return None
     x = [row.get("n_eval", i) for i, row in enumerate(trace)]
     fig = go.Figure()
-    for key, name in TRACE_RATIOS.items():
+    keys = list(TRACE_RATIOS) + [k for k in dict.fromkeys(k for row in trace for k in row)
+                                 if k.startswith("feasible_ratio_") and k not in TRACE_RATIOS]
+    for key in keys:
         if any(key in row for row in trace):
+            name = TRACE_RATIOS.get(key, f"feasible ({key.removeprefix('feasible_ratio_')})")
             fig.add_scatter(x=x, y=[row.get(key) for row in trace], mode="lines", name=name)
-    eps = [row["eps"] if row.get("eps", 0.0) > 0 else None for row in trace]  # a log axis shows no 0
+    eps = [v if (v := row.get("eps", 0.0)) > 0 else None for row in trace]  # a log axis shows no 0 (nor NaN)
+    margin_r = 10
     if any(v is not None for v in eps):
         fig.add_scatter(x=x, y=eps, mode="lines", name="epsilon", yaxis="y2", line={"dash": "dot"})
-        fig.update_layout(yaxis2={"title": {"text": "epsilon"}, "type": "log", "overlaying": "y", "side": "right",
-                                  "exponentformat": "power", "automargin": True, "showgrid": False})
-    if any("eps" in row for row in trace) and any(v is None for v in eps):
-        fig.add_annotation(text="epsilon 0 where not drawn", xref="paper", yref="paper", x=1.0, y=1.0,
-                           xanchor="right", yanchor="bottom", showarrow=False, font={"size": 10, "color": "#666"})
-    fig.update_layout(title={"text": title, "font": {"size": 12}}, font={"size": 11}, height=250,
-                      margin={"l": 45, "r": 10, "t": 30,
+        # "1e-4" rather than a superscript power, which the narrow panel cut to a bare "4".
+        # Whole decades (at most ~6 labels) where it spans one, else plotly's ticks.
+        drawn = [v for v in eps if v is not None]
+        decades = math.log10(max(drawn) / min(drawn))
+        step = {"dtick": max(1, math.ceil(decades / 5))} if decades >= 1 else {}
+        fig.update_layout(yaxis2={"title": {"text": "epsilon", "standoff": 2}, "type": "log", "overlaying": "y",
+                                  "side": "right", "exponentformat": "e", "tickformat": ".0e", "automargin": True,
+                                  "showgrid": False, "tickfont": {"size": 10}, **step})
+        margin_r = 50
+    note = _eps_note(trace)
+    text = " · ".join(t for t in (title, note) if t)
+    fig.update_layout(title={"text": text, "font": {"size": 12}}, font={"size": 11}, height=250, showlegend=True,
+                      margin={"l": 45, "r": margin_r, "t": 30,
                       "b": 10}, xaxis={"title": {"text": "evaluations", "standoff": 4}, "automargin": True},
                       yaxis={"range": [0, 1.02], "title": {"text": "ratio"}, "automargin": True},
                       # Below the axis title, outside the plot, as the Pareto chart's (items wrap on a narrow panel).

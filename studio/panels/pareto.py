@@ -146,7 +146,8 @@ class ParetoPanel:
         self.view.visible = n >= 3
         fig = pareto_figure(sv, self.axes())
         if fig is None:
-            self.plot.visible = self.open_large.visible = False
+            # The trace goes with its chart: a previous stage's or topology's would sit under "no result".
+            self.plot.visible = self.open_large.visible = self.trace.visible = False
             self.caption.content = ("No stage has run yet." if not sv.names else
                                     f"{sv.viewing or 'This stage'} has no result yet: run it.")
             self._close_large()

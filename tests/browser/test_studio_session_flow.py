@@ -61,6 +61,8 @@ def test_a_whole_session_keeps_its_state_straight(page, studio, ready):
     choose(page, "Topology", "Theo Jansen leg")
     wait_for(lambda: studio.session.view.design.mechanism.name == "jansen", "Jansen in the editor")
     expect(page.get_by_text("No stage has run yet.")).to_be_visible()
+    # ... and the previous run's trace chart goes with its Pareto chart.
+    expect(page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="trace"))).not_to_be_visible()
     assert studio.session.study.pipeline is None
     # Item 8: Jansen brings a target of its own size, and the Target panel says so.
     assert "scaled to the jansen path" in studio.session.view.target.label()
