@@ -62,6 +62,16 @@ def test_sqp_does_not_worsen_a_feasible_start() -> None:
     assert info["nit"] >= 1
 
 
+def test_sqp_from_a_random_start_moves_far_downhill() -> None:
+    # A random start's DP error is ~1e5-1e6 mm^2: unscaled, SLSQP stopped on its start after 5 iterations and
+    # DP+SQP reported the start itself (MSE ~1 m) as its result.
+    x0 = get("stephenson1/X0").design()
+    for seed in (1, 4):
+        r = run_baseline("dp_sqp", x0.mechanism, x0.output, TINY, seed=seed)
+        start = dp_error(Design(x0.mechanism, r.start, x0.output), n_points=12, n_samples=72)[0][0]
+        assert start > 1e5 and r.dp < 0.05 * start and r.metrics["violation"] == 0.0
+
+
 @pytest.mark.parametrize("method", ["dp_sqp", "dp_ga", "dp_ga_sqp"])
 def test_each_baseline_runs_reports_and_round_trips(method: str) -> None:
     x0 = get("stephenson1/X0").design()
