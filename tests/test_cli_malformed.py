@@ -101,6 +101,12 @@ CASES: list[list[str]] = [
     # study and moea
     ["study", "{study_bad.toml}", "--out", "{tmp}/s"], ["study", "{missing}", "--out", "{tmp}/s"],
     ["study", "report", "{tmp}"], ["moea", "--problem", "mw99"], ["moea", "--problem", "mw1", "--evals", "0"],
+    # sizes in range that outgrow the memory (7 TiB of reference directions): a line, not a MemoryError
+    ["moea", "--problem", "mw3", "--algorithm", "nsga3", "--option", "n_partitions=1000000"],
+    # export where nothing can be written: the file asked for is named, not its temporary twin
+    ["export", "--preset", "stephenson1/X3", "--dxf", "{tmp}/no/such/x.dxf"],
+    ["export", "--preset", "stephenson1/X3", "--svg", "/proc/x.svg"],
+    ["export", "--preset", "stephenson1/X3", "--dxf", "/proc/x.dxf"],
     # anything else
     ["fly"], ["--nonsense"],
 ]
@@ -123,3 +129,15 @@ def test_malformed_invocation_is_one_line_and_exit_2(argv, tmp_path, capsys):
     assert code == 2, (args, err)
     lines = err.splitlines()
     assert len(lines) == 1 and lines[0].startswith("clm: error: "), err
+
+
+def test_an_unreachable_dask_scheduler_is_one_line_naming_it():
+    from core.optimize.workers import connect
+
+    with pytest.raises(ValueError, match=r"no Dask scheduler answers at tcp://127\.0\.0\.1:1 "):
+        connect("tcp://127.0.0.1:1", timeout="1s")
+
+
+def test_the_file_asked_for_is_named_when_the_folder_refuses_it(tmp_path, capsys):
+    assert main(["export", "--preset", "stephenson1/X3", "--svg", "/proc/x.svg"]) == 2
+    assert capsys.readouterr().err.strip().endswith(": /proc/x.svg")

@@ -2,8 +2,8 @@
 
 Each command is a module ``core/cli/<name>.py`` with ``register(sub)`` (adds its
 subparser and ``set_defaults(func=run)``) and ``run(args) -> int``. Input errors
-(``CLIError``, ``ValueError``, argparse usage errors) print one line
-``clm: error: <message>`` on stderr and exit with code 2, never a traceback.
+(``CLIError``, ``ValueError``, argparse usage errors) and what the machine refuses (``OSError``,
+``MemoryError``) print one line ``clm: error: <message>`` on stderr and exit with code 2, never a traceback.
 """
 
 from __future__ import annotations
@@ -87,6 +87,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 141
+    except OSError as e:  # a file that cannot be written or read after the checks, a full disk, a network error
+        where = f": {e.filename}" if e.filename else ""
+        print(f"clm: error: {e.strerror or e}{where}", file=sys.stderr)
+        return 2
+    except MemoryError as e:  # sizes inside the checked ranges can still outgrow this machine's memory
+        print(f"clm: error: not enough memory for this run ({e or 'MemoryError'}); use a smaller population, "
+              "budget or number of samples", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         return 130
 

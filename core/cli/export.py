@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 
 from core.cli import CLIError
@@ -38,11 +39,21 @@ def run(args: argparse.Namespace) -> int:
     design, _ = load_design(args)
     d = drawing(design, math.radians(args.angle))
     for out in (args.dxf, args.svg):
-        if out is not None and out.is_dir():
+        if out is None:
+            continue
+        if out.is_dir():
             raise CLIError(f"{out} is a folder")
+        folder = out.parent
+        if not folder.is_dir():
+            raise CLIError(f"cannot write {out}: there is no folder {folder}")
+        if not os.access(folder, os.W_OK):
+            raise CLIError(f"cannot write {out}: the folder {folder} is not writable")
     if args.dxf is not None:
         tmp = args.dxf.with_name(args.dxf.name + ".tmp")
-        write_dxf(d, tmp)
+        try:
+            write_dxf(d, tmp)
+        except OSError as e:  # name the file asked for, not the temporary one
+            raise OSError(e.errno, e.strerror, str(args.dxf)) from None
         tmp.replace(args.dxf)
         print(f"wrote {args.dxf} ({len(d.links)} links, {len(d.ground)} ground pivots)")
     if args.svg is not None:

@@ -132,6 +132,17 @@ def _cluster_call(fn: Job, job: Any, flag: str) -> Any:
     return fn(job, None, _ClusterFlag(flag))
 
 
+def connect(scheduler: str, timeout: str = "20s") -> Any:
+    """A ``distributed.Client`` of the Dask scheduler at ``scheduler``; ValueError (one line for the CLI and the
+    studio) when none answers there within ``timeout``."""
+    from distributed import Client
+
+    try:
+        return Client(scheduler, timeout=timeout)
+    except OSError as e:  # distributed's "Timed out trying to connect ..." and refused connections
+        raise ValueError(f"no Dask scheduler answers at {scheduler} ({e})") from None
+
+
 def run_on_cluster(fn: Job, jobs: Sequence[Any], scheduler: str, cancel: threading.Event | None = None) -> list[Any]:
     """``[fn(job, None, cancel) for job in jobs]`` as tasks on the Dask scheduler at ``scheduler``.
 
@@ -140,9 +151,9 @@ def run_on_cluster(fn: Job, jobs: Sequence[Any], scheduler: str, cancel: threadi
     """
     import uuid
 
-    from distributed import Client, Event
+    from distributed import Event
 
-    with Client(scheduler, timeout="20s") as client:
+    with connect(scheduler) as client:
         name = f"clm-cancel-{uuid.uuid4().hex}"
         event = Event(name, client=client)
         futures = client.map(_cluster_call, [fn] * len(jobs), list(jobs), [name] * len(jobs), pure=False)

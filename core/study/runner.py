@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any, TextIO
 
 from core.formats.study import Study
+from core.optimize.workers import connect
 from core.study.cell import run_cell
 from core.study.store import Store
 
@@ -43,7 +44,7 @@ def client_for(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     for name in ("distributed", "distributed.worker", "distributed.nanny", "distributed.scheduler"):
         logging.getLogger(name).setLevel(logging.ERROR)
     if scheduler:
-        client = Client(scheduler, timeout="20s")
+        client = connect(scheduler)
         try:
             yield client
         finally:
