@@ -109,6 +109,8 @@ BAD = [
                                                                                     "by": "best:f1", "top": 1}},
      "stages[0].starts.screen.top: unknown key"),
     ("stages.0.pick", "random", "stages[0].pick: unknown pick rule"),
+    # A member past the population was found only after the stages before it ran, and nothing was written.
+    ("stages.1.pick", 10**6, "stages[1].pick: member 1000000 does not exist: the stage keeps"),
     ("stages.0.stop_below", [1.0], "stages[0].stop_below: expected 2 numbers"),
     ("stages.0.fixed", ["x_z"], "stages[0].fixed[0]: stephenson1 has no parameter 'x_z'"),
     ("stages.0.speed", 3, "stages[0].speed: unknown key"),

@@ -299,10 +299,13 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
             raise _fail(f"{key}.fixed[{j}]", f"{mech.name} has no parameter {n!r}")
     alg = _algorithm(t.algorithm, f"{key}.algorithm", algorithm) if t.algorithm is not None else algorithm
     try:  # what only the algorithm itself refuses (a population below CMOEMT's 10, a bad variant): before any run
-        make_algorithm(alg, spec.n_obj, 0)
+        built = make_algorithm(alg, spec.n_obj, 0)
     except ValueError as e:
         raise _fail(f"{key}.algorithm" if t.algorithm is not None else "algorithm",
                     str(e) if t.algorithm is not None else f"{e} (in stage {t.name!r})") from None
+    size = getattr(built, "pop_size", None)
+    if isinstance(pick, int) and isinstance(size, int) and pick >= size:  # else found only after the stage ran
+        raise _fail(f"{key}.pick", f"member {pick} does not exist: the stage keeps {size} members (0..{size - 1})")
     if spec.repair is not None:  # placement needs a mechanism that can follow a similarity transform
         from core.optimize.predesign import placement
 
