@@ -37,8 +37,10 @@ def files(tmp: Path) -> dict[str, str]:
         "bad.toml": "mechanism = [\n",
         "deep.toml": "a = " + "[" * 3000 + "]" * 3000 + "\n",
         "good.toml": GOOD_CFG,
-        "rows.json": json.dumps({"format": "clm-design", "rows": {"a": 1}}),
-        "rows2.json": json.dumps({"format": "clm-design", "rows": [{"label": "x", "mse": "lots"}]}),
+        "rows.json": json.dumps({"format": "clm-design", "status": "complete", "rows": {"a": 1}}),
+        "rows2.json": json.dumps({"format": "clm-design", "status": "complete",
+                                  "rows": [{"label": "x", "mse": "lots"}]}),
+        "bare.json": json.dumps({"format": "clm-design"}),  # was printed as a row "no result (None)"
         "other.json": json.dumps({"format": "something"}),
         "curve_bad.csv": "x,y\n1,2\n",
         "curve_text.csv": "hello world\n",
@@ -97,7 +99,8 @@ CASES: list[list[str]] = [
     ["design", "{good.toml}", "--out", "{tmp}/o", "--workers", "many"],
     # compare
     ["compare"], ["compare", "{missing}"], ["compare", "{rows.json}"], ["compare", "{rows2.json}"],
-    ["compare", "{other.json}"], ["compare", "{deep.json}"], ["compare", "{fifo}"], ["compare", "{binary.json}"],
+    ["compare", "{other.json}"], ["compare", "{bare.json}"],
+    ["compare", "{deep.json}"], ["compare", "{fifo}"], ["compare", "{binary.json}"],
     # study and moea
     ["study", "{study_bad.toml}", "--out", "{tmp}/s"], ["study", "{missing}", "--out", "{tmp}/s"],
     ["study", "report", "{tmp}"], ["moea", "--problem", "mw99"], ["moea", "--problem", "mw1", "--evals", "0"],

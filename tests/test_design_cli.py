@@ -118,3 +118,23 @@ def test_design_lists_every_chain_and_tags_their_progress(tmp_path: Path, capsys
     assert rows[chosen].startswith("* ") and data["workers"] == 2
     assert all(f"chain {j}]" in cap.err for j in range(3))
     assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "p"), "--workers", "0"]) == 2
+
+
+def test_an_earlier_run_in_out_is_kept_unless_overwrite_replaces_it_whole(tmp_path: Path,
+                                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "t.toml").write_text(TINY.replace("n_gen = 3", "n_gen = 1").replace("n_gen = 2", "n_gen = 1"))
+    (tmp_path / "dp.toml").write_text(BASELINE.replace("n_gen = 3", "n_gen = 1"))
+    out = tmp_path / "o"
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(out), "--quiet"]) == 0
+    (out / "pareto-0_subtask1.png").write_bytes(b"png")  # clm-charts on that run
+    (out / "notes.txt").write_text("mine")  # the designer's own file
+    before = (out / "result.json").read_text()
+    capsys.readouterr()
+    # A second run into the same folder would have overwritten result.json and left the other CSVs beside it.
+    assert main(["design", str(tmp_path / "dp.toml"), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("clm: error: --out") and "--overwrite" in err and "\n" not in err
+    assert (out / "result.json").read_text() == before
+    assert main(["design", str(tmp_path / "dp.toml"), "--out", str(out), "--quiet", "--overwrite"]) == 0
+    assert "removed 3 file(s) of the earlier run" in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == ["dp_ga.csv", "notes.txt", "result.json"]

@@ -33,8 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "compare",
         help="compare saved design runs (method, time, MSE, S, I)",
-        description="Print one table of the runs saved by 'clm design --out DIR': method, wall time and the "
-        "chosen designs' MSE, S and I (Appendix B-5 style).",
+        description="Print one table of the runs saved by 'clm design --out DIR': method, time and the "
+        "chosen designs' MSE, S and I (Appendix B-5 style). The time is compute time, every chain of a multi-start "
+        "counted, as the paper's one-core times are; the run's wall time is result.json's wall_time.",
     )
     p.add_argument("runs", nargs="+", type=Path, metavar="DIR", help="output directories (or result.json files)")
     p.add_argument("--paper", action="store_true", help="append the paper's printed Appendix B-5 rows")
@@ -58,6 +59,8 @@ def load_rows(path: Path) -> list[dict[str, Any]]:
         raise CLIError(f"{f}: not a 'clm design' result: nested too deep") from None
     if not isinstance(data, dict) or data.get("format") != "clm-design":
         raise CLIError(f"{f}: not a 'clm design' result")
+    if not isinstance(data.get("status"), str) or "rows" not in data:  # every run writes both, a cancelled one too
+        raise CLIError(f"{f}: an incomplete 'clm design' result (no status or rows)")
     rows = data.get("rows") or []
     if not isinstance(rows, list) or not all(isinstance(r, dict) and isinstance(r.get("label"), str) for r in rows):
         raise CLIError(f"{f}: 'rows' must be a list of objects with a label")

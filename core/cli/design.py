@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+import re
 import signal
 import sys
 import threading
@@ -53,6 +54,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run a multi-start block's chains on this Dask scheduler (tcp://host:8786) instead of local "
                    "processes; the results are the same")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier run in --out (its result.json, stage CSVs and pareto-*.png charts); "
+                   "without it such a folder is refused")
     p.set_defaults(func=run)
 
 
@@ -146,6 +150,18 @@ def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
     return written
 
 
+EARLIER = re.compile(r"(\d+_.+\.csv|(dp_sqp|dp_ga|dp_ga_sqp)\.csv|pareto-.+\.png)")
+"""What a run leaves in --out (stage CSVs, a baseline's CSV, clm-charts' PNGs): those not written again belong to
+an earlier run."""
+
+
+def earlier_outputs(out: Path, written: list[Path]) -> list[Path]:
+    """The files in ``out`` an earlier run (or clm-charts on it) wrote and this one did not: with --overwrite
+    they would otherwise sit beside the new result as if they were its own."""
+    keep = {p.name for p in written}
+    return sorted(p for p in out.iterdir() if p.is_file() and p.name not in keep and EARLIER.fullmatch(p.name))
+
+
 def _cell(v: Any) -> Any:
     if isinstance(v, float):
         return repr(v) if np.isfinite(v) else ("nan" if np.isnan(v) else ("inf" if v > 0 else "-inf"))
@@ -224,6 +240,9 @@ def run(args: argparse.Namespace) -> int:
             raise CLIError("--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786")
         config = replace(config, scheduler=args.scheduler)
     check_out_dir(args.out_text, output_names(config))
+    if (args.out / "result.json").exists() and not args.overwrite:
+        raise CLIError(f"--out {args.out_text!r} holds an earlier run (result.json); choose another folder or pass "
+                       "--overwrite to replace it")
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)
     cancel = threading.Event()
@@ -245,7 +264,12 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(signal.SIGINT, old)
         if bar is not None:
             bar.close()
-    write_outputs(args.out, result)
+    written = write_outputs(args.out, result)
+    stale = earlier_outputs(args.out, written)
+    for path in stale:
+        path.unlink(missing_ok=True)
     print(summary(result))
+    if stale:
+        print(f"removed {len(stale)} file(s) of the earlier run: {', '.join(p.name for p in stale)}")
     print(f"wrote {args.out / 'result.json'}")
     return 0 if result.status == "complete" else 130
