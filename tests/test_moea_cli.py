@@ -56,6 +56,7 @@ def test_clm_moea_prints_json_with_the_budget_spent(capsys):
     ["moea", "--problem", "mw1", "--pop", "0"], ["moea", "--problem", "mw1", "--seed", "-1"],
     ["moea", "--problem", "mw1", "--seed", str(10**30)], ["moea"], ["moea", "--problem", "mw1", "--pop", "x"],
     ["moea", "--problem", "mw1", "--algorithm", "imtcmo", "--option", "operator=de"],
+    ["moea", "--problem", "mw1", "--algorithm", "gde3", "--option", "variant=nonsense"],
     ["moea", "--problem", "mw1", "--option", "crossover_prob=2"], ["moea", "--problem", "mw1", "--option", "de"],
     ["moea", "--problem", "mw1", "--algorithm", "cmoes", "--option", "operator=DE"],
 ])
@@ -115,3 +116,8 @@ def test_the_library_checks_option_values_as_the_cli_does(name, options, message
     with pytest.raises(ValueError) as e:
         run("mw3", name, 20, 400, 1, options)
     assert str(e.value).startswith(message)
+
+
+def test_a_malformed_de_variant_is_named_not_pymoos_unpacking_error(capsys):
+    assert main(["moea", "--problem", "mw1", "--algorithm", "gde3", "--option", "variant=DE/rand/bin"]) == 2
+    assert "option 'variant' of gde3 must read DE/" in capsys.readouterr().err

@@ -175,7 +175,8 @@ def design_from_dict(data: object) -> Design:
         raise ValueError(f"a design must be a JSON object with keys {keys}, got {type(data).__name__}")
     unknown = [k for k in data if k not in DESIGN_KEYS + INFO_KEYS]
     if unknown:
-        raise ValueError(f"unknown design key {unknown[0]!r}; expected {', '.join(DESIGN_KEYS)}")
+        raise ValueError(f"unknown design key {unknown[0]!r}; expected {', '.join(DESIGN_KEYS)} "
+                         f"(and optionally {', '.join(INFO_KEYS)})")
     for key in ("mechanism", "params"):
         if key not in data:
             raise ValueError(f"design has no {key!r}")

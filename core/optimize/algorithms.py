@@ -12,6 +12,7 @@ Every call builds fresh operator instances; nothing mutable is shared between ru
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from math import comb, inf
@@ -37,6 +38,7 @@ GA_OPTIONS = ("crossover_prob", "crossover_eta", "mutation_prob", "mutation_prob
               "eliminate_duplicates")
 REF_OPTIONS = ("n_partitions",)
 DE_OPTIONS = ("variant", "CR", "F")
+DE_VARIANT = r"DE/(rand|best|target-to-best)/[12]/(bin|exp|line|hypercube)"  # what pymoo's DE parses
 # Numeric options and their closed ranges (checked however the spec was made: config, CLI, studio or Python).
 RANGES = {"crossover_prob": (0.0, 1.0), "mutation_prob": (0.0, 1.0), "mutation_prob_var": (0.0, 1.0),
           "CR": (0.0, 1.0), "crossover_eta": (0.0, inf), "mutation_eta": (0.0, inf), "F": (0.0, inf)}
@@ -283,6 +285,9 @@ def validate(spec: AlgorithmSpec) -> None:
             known = ", ".join(info.options)
             raise ValueError(f"unknown option {key!r} for {spec.name}; " + (f"known: {known}" if known else
                                                                              "it takes no options"))
+        if key == "variant" and spec.name == "gde3" and not re.fullmatch(DE_VARIANT, str(value)):
+            raise ValueError(f"option 'variant' of gde3 must read DE/<rand|best|target-to-best>/<1|2>/"
+                             f"<bin|exp|line|hypercube>, got {value!r}")
         if key in RANGES and value is not None:
             lo, hi = RANGES[key]
             values = value if isinstance(value, (list, tuple)) else [value]
