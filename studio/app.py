@@ -38,7 +38,7 @@ from studio.panels.stages import StagesPanel
 from studio.panels.studies import StudiesPanel
 from studio.panels.target import TargetPanel
 from studio.panels.walking import WalkingPanel
-from studio.runner import Runner
+from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
 from studio.session_file import save_session
 from studio.state import DesignView, Session
@@ -87,8 +87,8 @@ class Studio:
     a reload receives the current state. Callbacks mutate the session, then call
     :meth:`refresh`, which redraws what changed from the latest snapshot under a render lock
     (so concurrent edits can never leave an older design on screen). Stages run in the
-    :class:`~studio.study.Runner`'s worker thread, which records every generation, saves the
-    session and refreshes (throttled).
+    :class:`~studio.runner.Runner`'s worker thread, which records the live result (every generation with a
+    session file, else every ``LIVE_PERIOD`` s), saves the session and refreshes (throttled).
 
     Args:
         session: the state to serve.
@@ -128,7 +128,10 @@ class Studio:
         self.pacer = Pacer(self.server)
         self.scene = MechanismScene(self.server)
         self.inset = CandidateInset(self.server, self._on_inset_pick)
-        self.runner = Runner(session.lock, lambda: self.session.study, self._on_generation, self._on_finish)
+        # With a session file every generation reaches the disk (a restart loses nothing up to the last one);
+        # without, a run records its live result every LIVE_PERIOD s, which is what the pages can show.
+        self.runner = Runner(session.lock, lambda: self.session.study, self._on_generation, self._on_finish,
+                             0.0 if session_path is not None else LIVE_PERIOD)
         self.playback = PlaybackPanel(self, order=0)
         self.stages = StagesPanel(self, order=1)
         self.pareto = ParetoPanel(self, order=2)
