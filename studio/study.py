@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -107,12 +108,38 @@ class RunPlan:
     target: TargetSpec
 
 
+def algorithm_name(settings: object) -> str:
+    """The algorithm's name in a stage result's settings, or "" (a loaded session's settings are free-form)."""
+    algorithm = settings.get("algorithm") if isinstance(settings, Mapping) else None
+    name = algorithm.get("name") if isinstance(algorithm, Mapping) else None
+    return name if isinstance(name, str) else ""
+
+
+def _ends_on(r: StageResult, shown: dict[str, int]) -> int | None:
+    """The member a branch ends on: the one shown (what Restore brings back), else the pick, else the first
+    candidate."""
+    i = shown.get(r.name, r.picked if r.picked is not None else r.shortlist.first)
+    return i if i is not None and 0 <= i < r.pop else None
+
+
 def _values(r: StageResult, shown: dict[str, int]) -> str:
     """`` · h_s 5.93, I 0.452``: the objective values of the member a branch ends on (what tells branches apart)."""
-    i = r.picked if r.picked is not None else shown.get(r.name, r.shortlist.first)
-    if i is None or not 0 <= i < r.pop:
+    i = _ends_on(r, shown)
+    if i is None:
         return ""
     return " · " + ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[i], strict=True))
+
+
+def branch_stages(lineage: list[StageResult], shown: dict[str, int]) -> str:
+    """``subtask1 #3, subtask2 #8 by cmoemt``: each stage's pick, the member the last one shows when that is
+    another, and the last stage's algorithm (branches made to compare algorithms differ only there)."""
+    parts = [r.name + (f" #{r.picked}" if r.picked is not None else "") for r in lineage]
+    last = lineage[-1]
+    i = _ends_on(last, shown)
+    if i is not None and i != last.picked:
+        parts[-1] += f" showing #{i}"
+    name = algorithm_name(last.settings)
+    return ", ".join(parts) + (f" by {name}" if name else "")
 
 
 def status_text(r: StageResult) -> str:
@@ -220,9 +247,7 @@ class Study:
         pipe = self.pipeline
         if pipe is None or not pipe.lineage:
             return
-        done = ", ".join(
-            f"{r.name}" + (f" #{r.picked}" if r.picked is not None else "") for r in pipe.lineage
-        )
+        done = branch_stages(pipe.lineage, self.shown)
         label = f"{len(self.branches) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
                 f"{time.strftime('%H:%M:%S')})"
         target = None if self.target is None else self.target.to_dict()

@@ -124,6 +124,19 @@ def test_without_a_session_file_the_live_result_is_recorded_at_the_pages_pace_an
     assert r.status == "complete" and r.generation == 40 and r.picked == r.shortlist.knees[0]
 
 
+def test_a_branch_label_names_the_member_restore_brings_back_and_the_algorithm(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    r = session.study.result("subtask1")
+    other = next(i for i in range(r.pop) if i != r.picked)
+    session.study.show("subtask1", other)  # browsed, not passed on
+    session.study.keep_branch("before a new start")
+    label = session.study.branches[0].label
+    values = ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[other], strict=True))
+    # It used to name the pick and its values while Restore showed the browsed member.
+    assert f"subtask1 #{r.picked} showing #{other} by nsga2 · {values} (before a new start" in label
+    assert session.study.branches[0].shown == {"subtask1": other}
+
+
 def test_only_one_run_at_a_time(session: Session) -> None:
     gate = threading.Event()
     runner = Runner(session.lock, lambda: session.study, lambda p: gate.wait(10), lambda: None)

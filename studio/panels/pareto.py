@@ -8,7 +8,6 @@ labels). The chart's camera button saves it as PNG (plotly.js in the browser: of
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import plotly.graph_objects as go
@@ -17,7 +16,7 @@ import viser
 from studio.charts import target_text
 from studio.figures import make_pareto_figure, make_trace_figure, objective_label
 from studio.panels._lazy import LazyPlotly, write
-from studio.study import status_text
+from studio.study import algorithm_name, status_text
 from studio.study_view import StudyView
 
 if TYPE_CHECKING:
@@ -195,9 +194,3 @@ class ParetoPanel:
             if large is not None:
                 large[0].remove()
 
-
-def algorithm_name(settings: object) -> str:
-    """The algorithm's name in a stage result's settings, or "" (a loaded session's settings are free-form)."""
-    algorithm = settings.get("algorithm") if isinstance(settings, Mapping) else None
-    name = algorithm.get("name") if isinstance(algorithm, Mapping) else None
-    return name if isinstance(name, str) else ""
