@@ -177,9 +177,10 @@ class ParetoPanel:
             return
         panel = client.gui.add_panel()
         with panel.add_tab("Pareto front (large)", viser.Icon.CHART_DOTS):
+            # Close first: under the chart it fell past the window's bottom edge on a 1000-pixel-high page.
+            close = client.gui.add_button("Close", icon=viser.Icon.X)
             plot = client.gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
                                          config=CONFIG)
-            close = client.gui.add_button("Close", icon=viser.Icon.X)
         close.on_click(lambda _: self._close_large(client.client_id))
         panel.float(x=24, y=24, width=960, height=760)
         self._large[client.client_id] = (panel, plot)

@@ -37,7 +37,10 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     # plotly sizes the large copy to its window once the window is laid out: wait for it, as a person would
     wait_for(lambda: big.nth(1).bounding_box()["width"] > 1.8 * big.nth(0).bounding_box()["width"],
              "the large chart to take its window's width", timeout=15.0)
-    page.get_by_role("button", name="Close", exact=True).click()
+    close = page.get_by_role("button", name="Close", exact=True)
+    box, height = close.bounding_box(), page.viewport_size["height"]
+    assert box is not None and box["height"] > 20 and box["y"] + box["height"] <= height  # whole, not cut off
+    close.click()
     expect(big).to_have_count(1)
 
     if not page.get_by_role("button", name="Pareto chart (PNG)", exact=True).is_visible():
