@@ -268,6 +268,31 @@ def _eps_note(trace: Sequence[Mapping[str, float]]) -> str:
     return f"epsilon not drawn where {' or '.join(where)}" if where else ""
 
 
+def wrapped(text: str, chars: int) -> list[str]:
+    """``text``'s `` · ``-separated parts joined into lines of at most ``chars`` characters (a part longer than
+    that is a line of its own)."""
+    lines: list[str] = []
+    for part in text.split(" · "):
+        if lines and len(lines[-1]) + 3 + len(part) <= chars:
+            lines[-1] += " · " + part
+        else:
+            lines.append(part)
+    return lines
+
+
+def with_title_wrapped(fig: go.Figure, chars: int) -> go.Figure:
+    """A copy of a chart whose one-line title is broken into lines for a narrow panel (plotly cuts a title at the
+    chart's edge), with the top margin grown to fit them."""
+    title = fig.layout.title.text or ""
+    lines = wrapped(title, chars)
+    if len(lines) <= 1:
+        return fig
+    out = go.Figure(fig)
+    out.update_layout(title={"text": "<br>".join(lines), "y": 0.99, "yanchor": "top"},
+                      margin={"t": 14 + 17 * len(lines)})
+    return out
+
+
 def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> go.Figure | None:
     """Feasible ratios (and task probabilities) over evaluations, and the epsilon level on a log axis
     when the algorithm has one; the title says where epsilon is not drawn (0 or NaN: not in use, as in CMOES's

@@ -329,3 +329,19 @@ def test_candidate_labels_never_cover_each_other_or_another_sphere():
             continue
         assert not any(_overlaps(t.box, o.box) for o in placed if o is not t)
         assert not any(_overlaps(t.box, d) for j, d in enumerate(discs) if j != i)
+
+
+def test_a_long_chart_title_is_broken_at_its_separators_for_the_side_panel():
+    from studio.figures import make_pareto_figure, with_title_wrapped, wrapped
+
+    title = ("Stephenson-I six-bar · subtask2 · stopped at generation 829/3000 · 60 feasible of 100 · front 5 · "
+             "target cycloid:L=300.0,H=100.0,T=2.0")
+    lines = wrapped(title, 42)
+    assert " · ".join(lines) == title and all(len(x) <= 42 for x in lines[:-1])
+    assert lines[:2] == ["Stephenson-I six-bar · subtask2", "stopped at generation 829/3000"] and len(lines) == 4
+    fig = make_pareto_figure(np.array([[1.0, 2.0], [2.0, 1.0]]), np.zeros(2), objectives=("f1", "f2"), title=title)
+    side = with_title_wrapped(fig, 42)
+    assert side.layout.title.text == "<br>".join(lines) and side.layout.margin.t > fig.layout.margin.t
+    assert fig.layout.title.text == title  # the large chart and the PNG keep one line
+    short = make_pareto_figure(np.array([[1.0, 2.0]]), np.zeros(1), objectives=("f1", "f2"), title="a · b")
+    assert with_title_wrapped(short, 42) is short

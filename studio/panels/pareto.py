@@ -14,7 +14,7 @@ import plotly.graph_objects as go
 import viser
 
 from studio.charts import target_text
-from studio.figures import make_pareto_figure, make_trace_figure, objective_label
+from studio.figures import make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import algorithm_name, status_text
 from studio.study_view import StudyView
@@ -34,6 +34,7 @@ CONFIG = {
 }
 # While a stage runs the chart is redrawn at most this often (s): 2-D and 3-D (WebGL, heavier).
 REDRAW_2D, REDRAW_3D = 0.5, 1.0
+PANEL_TITLE_CHARS = 42  # a title line the side panel's chart shows whole (13 px type, the mode bar beside it)
 
 
 def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figure | None:
@@ -151,7 +152,7 @@ class ParetoPanel:
                                     f"{sv.viewing or 'This stage'} has no result yet: run it.")
             self._close_large()
             return
-        self.plot.figure = fig
+        self.plot.figure = with_title_wrapped(fig, PANEL_TITLE_CHARS)
         self.plot.visible = self.open_large.visible = True
         for cid, (_, large) in list(self._large.items()):
             if not write(large, "figure", fig):
