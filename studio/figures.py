@@ -57,7 +57,8 @@ def _overlaps(a: tuple[float, float, float, float], b: tuple[float, float, float
 def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[float]]) -> list[str | None]:
     """A ``textposition`` for each labelled point ``(n, 2)`` (in priority order), or None where every position
     would cover a label placed before it (hover still names it). A position is first sought inside the plot area and
-    clear of the labelled markers too, then clear of labels only."""
+    clear of the labelled markers too, then inside the plot area over a marker (a label past the edge is cut), then
+    clear of labels only."""
     (x0, x1), (y0, y1) = ranges
     px = np.column_stack([(xy[:, 0] - x0) / max(x1 - x0, 1e-300) * PLOT_PX[0],
                           (xy[:, 1] - y0) / max(y1 - y0, 1e-300) * PLOT_PX[1]])
@@ -69,13 +70,13 @@ def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[
         chosen = None
         if np.isfinite(x) and np.isfinite(y):
             own = (x - r, y - r, x + r, y + r)
-            for strict in (True, False):
+            for strict in (2, 1, 0):  # inside and clear of markers; inside (over a marker); anywhere
                 for pos in POSITIONS:
                     box = _label_box(x, y, text, pos)
                     if any(_overlaps(box, b) for b in labels):
                         continue
                     inside = box[0] >= 0 and box[1] >= 0 and box[2] <= PLOT_PX[0] and box[3] <= PLOT_PX[1]
-                    if strict and (not inside or any(_overlaps(box, m) for m in markers if m != own)):
+                    if strict and not inside or strict == 2 and any(_overlaps(box, m) for m in markers if m != own):
                         continue
                     chosen = pos
                     labels.append(box)

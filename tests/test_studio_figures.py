@@ -345,3 +345,17 @@ def test_a_long_chart_title_is_broken_at_its_separators_for_the_side_panel():
     assert fig.layout.title.text == title  # the large chart and the PNG keep one line
     short = make_pareto_figure(np.array([[1.0, 2.0]]), np.zeros(1), objectives=("f1", "f2"), title="a · b")
     assert with_title_wrapped(short, 42) is short
+
+
+def test_a_label_at_the_plots_edge_stays_inside_it_even_over_a_marker():
+    from studio.figures import PLOT_PX, _label_box, place_labels
+
+    # "best I" on the right edge, with markers all round its inside: no position is both inside and clear of
+    # markers; it used to take the first one clear of labels ("top center"), half past the edge ("bes").
+    xy = np.array([[1.0, 0.5], [0.92, 0.5], [0.92, 0.58], [0.92, 0.42], [1.0, 0.6], [1.0, 0.4], [0.96, 0.55],
+                   [0.96, 0.45]])
+    texts = ["best I"] + [""] * (len(xy) - 1)
+    pos = place_labels(xy, texts, ([0.0, 1.0], [0.0, 1.0]))[0]
+    assert pos is not None
+    box = _label_box(1.0 * PLOT_PX[0], 0.5 * PLOT_PX[1], "best I", pos)
+    assert box[0] >= 0 and box[2] <= PLOT_PX[0] and box[1] >= 0 and box[3] <= PLOT_PX[1]
