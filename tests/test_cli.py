@@ -67,6 +67,9 @@ def test_presets_table_lists_every_preset_with_its_mechanism(capsys):
 def test_presets_json_lists_every_preset_as_a_loadable_design(capsys):
     code, out, _ = run_in_process(capsys, "presets", "--json")
     assert code == 0
+    # The flag before or after "list" alike (before it, the table used to print).
+    for argv in (("presets", "--json", "list"), ("presets", "list", "--json")):
+        assert run_in_process(capsys, *argv)[1] == out
     items = strict_json(out)
     assert isinstance(items, list)
     assert sorted(d["name"] for d in items) == sorted(presets.PRESETS)

@@ -25,8 +25,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--json", action="store_true", help="list every preset as JSON")
     actions = p.add_subparsers(dest="action", metavar="ACTION")
+    # Its own dest: the subcommand's default would overwrite `clm presets --json list`'s flag.
     actions.add_parser("list", help="list presets (the default)").add_argument(
-        "--json", action="store_true", help="list every preset as JSON"
+        "--json", dest="list_json", action="store_true", help="list every preset as JSON"
     )
     show = actions.add_parser("show", help="print one preset as a design JSON")
     show.add_argument("name", help="preset name, e.g. stephenson1/X3")
@@ -38,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(preset_dict(presets.get(args.name)), indent=2))
         return 0
     items = sorted(presets.PRESETS.values(), key=lambda p: p.name)
-    if args.json:
+    if args.json or getattr(args, "list_json", False):
         print(json.dumps([preset_dict(p) for p in items], indent=2))
         return 0
     rows = [("NAME", "MECHANISM", "SOURCE")] + [(p.name, p.mechanism.name, p.source) for p in items]
