@@ -289,8 +289,12 @@ def with_title_wrapped(fig: go.Figure, chars: int) -> go.Figure:
     if len(lines) <= 1:
         return fig
     out = go.Figure(fig)
-    out.update_layout(title={"text": "<br>".join(lines), "y": 0.99, "yanchor": "top"},
-                      margin={"t": 14 + 17 * len(lines)})
+    # Anchored in pixels from the container's top: plotly's default placement of a title of several lines put its
+    # first line above the chart's edge.
+    # (The pad is measured to the first line's baseline region: 16 px keeps its glyphs inside the chart.)
+    out.update_layout(title={"text": "<br>".join(lines), "yref": "container", "y": 1.0, "yanchor": "top",
+                             "pad": {"t": 16}},
+                      margin={"t": 24 + 17 * len(lines)})
     return out
 
 
@@ -316,15 +320,19 @@ def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> 
         # Whole decades (at most ~6 labels) where it spans one, else plotly's ticks.
         drawn = [v for v in eps if v is not None]
         decades = math.log10(max(drawn) / min(drawn))
-        step = {"dtick": max(1, math.ceil(decades / 5))} if decades >= 1 else {}
+        step = {"dtick": max(1, math.ceil(decades / 5)), "tick0": 0} if decades >= 1 else {}
         fig.update_layout(yaxis2={"title": {"text": "epsilon", "standoff": 2}, "type": "log", "overlaying": "y",
                                   "side": "right", "exponentformat": "e", "tickformat": ".0e", "automargin": True,
                                   "showgrid": False, "tickfont": {"size": 10}, **step})
         margin_r = 50
     note = _eps_note(trace)
-    text = " · ".join(t for t in (title, note) if t)
-    fig.update_layout(title={"text": text, "font": {"size": 12}}, font={"size": 11}, height=250, showlegend=True,
-                      margin={"l": 45, "r": margin_r, "t": 30,
+    # The note on a line of its own under the title: beside it, it ran under the mode bar's icons.
+    small = f"<span style='font-size:10px;color:#666'>{note}</span>" if note else ""
+    text = "<br>".join(t for t in (title, small) if t)
+    fig.update_layout(title={"text": text, "font": {"size": 12}, "yref": "container", "y": 1.0, "yanchor": "top",
+                             "pad": {"t": 14}},
+                      font={"size": 11}, height=250 + (14 if note else 0), showlegend=True,
+                      margin={"l": 45, "r": margin_r, "t": 50 if note else 34,
                       "b": 10}, xaxis={"title": {"text": "evaluations", "standoff": 4}, "automargin": True},
                       yaxis={"range": [0, 1.02], "title": {"text": "ratio"}, "automargin": True},
                       # Below the axis title, outside the plot, as the Pareto chart's (items wrap on a narrow panel).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -227,6 +228,11 @@ def test_chart_ticks_are_round_and_inside_the_range():
     assert ticks(1.0, 1.0) == []
 
 
+def plain(title: str) -> str:
+    """A chart title as read: tags dropped, a line break read as " · "."""
+    return re.sub(r"<[^>]+>", "", title.replace("<br>", " · "))
+
+
 def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
     from studio.figures import make_trace_figure
 
@@ -242,19 +248,19 @@ def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
     # One line still gets a legend (plotly hides a lone trace's), and the title says there is no epsilon.
     nsga = make_trace_figure([{"gen": 1.0, "n_eval": 20.0, "feasible_ratio": 0.5}], "nsga2 trace")
     assert [d.name for d in nsga.data] == ["feasible"] and "yaxis2" not in nsga.layout.to_plotly_json()
-    assert nsga.layout.showlegend and nsga.layout.title.text == "nsga2 trace · no epsilon in this algorithm"
+    assert nsga.layout.showlegend and plain(nsga.layout.title.text) == "nsga2 trace · no epsilon in this algorithm"
     # CMOEMT before it pulls: epsilon 0, which a log axis cannot show; it is left out where 0 and the title says so.
     push = [{"gen": 1.0, "n_eval": 40.0, "eps": 0.0, "feasible_ratio_P1": 0.0, "feasible_ratio_P3": 0.3},
             {"gen": 2.0, "n_eval": 80.0, "eps": 0.0, "feasible_ratio_P1": 0.2, "feasible_ratio_P3": 0.4}]
     fig = make_trace_figure(push, "cmoemt trace")
     assert [d.name for d in fig.data] == ["feasible (main)", "feasible (second auxiliary)"]
     assert "yaxis2" not in fig.layout.to_plotly_json()
-    assert fig.layout.title.text == "cmoemt trace · epsilon not drawn where 0"
+    assert plain(fig.layout.title.text) == "cmoemt trace · epsilon not drawn where 0"
     pull = make_trace_figure(push + [{"gen": 3.0, "n_eval": 120.0, "eps": 0.3, "feasible_ratio_P1": 0.5},
                                      {"gen": 4.0, "n_eval": 160.0, "eps": 1e-4, "feasible_ratio_P1": 0.6}])
-    assert list(pull.data[-1].y) == [None, None, 0.3, 1e-4] and pull.layout.title.text.endswith("where 0")
+    assert list(pull.data[-1].y) == [None, None, 0.3, 1e-4] and plain(pull.layout.title.text).endswith("where 0")
     # Over 3.5 decades: a label per whole decade, written 1e-3 (a superscript power was cut to a bare "3").
-    assert pull.layout.yaxis2.dtick == 1 and pull.layout.yaxis2.tickformat == ".0e"
+    assert pull.layout.yaxis2.dtick == 1 and pull.layout.yaxis2.tick0 == 0 and pull.layout.yaxis2.tickformat == ".0e"
     # Legend and axis titles do not meet: the legend hangs below the plot, the axes make room for their titles.
     assert pull.layout.legend.yanchor == "top" and pull.layout.legend.y < 0
     assert pull.layout.xaxis.automargin and pull.layout.yaxis2.automargin
@@ -267,10 +273,10 @@ def test_the_trace_chart_tells_an_unused_epsilon_from_a_zero_one_and_draws_every
     cmoes = [{"n_eval": 300.0, "eps": float("nan"), "feasible_ratio_P1": 0.0, "feasible_ratio_P2": 0.0},
              {"n_eval": 600.0, "eps": 2.0, "feasible_ratio_P1": 0.5, "feasible_ratio_P2": 0.2}]
     fig = make_trace_figure(cmoes, "cmoes trace")
-    assert fig.layout.title.text == "cmoes trace · epsilon not drawn where not in use"
+    assert plain(fig.layout.title.text) == "cmoes trace · epsilon not drawn where not in use"
     assert list(fig.data[-1].y) == [None, 2.0]
     both = make_trace_figure(cmoes + [{"n_eval": 900.0, "eps": 0.0, "feasible_ratio_P1": 1.0}])
-    assert both.layout.title.text == "epsilon not drawn where 0 or not in use"
+    assert plain(both.layout.title.text) == "epsilon not drawn where 0 or not in use"
     # MCCMO's archive and unconstrained P0, and a population no label names yet, are all drawn.
     mccmo = [{"n_eval": 100.0, "feasible_ratio_A": 0.1, "feasible_ratio_P0": 0.0, "feasible_ratio_Q": 0.3}]
     names = [d.name for d in make_trace_figure(mccmo).data]
