@@ -188,7 +188,7 @@ def table(header: list[str], rows: list[list[Any]]) -> str:
 def summary(run_: DesignRun) -> str:
     """The end-of-run table: one line per stage (or the baseline) with its pick's metrics."""
     c = run_.config
-    workers = f", {run_.workers} worker processes" if run_.multistart else ""
+    workers = f", {run_.workers} worker process{'es' if run_.workers != 1 else ''}" if run_.multistart else ""
     lines = [f"{c.name}: {c.method}, {c.mechanism.name}, seed {c.seed}, {run_.status}, wall {run_.wall_time:.1f} s"
              + workers]
     if run_.baseline is not None:

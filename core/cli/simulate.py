@@ -131,7 +131,7 @@ def summary(design: Design, sol: Solution, label: str) -> str:
     lines = [f"{label}: {m.title} ({m.name}, {m.n_params} parameters), {out}"]
     n = sol.theta.shape[0]
     if sol.feasible[0]:
-        lines.append(f"assembles over the whole revolution ({n} samples), violation 0")
+        lines.append(f"assembles over the whole revolution ({n} sample{'s' if n != 1 else ''}), violation 0")
     else:
         lines.append(f"does not assemble: {'; '.join(why_not(sol))}; violation {sol.violation[0]:.4g}")
     for frame, pts in (("design", sol.point[0]), ("leg", sol.leg[0])):

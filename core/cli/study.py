@@ -19,6 +19,8 @@ MAX_WORKERS = 256
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "study",
+        usage="clm study STUDY.toml --out DIR [--scheduler ADDRESS | --workers N] [--quiet]\n"
+              "       clm study report DIR",
         help="run a study of algorithms x cases x seeds on Dask, or write its report",
         description="Run every (algorithm, case, seed) cell of a study file as a Dask task (a local cluster with one "
         "worker per core, or --scheduler), keep each finished run in DIR/study.sqlite and DIR/runs/, and write "
