@@ -303,3 +303,12 @@ def test_population_errors_name_the_member():
     pop[2, 4] = -1.0
     with pytest.raises(ValueError, match="r1 of design 2 is a length"):
         check_params(STEPHENSON1, pop)
+
+
+def test_a_design_file_with_a_key_twice_is_refused_not_read_as_its_last_value(capsys, tmp_path):
+    code, out, _ = run_in_process(capsys, "presets", "show", "stephenson1/X3")
+    assert code == 0 and '"r1": ' in out
+    text = out.replace('"r1": ', '"r1": 999.0, "r1": ', 1)  # a valid design either way
+    (tmp_path / "d.json").write_text(text)
+    code, _, err = run_in_process(capsys, "simulate", "--design", str(tmp_path / "d.json"))
+    assert code == 2 and err.strip().endswith("key 'r1' appears twice in one object")
