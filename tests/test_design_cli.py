@@ -127,7 +127,8 @@ def test_an_earlier_run_in_out_is_kept_unless_overwrite_replaces_it_whole(tmp_pa
     out = tmp_path / "o"
     assert main(["design", str(tmp_path / "t.toml"), "--out", str(out), "--quiet"]) == 0
     (out / "pareto-0_subtask1.png").write_bytes(b"png")  # clm-charts on that run
-    (out / "notes.txt").write_text("mine")  # the designer's own file
+    for mine in ("notes.txt", "2024_measurements.csv", "pareto-from-paper.png"):  # the designer's own files
+        (out / mine).write_text("mine")
     before = (out / "result.json").read_text()
     capsys.readouterr()
     # A second run into the same folder would have overwritten result.json and left the other CSVs beside it.
@@ -137,4 +138,24 @@ def test_an_earlier_run_in_out_is_kept_unless_overwrite_replaces_it_whole(tmp_pa
     assert (out / "result.json").read_text() == before
     assert main(["design", str(tmp_path / "dp.toml"), "--out", str(out), "--quiet", "--overwrite"]) == 0
     assert "removed 3 file(s) of the earlier run" in capsys.readouterr().out
-    assert sorted(p.name for p in out.iterdir()) == ["dp_ga.csv", "notes.txt", "result.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["2024_measurements.csv", "dp_ga.csv", "notes.txt",
+                                                     "pareto-from-paper.png", "result.json"]
+
+
+def test_a_folder_without_an_earlier_run_keeps_every_file_and_a_foreign_result_is_never_replaced(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "dp.toml").write_text(BASELINE.replace("n_gen = 3", "n_gen = 1"))
+    out = tmp_path / "o"
+    out.mkdir()
+    for mine in ("0_subtask1.csv", "pareto-0_subtask1.png", "dp_sqp.csv"):  # named like outputs, made by hand
+        (out / mine).write_text("mine")
+    assert main(["design", str(tmp_path / "dp.toml"), "--out", str(out), "--quiet"]) == 0
+    assert "removed" not in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == ["0_subtask1.csv", "dp_ga.csv", "dp_sqp.csv",
+                                                     "pareto-0_subtask1.png", "result.json"]
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "result.json").write_text('{"format": "something else"}')
+    assert main(["design", str(tmp_path / "dp.toml"), "--out", str(other), "--quiet", "--overwrite"]) == 2
+    assert "is not a 'clm design' result; not replacing it" in capsys.readouterr().err
+    assert (other / "result.json").read_text() == '{"format": "something else"}'

@@ -16,7 +16,7 @@ from typing import Any
 
 from core.analysis.targets import read_user_file
 from core.cli import CLIError
-from core.cli.design import table
+from core.cli.design import MAX_RESULT_BYTES, table
 from core.optimize.result import decode_float
 
 # Appendix B-5 as printed: method, time (min), MSE (mm), S (%), I (mm/s).
@@ -42,7 +42,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-MAX_RESULT_BYTES = 512 * 2**20
 
 
 def load_rows(path: Path) -> list[dict[str, Any]]:

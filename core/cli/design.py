@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+import json
 import re
 import signal
 import sys
@@ -23,6 +24,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from core.analysis.targets import read_user_file
 from core.cli import CLIError
 from core.formats.config import load_config
 from core.formats.files import atomic_write, check_out_dir
@@ -150,16 +152,30 @@ def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
     return written
 
 
-EARLIER = re.compile(r"(\d+_.+\.csv|(dp_sqp|dp_ga|dp_ga_sqp)\.csv|pareto-.+\.png)")
-"""What a run leaves in --out (stage CSVs, a baseline's CSV, clm-charts' PNGs): those not written again belong to
-an earlier run."""
+MAX_RESULT_BYTES = 512 * 2**20  # a result.json read back (clm compare, --overwrite)
 
 
-def earlier_outputs(out: Path, written: list[Path]) -> list[Path]:
-    """The files in ``out`` an earlier run (or clm-charts on it) wrote and this one did not: with --overwrite
-    they would otherwise sit beside the new result as if they were its own."""
-    keep = {p.name for p in written}
-    return sorted(p for p in out.iterdir() if p.is_file() and p.name not in keep and EARLIER.fullmatch(p.name))
+def earlier_outputs(result: Path) -> list[str]:
+    """The files an earlier ``clm design`` run in the same folder wrote, read from its ``result.json``: its stage
+    CSVs (or baseline CSV) and the ``pareto-<k>_<stage>.png`` charts clm-charts draws from it. CLIError when the
+    file is not such a result (it is not ours to replace)."""
+    try:
+        data = json.loads(read_user_file(result, MAX_RESULT_BYTES, "result file"))
+    except (ValueError, RecursionError):
+        data = None
+    if not isinstance(data, dict) or data.get("format") != "clm-design":
+        raise CLIError(f"{result} is not a 'clm design' result; not replacing it (choose another --out)")
+    names: list[str] = []
+    if data.get("method") in DP_METHODS:
+        names.append(f"{data['method']}.csv")
+    pipeline = data.get("pipeline")
+    stages = pipeline.get("stages") if isinstance(pipeline, dict) else None
+    for k, stage in enumerate(stages if isinstance(stages, list) else []):
+        name = stage.get("name") if isinstance(stage, dict) else None
+        if isinstance(name, str) and name:
+            # clm-charts' file names (studio.exports.slug, which core cannot import)
+            names += [f"{k}_{name}.csv", f"pareto-{k}_{re.sub(r'[^A-Za-z0-9._-]+', '-', name).strip('-')}.png"]
+    return names
 
 
 def _cell(v: Any) -> Any:
@@ -240,9 +256,12 @@ def run(args: argparse.Namespace) -> int:
             raise CLIError("--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786")
         config = replace(config, scheduler=args.scheduler)
     check_out_dir(args.out_text, output_names(config))
-    if (args.out / "result.json").exists() and not args.overwrite:
-        raise CLIError(f"--out {args.out_text!r} holds an earlier run (result.json); choose another folder or pass "
-                       "--overwrite to replace it")
+    previous: list[str] = []
+    if (args.out / "result.json").exists():
+        if not args.overwrite:
+            raise CLIError(f"--out {args.out_text!r} holds an earlier run (result.json); choose another folder or "
+                           "pass --overwrite to replace it")
+        previous = earlier_outputs(args.out / "result.json")
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)
     cancel = threading.Event()
@@ -265,7 +284,8 @@ def run(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     written = write_outputs(args.out, result)
-    stale = earlier_outputs(args.out, written)
+    kept = {p.name for p in written}
+    stale = [args.out / n for n in previous if n not in kept and (args.out / n).is_file()]
     for path in stale:
         path.unlink(missing_ok=True)
     print(summary(result))
