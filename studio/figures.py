@@ -264,7 +264,7 @@ def _eps_note(trace: Sequence[Mapping[str, float]]) -> str:
     if not any("eps" in row for row in trace):
         return "no epsilon in this algorithm"
     values = [row.get("eps", math.nan) for row in trace]
-    where = [w for w, hit in (("0", any(v == 0 for v in values)),
+    where = [w for w, hit in (("0", any(v == 0 for v in values)), ("infinite", any(math.isinf(v) for v in values)),
                               ("not in use", any(math.isnan(v) for v in values))) if hit]
     return f"epsilon not drawn where {' or '.join(where)}" if where else ""
 
@@ -312,14 +312,15 @@ def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> 
         if any(key in row for row in trace):
             name = TRACE_RATIOS.get(key, f"feasible ({key.removeprefix('feasible_ratio_')})")
             fig.add_scatter(x=x, y=[row.get(key) for row in trace], mode="lines", name=name)
-    eps = [v if (v := row.get("eps", 0.0)) > 0 else None for row in trace]  # a log axis shows no 0 (nor NaN)
+    # A log axis shows no 0 (nor NaN, nor the infinite violation of a member with undefined objectives).
+    eps = [v if 0 < (v := row.get("eps", 0.0)) < math.inf else None for row in trace]
     margin_r = 10
     if any(v is not None for v in eps):
         fig.add_scatter(x=x, y=eps, mode="lines", name="epsilon", yaxis="y2", line={"dash": "dot"})
         # "1e-4" rather than a superscript power, which the narrow panel cut to a bare "4".
         # Whole decades (at most ~6 labels) where it spans one, else plotly's ticks.
         drawn = [v for v in eps if v is not None]
-        decades = math.log10(max(drawn) / min(drawn))
+        decades = math.log10(max(drawn)) - math.log10(min(drawn))
         step = {"dtick": max(1, math.ceil(decades / 5)), "tick0": 0} if decades >= 1 else {}
         fig.update_layout(yaxis2={"title": {"text": "epsilon", "standoff": 2}, "type": "log", "overlaying": "y",
                                   "side": "right", "exponentformat": "e", "tickformat": ".0e", "automargin": True,

@@ -214,3 +214,14 @@ def test_cli_reports_a_bad_config_in_one_line_with_exit_2(tmp_path: Path,
     assert main(["design", str(f), "--out", str(tmp_path / "out")]) == 2
     assert capsys.readouterr().err.startswith("clm: error: ")
     assert not (tmp_path / "out").exists()
+
+
+def test_an_integer_pick_is_checked_against_the_members_a_weight_based_algorithm_keeps() -> None:
+    # CMOEMT keeps one member per Das-Dennis weight: 10 of pop 12 at subtask 1's three objectives. Checked against
+    # pop_size, pick 11 passed the load and failed after the stage ran, and nothing was written.
+    d = base()
+    d["stages"][1].update(pick=11, algorithm={"name": "cmoemt", "pop_size": 12})
+    with pytest.raises(ValueError, match=r"stages\[1\]\.pick: member 11 does not exist: the stage keeps 10 members"):
+        parse_config(d)
+    d["stages"][1]["pick"] = 9
+    parse_config(d)

@@ -277,6 +277,11 @@ def test_the_trace_chart_tells_an_unused_epsilon_from_a_zero_one_and_draws_every
     assert list(fig.data[-1].y) == [None, 2.0]
     both = make_trace_figure(cmoes + [{"n_eval": 900.0, "eps": 0.0, "feasible_ratio_P1": 1.0}])
     assert plain(both.layout.title.text) == "epsilon not drawn where 0 or not in use"
+    # IMTCMO's first epsilon is the largest violation, infinite when a member's objectives are undefined: not drawn,
+    # said, and the axis still spans the finite values (log10 of inf / min raised OverflowError).
+    inf = make_trace_figure([{"n_eval": 1.0, "eps": math.inf}, {"n_eval": 2.0, "eps": 5.0},
+                             {"n_eval": 3.0, "eps": 1e-300}], "imtcmo trace")
+    assert list(inf.data[-1].y) == [None, 5.0, 1e-300] and plain(inf.layout.title.text).endswith("where infinite")
     # MCCMO's archive and unconstrained P0, and a population no label names yet, are all drawn.
     mccmo = [{"n_eval": 100.0, "feasible_ratio_A": 0.1, "feasible_ratio_P0": 0.0, "feasible_ratio_Q": 0.3}]
     names = [d.name for d in make_trace_figure(mccmo).data]

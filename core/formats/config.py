@@ -303,7 +303,8 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
     except ValueError as e:
         raise _fail(f"{key}.algorithm" if t.algorithm is not None else "algorithm",
                     str(e) if t.algorithm is not None else f"{e} (in stage {t.name!r})") from None
-    size = getattr(built, "pop_size", None)
+    kept = getattr(built, "kept_size", None)  # CMOEMT, MOEA/D-CMT: one member per weight
+    size = kept(spec.n_obj) if callable(kept) else getattr(built, "pop_size", None)
     if isinstance(pick, int) and isinstance(size, int) and pick >= size:  # else found only after the stage ran
         raise _fail(f"{key}.pick", f"member {pick} does not exist: the stage keeps {size} members (0..{size - 1})")
     if spec.repair is not None:  # placement needs a mechanism that can follow a similarity transform

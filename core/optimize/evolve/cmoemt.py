@@ -86,6 +86,10 @@ class CMOEMT(ArrayAlgorithm):
         super().__init__(pop_size=pop_size, **kwargs)
         self.variant, self.ahead = variant, ahead
 
+    def kept_size(self, n_obj: int) -> int:
+        """Members the output keeps: one per Das-Dennis weight (91 for 100 at three objectives)."""
+        return len(das_dennis(self.pop_size, n_obj)) if n_obj > 1 else self.pop_size
+
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p, rng = self.problem, self.random_state
         self.W = das_dennis(self.pop_size, p.n_obj) if p.n_obj > 1 else np.ones((self.pop_size, 1))

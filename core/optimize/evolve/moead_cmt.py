@@ -79,6 +79,10 @@ class MOEADCMT(ArrayAlgorithm):
         super().__init__(pop_size=pop_size, **kwargs)
         self.ahead = ahead
 
+    def kept_size(self, n_obj: int) -> int:
+        """Members the output keeps: one per Das-Dennis weight (91 for 100 at three objectives)."""
+        return len(das_dennis(self.pop_size, n_obj)) if n_obj > 1 else self.pop_size
+
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p = self.problem
         # One objective: N equal subproblems (the lattice would give one); DE needs two neighbours at least.
