@@ -1,5 +1,5 @@
-"""The test problems ``clm moea`` and ``benchmarks/algorithms.py`` run, by name. Kept apart from
-:mod:`core.optimize.moea` so that ``clm``'s help can list them without importing pymoo."""
+"""The test problems ``clm moea`` and ``benchmarks/algorithms.py`` run, by name: one list that
+:mod:`core.optimize.moea`, the CLI's help and the benchmark's errors all read."""
 
 from __future__ import annotations
 
