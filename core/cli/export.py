@@ -52,9 +52,10 @@ def run(args: argparse.Namespace) -> int:
         tmp = args.dxf.with_name(args.dxf.name + ".tmp")
         try:
             write_dxf(d, tmp)
-        except OSError as e:  # name the file asked for, not the temporary one
-            raise OSError(e.errno, e.strerror, str(args.dxf)) from None
-        tmp.replace(args.dxf)
+            tmp.replace(args.dxf)
+        except OSError as e:  # name the file asked for, not the temporary one, and leave no half file
+            tmp.unlink(missing_ok=True)
+            raise OSError(e.errno, e.strerror or str(e), str(args.dxf)) from None
         print(f"wrote {args.dxf} ({len(d.links)} links, {len(d.ground)} ground pivots)")
     if args.svg is not None:
         atomic_write(args.svg, svg(d))

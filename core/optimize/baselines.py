@@ -239,8 +239,10 @@ def sqp(mechanism: Mechanism, output: OutputStage, x0: F64, settings: BaselineSe
     u0 = np.clip((np.asarray(x0, dtype=np.float64) - batch.lo) / batch.span, 0.0, 1.0)
     # The objective in units of its start value: SLSQP's first quasi-Newton step is the raw gradient, and a
     # DP error of ~1e6 mm^2 (a random start) with gradients of ~1e6 made it stop at once on its start.
-    f0 = batch(u0)[0]
-    scale = f0 if np.isfinite(f0) and f0 > 0.0 else 1.0
+    batch(u0)
+    # batch.best is set only where the start assembles; else its error is a neighbour's or a 1e12 placeholder,
+    # and dividing by that would leave SLSQP nothing to do (ftol).
+    scale = batch.best[0] if batch.best is not None and batch.best[0] > 0.0 else 1.0
     res = minimize(
         lambda u: (batch(u)[0] / scale, batch(u)[1] / scale),
         u0,
