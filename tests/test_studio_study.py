@@ -124,6 +124,25 @@ def test_without_a_session_file_the_live_result_is_recorded_at_the_pages_pace_an
     assert r.status == "complete" and r.generation == 40 and r.picked == r.shortlist.knees[0]
 
 
+def test_a_stop_between_recorded_generations_keeps_the_generation_it_stopped_at(session: Session) -> None:
+    tiny(session.study, "subtask1", gens=5000)
+    seen: list[int] = []
+    done = threading.Event()
+    runner = Runner(session.lock, lambda: session.study, lambda p: seen.append(p.generation), done.set, LIVE_PERIOD)
+    chain = chain_for(X3.mechanism)
+    stage = find(chain, "subtask1")
+    settings, view = session.study.settings_for(stage), session.view
+    runner.start(lambda s: s.plan(stage, settings, view.design, view.target, False, chain))
+    wait = threading.Event()
+    while len(seen) < 3 and not done.is_set():  # a few recorded generations, then Stop at any moment
+        wait.wait(0.01)
+    runner.stop()
+    assert done.wait(60)
+    r = session.study.result("subtask1")
+    assert r.status == "cancelled" and r.generation == session.study.status.generation >= seen[-1]
+    assert f"stopped at generation {r.generation}/5000" in session.study.status.message
+
+
 def test_a_branch_label_names_the_member_restore_brings_back_and_the_algorithm(session: Session) -> None:
     run(session, "subtask1", from_pick=False)
     r = session.study.result("subtask1")
