@@ -153,6 +153,15 @@ def test_a_folder_without_an_earlier_run_keeps_every_file_and_a_foreign_result_i
     assert "removed" not in capsys.readouterr().out
     assert sorted(p.name for p in out.iterdir()) == ["0_subtask1.csv", "dp_ga.csv", "dp_sqp.csv",
                                                      "pareto-0_subtask1.png", "result.json"]
+    # A result.json edited to name a file outside --out: nothing outside is touched.
+    data = json.loads((out / "result.json").read_text())
+    data["method"] = "hierarchical"
+    data["pipeline"] = {"stages": [{"name": "x/../../outside"}]}  # 0_x/../../outside.csv
+    (out / "result.json").write_text(json.dumps(data))
+    (out / "0_x").mkdir()
+    (tmp_path / "outside.csv").write_text("mine")
+    assert main(["design", str(tmp_path / "dp.toml"), "--out", str(out), "--quiet", "--overwrite"]) == 0
+    assert (tmp_path / "outside.csv").read_text() == "mine"
     other = tmp_path / "other"
     other.mkdir()
     (other / "result.json").write_text('{"format": "something else"}')

@@ -285,7 +285,8 @@ def run(args: argparse.Namespace) -> int:
             bar.close()
     written = write_outputs(args.out, result)
     kept = {p.name for p in written}
-    stale = [args.out / n for n in previous if n not in kept and (args.out / n).is_file()]
+    # Plain names in --out only: a result.json is a file anyone could have edited ("0_../x.csv").
+    stale = [args.out / n for n in previous if n not in kept and Path(n).name == n and (args.out / n).is_file()]
     for path in stale:
         path.unlink(missing_ok=True)
     print(summary(result))
