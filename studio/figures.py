@@ -281,14 +281,15 @@ def wrapped(text: str, chars: int) -> list[str]:
     return lines
 
 
-def with_title_wrapped(fig: go.Figure, chars: int) -> go.Figure:
-    """A copy of a chart whose one-line title is broken into lines for a narrow panel (plotly cuts a title at the
-    chart's edge), with the top margin grown to fit them."""
+def with_title_wrapped(fig: go.Figure, chars: int, copy: bool = True) -> go.Figure:
+    """A copy of a chart (``copy=False``: the chart itself, changed) whose one-line title is broken into lines for
+    a narrow panel (plotly cuts a title at the chart's edge), with the top margin grown to fit them. A copy costs
+    about as much as building the chart (~10 ms at pop 200), the change in place ~1 ms."""
     title = fig.layout.title.text or ""
     lines = wrapped(title, chars)
     if len(lines) <= 1:
         return fig
-    out = go.Figure(fig)
+    out = go.Figure(fig) if copy else fig
     # Anchored in pixels from the container's top: plotly's default placement of a title of several lines put its
     # first line above the chart's edge.
     # (The pad is measured to the first line's baseline region: 16 px keeps its glyphs inside the chart.)

@@ -152,11 +152,12 @@ class ParetoPanel:
                                     f"{sv.viewing or 'This stage'} has no result yet: run it.")
             self._close_large()
             return
-        self.plot.figure = with_title_wrapped(fig, PANEL_TITLE_CHARS)
-        self.plot.visible = self.open_large.visible = True
-        for cid, (_, large) in list(self._large.items()):
+        for cid, (_, large) in list(self._large.items()):  # the one-line title (sent now, as JSON)
             if not write(large, "figure", fig):
                 self._large.pop(cid, None)
+        # Then the side panel's lines, in place: a copy per redraw cost as much as building the chart.
+        self.plot.figure = with_title_wrapped(fig, PANEL_TITLE_CHARS, copy=False)
+        self.plot.visible = self.open_large.visible = True
         tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:
             self.trace.figure = tfig
