@@ -16,12 +16,13 @@ from typing import Any, Literal
 import numpy as np
 import viser
 
+from core.formats.files import slug
 from core.formats.session import parse_json
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, takes_target
 from studio.charts import png
-from studio.exports import design_json, drawing_export, figure_html, slug, trajectories_csv
+from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE
 from studio.geometry import frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker

@@ -17,15 +17,13 @@ from pathlib import Path
 import plotly.graph_objects as go
 
 from core.analysis.targets import read_user_file
-from core.formats.files import atomic_write
+from core.formats.files import MAX_RESULT_BYTES, atomic_write, chart_file
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
-from studio.exports import slug
 from studio.figures import make_pareto_figure
 from studio.study import status_text
 
 WIDTH, HEIGHT = 1000, 800
-MAX_RESULT_BYTES = 512 * 2**20
 
 
 def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT) -> bytes:
@@ -66,7 +64,7 @@ def run_charts(run_dir: Path) -> list[Path]:
         if r is None or r.pop == 0:
             continue
         fig = result_figure(r, dict(spec.problem.labels), target_text(r.settings))
-        path = run_dir / f"pareto-{k}_{slug(r.name)}.png"
+        path = run_dir / chart_file(k, r.name)
         atomic_write(path, png(fig))
         written.append(path)
     return written

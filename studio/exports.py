@@ -9,7 +9,6 @@ from __future__ import annotations
 import io
 import json
 import math
-import re
 import tempfile
 from pathlib import Path
 
@@ -17,15 +16,11 @@ import numpy as np
 import plotly.graph_objects as go
 
 from core.formats.design import design_to_dict
+from core.formats.files import slug
 from studio.state import DesignView
 
 CSV_COLUMNS = ("sample", "theta_rad", "t_s", "x_design_mm", "y_design_mm", "x_leg_mm", "y_leg_mm", "stance",
                "x_target_mm", "y_target_mm", "x_target_leg_mm", "y_target_leg_mm")
-
-
-def slug(text: str) -> str:
-    """A file-name-safe version of a name (``stephenson1/X3`` -> ``stephenson1-X3``)."""
-    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-") or "design"
 
 
 def design_json(view: DesignView) -> bytes:

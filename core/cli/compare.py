@@ -16,7 +16,8 @@ from typing import Any
 
 from core.analysis.targets import read_user_file
 from core.cli import CLIError
-from core.cli.design import MAX_RESULT_BYTES, table
+from core.cli.design import table
+from core.formats.files import MAX_RESULT_BYTES
 from core.optimize.result import decode_float
 
 # Appendix B-5 as printed: method, time (min), MSE (mm), S (%), I (mm/s).

@@ -14,7 +14,6 @@ import argparse
 import csv
 import io
 import json
-import re
 import signal
 import sys
 import threading
@@ -27,7 +26,7 @@ import numpy as np
 from core.analysis.targets import read_user_file
 from core.cli import CLIError
 from core.formats.config import load_config
-from core.formats.files import atomic_write, check_out_dir
+from core.formats.files import MAX_RESULT_BYTES, atomic_write, chart_file, check_out_dir, stage_file
 from core.formats.typed import MAX_SEED
 from core.optimize.baselines import DP_METHODS
 from core.optimize.design_config import DesignConfig
@@ -129,7 +128,7 @@ def output_names(config: DesignConfig) -> list[str]:
     """The files ``write_outputs`` writes for a configuration."""
     if config.method in DP_METHODS:
         return ["result.json", f"{config.method}.csv"]
-    return ["result.json", *(f"{k}_{s.name}.csv" for k, s in enumerate(config.stages))]
+    return ["result.json", *(stage_file(k, s.name) for k, s in enumerate(config.stages))]
 
 
 def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
@@ -137,7 +136,7 @@ def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "result.json"]
     for res in run_.results:
-        path = out / f"{res.index}_{res.name}.csv"
+        path = out / stage_file(res.index, res.name)
         header, rows = stage_rows(res)
         atomic_write(path, _csv([header, *[[_cell(v) for v in r] for r in rows]]))
         written.append(path)
@@ -150,9 +149,6 @@ def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
         written.append(path)
     atomic_write(out / "result.json", dumps(run_.to_dict()))  # last: it names the CSVs' run
     return written
-
-
-MAX_RESULT_BYTES = 512 * 2**20  # a result.json read back (clm compare, --overwrite)
 
 
 def earlier_outputs(result: Path) -> list[str]:
@@ -173,8 +169,7 @@ def earlier_outputs(result: Path) -> list[str]:
     for k, stage in enumerate(stages if isinstance(stages, list) else []):
         name = stage.get("name") if isinstance(stage, dict) else None
         if isinstance(name, str) and name:
-            # clm-charts' file names (studio.exports.slug, which core cannot import)
-            names += [f"{k}_{name}.csv", f"pareto-{k}_{re.sub(r'[^A-Za-z0-9._-]+', '-', name).strip('-')}.png"]
+            names += [stage_file(k, name), chart_file(k, name)]
     return names
 
 

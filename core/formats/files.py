@@ -4,6 +4,7 @@ one), and into an output folder checked writable before any work starts."""
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from collections.abc import Iterable
 from pathlib import Path
@@ -49,3 +50,22 @@ def check_out_dir(out: str | Path, files: Iterable[str] = ()) -> Path:
         if (d / name).is_dir():
             raise ValueError(f"--out {str(d)!r}: {name} is a folder; it would be overwritten by a file")
     return d
+
+
+MAX_RESULT_BYTES = 512 * 2**20
+"""The largest result.json read back (clm compare, clm design --overwrite, clm-charts)."""
+
+
+def slug(text: str) -> str:
+    """A file-name-safe version of a name (``stephenson1/X3`` -> ``stephenson1-X3``)."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-") or "design"
+
+
+def stage_file(k: int, name: str) -> str:
+    """``<k>_<stage>.csv``: a stage's members in a ``clm design --out`` folder."""
+    return f"{k}_{name}.csv"
+
+
+def chart_file(k: int, name: str) -> str:
+    """``pareto-<k>_<stage>.png``: the stage's chart clm-charts draws into the same folder."""
+    return f"pareto-{k}_{slug(name)}.png"
