@@ -88,9 +88,12 @@ class DCDTLZ(Problem):
         """The front on the given directions (Das-Dennis, rows summing to 1): DTLZ1's half simplex or DTLZ3's unit
         sphere, less the points whose position variables are infeasible (DC1: x_1, DC3: every one)."""
         if ref_dirs is None:
-            from pymoo.util.ref_dirs import get_reference_directions
+            from math import comb
 
-            ref_dirs = get_reference_directions("das-dennis", self.n_obj, n_partitions=99 if self.n_obj == 3 else 12)
+            from core.optimize.evolve.weights import simplex_lattice
+
+            H = 99 if self.n_obj == 3 else 12
+            ref_dirs = simplex_lattice(comb(H + self.n_obj - 1, self.n_obj - 1), self.n_obj)
         R = np.asarray(ref_dirs, dtype=np.float64)
         R = R / 2 if self.base == 1 else R / np.linalg.norm(R, axis=1, keepdims=True)
         if self.kind == 2:

@@ -63,10 +63,9 @@ def reference_front(name: str) -> F64 | None:
     if key.startswith("zdt"):
         return np.asarray(problem_by_name(key).pareto_front(), dtype=np.float64)
     if key in DTLZ or key in DC_DTLZ:
-        from core.optimize.evolve.weights import das_dennis
+        from core.optimize.evolve.weights import simplex_lattice
 
-        directions = das_dennis(LATTICE, 3)
-        directions[directions <= 1e-6] = 0.0  # the lattice's own points (das_dennis clips zeros for Tchebycheff)
+        directions = simplex_lattice(LATTICE, 3)
         return np.asarray(problem_by_name(key).pareto_front(ref_dirs=directions), dtype=np.float64)
     return None
 

@@ -16,6 +16,12 @@ def das_dennis(n: int, m: int) -> F64:
 
     The effective population size is the number of vectors (91 for m = 3, n = 100; 190 for m = 3, n = 200).
     """
+    return np.maximum(simplex_lattice(n, m), 1e-6)
+
+
+def simplex_lattice(n: int, m: int) -> F64:
+    """:func:`das_dennis`'s lattice as it is, zeros included (reference fronts on it: the points of the
+    boundary)."""
     if m == 1:
         return np.ones((1, 1))
     H = 1
@@ -25,8 +31,7 @@ def das_dennis(n: int, m: int) -> F64:
     for bars in combinations(range(H + m - 1), m - 1):
         cuts = (-1, *bars, H + m - 1)
         rows.append([cuts[i + 1] - cuts[i] - 1 for i in range(m)])
-    W = np.asarray(rows, dtype=np.float64) / H
-    return np.maximum(W, 1e-6)
+    return np.asarray(rows, dtype=np.float64) / H
 
 
 def neighbours(W: F64, T: int) -> NDArray[np.int64]:
