@@ -13,6 +13,7 @@ from core.analysis.evaluate import (
     CONSTRAINT_NAMES,
     CONSTRAINT_UNITS,
     DEFAULT_OBSTACLE,
+    MIN_SAMPLES,
     Evaluation,
     evaluate,
     evaluate_paths,
@@ -21,9 +22,8 @@ from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
 from core.analysis.targets import load_curve, parse_target
 from core.cli import CLIError, dumps
+from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.presets import PAPER_PANTOGRAPH
-
-MAX_SAMPLES = 100_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -57,8 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _check(args: argparse.Namespace) -> None:
-    if not 8 <= args.samples <= MAX_SAMPLES:
-        raise CLIError(f"--samples must be between 8 and {MAX_SAMPLES}, got {args.samples}")
+    if not MIN_SAMPLES <= args.samples <= MAX_SAMPLES:
+        raise CLIError(f"--samples must be between {MIN_SAMPLES} and {MAX_SAMPLES}, got {args.samples}")
     if not (math.isfinite(args.period) and args.period > 0):
         raise CLIError(f"--period must be a positive number of seconds, got {args.period}")
     a, b = args.obstacle

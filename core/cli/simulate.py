@@ -9,16 +9,17 @@ from typing import Any
 
 import numpy as np
 
+from core.analysis.evaluate import MIN_SAMPLES
 from core.analysis.targets import read_user_file
 from core.cli import CLIError, dumps
 from core.formats.design import check_design, design_from_dict
 from core.kinematics import presets
+from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.design import Design
 from core.kinematics.model import IDENTITY
 from core.kinematics.solver import Solution
 
 # Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
-MAX_SAMPLES = 100_000
 MAX_DESIGN_BYTES = 1_000_000
 
 
@@ -166,8 +167,8 @@ def summary(design: Design, sol: Solution, label: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not 1 <= args.samples <= MAX_SAMPLES:
-        raise CLIError(f"--samples must be between 1 and {MAX_SAMPLES}, got {args.samples}")
+    if not MIN_SAMPLES <= args.samples <= MAX_SAMPLES:  # one or two samples are no "whole revolution"
+        raise CLIError(f"--samples must be between {MIN_SAMPLES} and {MAX_SAMPLES}, got {args.samples}")
     design, preset = load_design(args)
     sol = design.solve(args.samples, backend=args.backend)
     label = preset if preset is not None else str(args.design)

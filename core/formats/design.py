@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from core.formats.typed import decode
 from core.kinematics import mechanisms
+from core.kinematics.checks import MAX_ABS
 from core.kinematics.design import Design
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 
@@ -76,8 +77,9 @@ def check_params(mechanism: Mechanism, params: ArrayLike) -> F64:
         ``(pop, n_params)`` float64 copy.
 
     Raises:
-        ValueError: wrong parameter count, a non-finite value, or a length <= 0; the
-            message names the first offending parameter, its unit and (for pop > 1) the member.
+        ValueError: wrong parameter count, a non-finite value, one beyond +-1e6 (mm or rad), or a
+            length <= 0; the message names the first offending parameter, its unit and (for pop > 1)
+            the member.
     """
     try:
         p = np.array(params, dtype=np.float64)
@@ -93,13 +95,15 @@ def check_params(mechanism: Mechanism, params: ArrayLike) -> F64:
     many = p.shape[0] > 1
     for j, spec in enumerate(mechanism.params):
         col = p[:, j]
-        bad = ~np.isfinite(col) | ((col <= 0.0) if spec.kind == "length" else False)
+        bad = ~(np.abs(col) <= MAX_ABS) | ((col <= 0.0) if spec.kind == "length" else False)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             who = f"{spec.name} of design {i}" if many else spec.name
             v = float(col[i])
             if not math.isfinite(v):
                 raise ValueError(f"{who} ({spec.unit}) must be finite, got {v}")
+            if abs(v) > MAX_ABS:  # the solver's domain: beyond it the geometry is floating-point noise
+                raise ValueError(f"{who} must be within +-{MAX_ABS:g} {spec.unit}, got {v:g} {spec.unit}")
             raise ValueError(f"{who} is a length and must be > 0 {spec.unit}, got {v:g} {spec.unit}")
     return p
 

@@ -134,7 +134,7 @@ class Prepared(NamedTuple):
 # A parameter of kind "length" below this is no link (mm): its shortfall is part of the violation.
 MIN_LENGTH = 1e-6
 # Parameters beyond this magnitude (mm or rad) make a design's violation infinite, as non-finite ones do.
-MAX_ABS_PARAM = 1e6
+MAX_ABS_PARAM = checks.MAX_ABS
 
 
 def length_shortfall(mechanism: Mechanism, params: F64) -> F64:
@@ -166,6 +166,7 @@ def prepare(mechanism: Mechanism, params: F64) -> Prepared:
     # Beyond a kilometre the floating-point geometry is noise (products overflow near 1e150): out of domain.
     with np.errstate(invalid="ignore"):
         bad = np.asarray(~(np.abs(params) <= MAX_ABS_PARAM).all(axis=1), dtype=np.bool_)
+    vals[bad] = np.nan  # solving them would only overflow (1e300 squared) to the same infinite violation
     derive_viol = np.asarray(derive_viol, dtype=np.float64) + length_shortfall(mechanism, params)
     return Prepared(prog, vals, derive_viol, bad)
 

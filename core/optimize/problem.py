@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from pymoo.core.problem import Problem
 from pymoo.core.repair import Repair
 
+from core.analysis.evaluate import MIN_SAMPLES
 from core.kinematics import checks
 from core.kinematics.design import Design
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
@@ -292,7 +293,7 @@ def _option(problem: str, key: str, annotation: Any, value: Any) -> Any:
     where = f"problem {problem!r} option {key}"
     kind = annotation if isinstance(annotation, str) else getattr(annotation, "__name__", "")
     if key == "n_samples":
-        return checks.samples(value, minimum=8, even=True, name=where)
+        return checks.samples(value, minimum=MIN_SAMPLES, even=True, name=where)
     if key == "backend":
         return checks.backend(value)
     if kind == "float":
