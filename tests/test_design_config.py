@@ -135,6 +135,11 @@ BAD = [
     ("stages.1.algorithm", {"name": "cmoemt", "options": {"variant": "nope"}},
      "stages[1].algorithm: cmoemt variant must be one of"),
     ("algorithm", {"name": "imtcmo", "pop_size": 11}, "algorithm: imtcmo needs an even population"),
+    # A population set twice (pop_size, and n_partitions's reference directions) that disagrees: it silently took
+    # the directions' count.
+    ("stages.2.algorithm", {"name": "ctaea", "pop_size": 20, "options": {"n_partitions": 30}},
+     "stages[2].algorithm: ctaea: n_partitions = 30 gives 31 reference directions for 2 objectives, so the "
+     "population would be 31, not pop_size = 20; set pop_size = 31"),
 ]
 
 

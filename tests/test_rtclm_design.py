@@ -115,3 +115,17 @@ def test_c_taea_refuses_a_single_objective_by_name() -> None:
     with pytest.raises(ValueError, match="ctaea needs at least two objectives.*has 1"):
         make_algorithm(AlgorithmSpec("ctaea", 20), 1, 5)
     assert np.array_equal(reference_directions(1, 20), [[1.0]])
+
+
+@pytest.mark.parametrize(("name", "pop", "kept"), [("ctaea", 10, 10), ("nsga3", 12, 12), ("ctaea", 12, None),
+                                                   ("nsga3", 9, None), ("unsga3", 20, 20)])
+def test_n_partitions_and_pop_size_must_agree(name: str, pop: int, kept: int | None) -> None:
+    # 9 partitions give 10 directions for two objectives. C-TAEA keeps one member per direction, the NSGA-IIIs at
+    # least one; a pop_size that cannot hold was replaced silently by the directions' count.
+    spec = AlgorithmSpec(name, pop, {"n_partitions": 9})
+    if kept is None:
+        with pytest.raises(ValueError, match=rf"^{name}: n_partitions = 9 gives 10 reference directions for 2 "
+                                             rf"objectives, so the population would be 10, not pop_size = {pop}"):
+            make_algorithm(spec, 2, 5)
+    else:
+        assert make_algorithm(spec, 2, 5).pop_size == kept

@@ -159,7 +159,15 @@ def _ga(cls_path: str, ops: Callable[[], dict[str, Any]]) -> Build:
 def _ref(cls_path: str, ops: Callable[[], dict[str, Any]], fixed_pop: bool = False) -> Build:
     def build(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
         cls = _import(cls_path)
-        dirs = reference_directions(n_obj, spec.pop_size, opts.pop("n_partitions", None))
+        parts = opts.pop("n_partitions", None)
+        dirs = reference_directions(n_obj, spec.pop_size, parts)
+        kept = len(dirs) if fixed_pop else max(spec.pop_size, len(dirs))
+        if parts is not None and kept != spec.pop_size:  # two settings that disagree: say so, don't pick one
+            fits = len(reference_directions(n_obj, spec.pop_size))
+            raise ValueError(f"{spec.name}: n_partitions = {parts} gives {len(dirs)} reference directions for {n_obj} "
+                             f"objectives, so the population would be {kept}, not pop_size = {spec.pop_size}; set "
+                             f"pop_size = {kept}, or leave n_partitions out (pop_size alone takes the largest lattice "
+                             f"that fits: {fits} directions here)")
         kw = {**_sbx_pm(opts, ALGORITHMS[spec.name].defaults), **ops()}
         if fixed_pop:  # C-TAEA's population is its set of reference directions
             if n_obj < 2:
