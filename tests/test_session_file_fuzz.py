@@ -255,6 +255,16 @@ def test_hostile_values_are_named(real_session, edit, message):
         Session.from_dict(d)
 
 
+def test_a_key_given_twice_is_refused_not_read_as_its_last_value(real_session):
+    # A hand-edited session with "r1" twice in the design silently took the second value.
+    text = json.dumps(real_session)
+    twice = text.replace('"params": {', '"params": {"r1": 1.0, ', 1)
+    assert twice != text
+    with pytest.raises(ValueError, match="^not a session: key 'r1' appears twice in one object$"):
+        parse_json(twice)
+    assert parse_json(text) == real_session
+
+
 def test_deep_nesting_and_oversized_files_are_refused(tmp_path: Path):
     deep = "[" * 100_000 + "]" * 100_000
     with pytest.raises(ValueError, match="nested too deep|not JSON"):

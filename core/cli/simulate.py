@@ -13,6 +13,7 @@ from core.analysis.evaluate import MIN_SAMPLES
 from core.analysis.targets import read_user_file
 from core.cli import CLIError, dumps
 from core.formats.design import check_design, design_from_dict
+from core.formats.typed import unique_keys
 from core.kinematics import presets
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.design import Design
@@ -44,17 +45,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    """A JSON object's keys, refusing a repeated one: a hand-edited design with "r1" twice silently took the
-    last value."""
-    out: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in out:
-            raise ValueError(f"key {key!r} appears twice in one object")
-        out[key] = value
-    return out
-
-
 def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
     """The design named by ``--preset`` or read from ``--design``, checked; and the preset name."""
     if args.preset is not None:
@@ -64,12 +54,12 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
         raise CLIError(f"design file {str(path)!r} not found")
     text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
     try:
-        data = json.loads(text, object_pairs_hook=_unique_keys)
+        data = json.loads(text, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as e:
         raise CLIError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
     except RecursionError:
         raise CLIError(f"{path}: not a design: nested too deep") from None
-    except ValueError as e:  # _unique_keys
+    except ValueError as e:  # unique_keys
         raise CLIError(f"{path}: {e}") from None
     try:
         return design_from_dict(data), None

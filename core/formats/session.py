@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 
 from msgspec import Meta, Struct
 
-from core.formats.typed import decode
+from core.formats.typed import decode, unique_keys
 
 SESSION_FORMAT = "clm-studio-session"
 READS_VERSIONS = (1, 2, 3, 4)  # 1: no walk, no study; 3: stage results once, by hash (studio.session_pack);
@@ -72,13 +72,15 @@ def parse_json(content: str | bytes) -> Any:
         raise ValueError(f"a session is at most {MAX_SESSION_BYTES // 2**20} MB, got {len(content) / 2**20:.0f} MB")
     try:
         text = content.decode("utf-8-sig") if isinstance(content, bytes) else content
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=unique_keys)
     except UnicodeDecodeError as exc:
         raise ValueError(f"not UTF-8 text ({exc.reason})") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"not JSON ({exc})") from None
     except RecursionError:
         raise ValueError("not a session: nested too deep") from None
+    except ValueError as exc:  # unique_keys
+        raise ValueError(f"not a session: {exc}") from None
 
 
 def check_session(data: Any) -> SessionFile:

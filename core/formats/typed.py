@@ -38,6 +38,17 @@ def join(path: str, key: str | int) -> str:
     return f"{path}.{key}" if path else key
 
 
+def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``json.loads``'s ``object_pairs_hook`` refusing a repeated key: a hand-edited file with "r1" twice
+    silently took the last value (msgspec and ``json`` both do)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"key {key!r} appears twice in one object")
+        out[key] = value
+    return out
+
+
 def check_tree(data: Any, path: str = "", depth: int = 0) -> None:
     """ValueError for a non-finite number or nesting deeper than ``MAX_DEPTH`` anywhere in ``data``."""
     if depth > MAX_DEPTH:
