@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import plotly.graph_objects as go
@@ -281,6 +282,12 @@ def wrapped(text: str, chars: int) -> list[str]:
     return lines
 
 
+def top_title(text: str, pad: int, **extra: Any) -> dict[str, Any]:
+    """A title anchored in pixels from the container's top (``pad`` px down): plotly's default placement of a
+    title of several lines put its first line above the chart's edge."""
+    return {"text": text, "yref": "container", "y": 1.0, "yanchor": "top", "pad": {"t": pad}, **extra}
+
+
 def with_title_wrapped(fig: go.Figure, chars: int, copy: bool = True) -> go.Figure:
     """A copy of a chart (``copy=False``: the chart itself, changed) whose one-line title is broken into lines for
     a narrow panel (plotly cuts a title at the chart's edge), with the top margin grown to fit them. A copy costs
@@ -290,12 +297,8 @@ def with_title_wrapped(fig: go.Figure, chars: int, copy: bool = True) -> go.Figu
     if len(lines) <= 1:
         return fig
     out = go.Figure(fig) if copy else fig
-    # Anchored in pixels from the container's top: plotly's default placement of a title of several lines put its
-    # first line above the chart's edge.
     # (The pad is measured to the first line's baseline region: 16 px keeps its glyphs inside the chart.)
-    out.update_layout(title={"text": "<br>".join(lines), "yref": "container", "y": 1.0, "yanchor": "top",
-                             "pad": {"t": 16}},
-                      margin={"t": 24 + 17 * len(lines)})
+    out.update_layout(title=top_title("<br>".join(lines), 16), margin={"t": 24 + 17 * len(lines)})
     return out
 
 
@@ -331,8 +334,7 @@ def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> 
     # The note on a line of its own under the title: beside it, it ran under the mode bar's icons.
     small = f"<span style='font-size:10px;color:#666'>{note}</span>" if note else ""
     text = "<br>".join(t for t in (title, small) if t)
-    fig.update_layout(title={"text": text, "font": {"size": 12}, "yref": "container", "y": 1.0, "yanchor": "top",
-                             "pad": {"t": 14}},
+    fig.update_layout(title=top_title(text, 14, font={"size": 12}),
                       font={"size": 11}, height=250 + (14 if note else 0), showlegend=True,
                       margin={"l": 45, "r": margin_r, "t": 50 if note else 34,
                       "b": 10}, xaxis={"title": {"text": "evaluations", "standoff": 4}, "automargin": True},
