@@ -76,6 +76,18 @@ class LazyPlotly:
             self._write("figure", fig)
 
     @property
+    def aspect(self) -> float:
+        return self._aspect
+
+    @aspect.setter
+    def aspect(self, value: float) -> None:
+        """Height over width; sent only when it changes (a 3-D chart needs more height than a 2-D one)."""
+        with self._lock:
+            if value != self._aspect:
+                self._aspect = float(value)
+                self._write("aspect", self._aspect)
+
+    @property
     def visible(self) -> bool:
         return self._visible
 

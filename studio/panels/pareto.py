@@ -34,6 +34,7 @@ CONFIG = {
 }
 # While a stage runs the chart is redrawn at most this often (s): 2-D and 3-D (WebGL, heavier).
 REDRAW_2D, REDRAW_3D = 0.5, 1.0
+ASPECT_2D, ASPECT_3D = 0.95, 1.35  # the side panel's chart: height over width
 PANEL_TITLE_CHARS = 42  # a title line the side panel's chart shows whole (13 px type, the mode bar beside it)
 
 
@@ -104,7 +105,8 @@ class ParetoPanel:
         # Created on first use (plotly.js is sent with the first chart): between View and the button, and the
         # algorithm's own log (feasible ratios, epsilon, task odds over evaluations) after it. viser 1.1.1
         # draws a chart ``width * aspect`` tall.
-        self.plot = LazyPlotly(studio.server, self.folder, (self.view.order + self.open_large.order) / 2, 0.95, CONFIG)
+        self.plot = LazyPlotly(studio.server, self.folder, (self.view.order + self.open_large.order) / 2, ASPECT_2D,
+                               CONFIG)
         # 0.8: room for the plot, its axis titles and a legend of up to five lines (figures.make_trace_figure)
         self.trace = LazyPlotly(studio.server, self.folder, self.open_large.order + 0.5, 0.8, CONFIG)
         self.view.on_update(lambda _: self._redraw())
@@ -157,6 +159,8 @@ class ParetoPanel:
                 self._large.pop(cid, None)
         # Then the side panel's lines, in place: a copy per redraw cost as much as building the chart.
         self.plot.figure = with_title_wrapped(fig, PANEL_TITLE_CHARS, copy=False)
+        # A 3-D cloud in a 2-D chart's height left its axes cut (its title and legend take their own lines).
+        self.plot.aspect = ASPECT_3D if n >= 3 and self.axes() is None else ASPECT_2D
         self.plot.visible = self.open_large.visible = True
         tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:

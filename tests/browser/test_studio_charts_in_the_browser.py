@@ -30,6 +30,8 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     expect(title).to_contain_text("Stephenson-I six-bar · subtask1")
     expect(title).to_contain_text("target cycloid")
     expect(chart.locator(".xtitle")).to_contain_text(a)
+    wait_for(lambda: (bb := chart.bounding_box()) is not None and bb["height"] < 1.05 * bb["width"],
+             "a projection's 2-D chart height")
 
     page.get_by_role("button", name="Open large chart").click()
     big = page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask1 · complete"))
@@ -50,6 +52,9 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     assert got.suggested_filename == "pareto-subtask1.png"
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", data[16:24]) == (1000, 800)
     choose(page, "View", "3-D (all three)")
+    # Taller than a 2-D chart: at its height the cloud's axis titles and ticks were cut at the bottom.
+    wait_for(lambda: (bb := chart.bounding_box()) is not None and bb["height"] > 1.25 * bb["width"],
+             "the 3-D chart to take the height its axes need")
     # The 3-D axes carry short titles (their long ones printed over each other in the panel); the caption says
     # what each objective is.
     expect(page.get_by_text(f"3-D: {a} = MSE (mm) · ")).to_be_visible()
