@@ -240,7 +240,7 @@ class Studio:
         if running:
             self._inset_key = None  # held still while the stage runs: the end of the run redraws it
             return
-        self._inset_key = key
+        self._inset_key, self._inset_held = key, r  # held: a freed result's id can go to the next one
         if r is None or r.pop == 0:
             self.inset.place(box, INSET_NOTE, frames.text_height)
             self.inset.show((), np.zeros((0, 2)), None)

@@ -371,3 +371,43 @@ def test_an_edit_goes_to_the_stage_the_fields_show_while_the_stage_dropdown_lags
         assert s.stages._getter("pop_size")() == 8.0
     finally:
         s.close()
+
+
+
+def test_the_pick_panel_holds_the_result_its_labels_were_drawn_from():
+    # During a run the live result is replaced four times a second. The panel keyed its last drawing on id(result)
+    # only: once that result was freed, a later one could take its id, and its labels (objective values) were never
+    # redrawn (the key matched) while the Pareto chart showed the later front. Holding the result keeps its id.
+    import dataclasses
+    import gc
+    import weakref
+
+    from studio.app import Studio
+    from studio.candidates import candidates
+    from studio.state import Session
+    from studio.study_view import study_view
+
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        chain = run_stage(s.session, "subtask1")
+        base = study_view(s.session.study, s.session.view.design, chain, s.session.view.target)
+        r = base.result("subtask1")
+        k = base.names.index("subtask1")
+
+        def view(shift: float):
+            other = dataclasses.replace(r, F=r.F + shift)
+            return dataclasses.replace(base, results=(*base.results[:k], other, *base.results[k + 1:])), other
+
+        sv, first = view(1.0)
+        s.pick_panel.show(sv)
+        drawn = weakref.ref(first)
+        del sv, first
+        gc.collect()
+        assert drawn() is not None  # its id cannot go to another result while the panel's key names it
+        sv, later = view(2.0)
+        s.pick_panel.show(sv)
+        want = tuple(c.label for c in candidates(later))
+        assert tuple(s.pick_panel.candidate.options)[:len(want)] == want
+        assert drawn() is None  # and it is let go once a later one is drawn
+    finally:
+        s.close()

@@ -47,6 +47,7 @@ class PickPanel:
         self._stage: str | None = None
         self._start_cache: dict[int, dict[str, float]] = {}
         self._key: object = None
+        self._held: object = None
         self.folder = gui.add_folder("Pick", order=order)
         with self.folder:
             self.candidate = gui.add_dropdown("Candidate", (NONE,), disabled=True,
@@ -66,7 +67,9 @@ class PickPanel:
         key = (id(r), sv.shown, running, sv.viewing)
         if key == self._key:
             return
-        self._key = key
+        # Held, not only its id: a freed live result's id went to a later generation's, whose labels then never
+        # replaced the older ones (the key matched) while the Pareto chart showed the later front.
+        self._key, self._held = key, r
         self._stage = sv.viewing
         if r is None or r.pop == 0:
             self._cands, self._front = (), ()
