@@ -95,6 +95,15 @@ def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], caps
     data = json.loads((h / "result.json").read_text())
     mse = data["rows"][0]["mse"]
     assert f"{mse:.4g}" in out[1].split()
+    # The paper's S is h_s / 300: it sits in a column of its own, beside ours (h_s / l_s), never under it.
+    head = out[0].split("  ")
+    col = [c.strip() for c in head if c.strip()].index("h_s/300 (%)")
+    assert [c.strip() for c in head if c.strip()][col - 1] == "S (%)"
+    ours = out[1].split()
+    assert f"{100 * data['rows'][0]['h_s'] / 300:.4g}" in ours and f"{data['rows'][0]['S']:.4g}" in ours
+    paper = next(line for line in out if line.startswith("paper: hierarchical")).split()
+    assert paper[-4:] == ["3.97", "-", "0.95", "0.9"]  # MSE, S (not the paper's), h_s/300, I
+    assert any("copy error" in line for line in out)
 
 
 def test_compare_refuses_a_directory_without_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
