@@ -17,8 +17,8 @@ auxiliary mode (four-bar E-H-F-G driven at H, h4 = its h_m). Metrics (``(pop,)``
   and ``0.2 - psi2(25, 25)``, <= 0 satisfied);
 - ``h6``, ``h4``, ``mean_height_6/4``, ``psi2_6/4``, ``S_6/4``, ``I_6/4`` for reports.
 
-Subtask 1 (``rtclm1``) drives h6 to its target: objective dh6, constraints Eqs. 29-30 (both modes
-assemble, both cranks turn fully, Eq. 30 in both modes), so its pick is a working RTCLM. Subtask 2
+Subtask 1 (``rtclm1``) drives h6 to its target: objective dh6, constraints Eqs. 29-30 of the primary mode
+(assembly, crank AB turns fully, its Eq. 30); ``auxiliary=True`` adds the auxiliary mode's. Subtask 2
 (``rtclm2``) drives h4: objectives (dh4, dh6), the subtask-1 result held as ``dh6 <= h6_tol``, and
 Eq. 31 added (auxiliary mode), as the paper adds it in its second subtask. Stop early at
 ``stop_below = (0.5, 0.5)`` (paper).

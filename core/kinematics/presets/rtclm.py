@@ -15,6 +15,7 @@ auxiliary mode.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -61,10 +62,11 @@ class PaperRow:
             "closest": "paper's h6 out of reach, closest assembling value",
             "none": "primary mode assembles for no phi_h",
         }[self.fit]
+        nan = " (nan: does not assemble)" if any(math.isnan(v) for v in self.ours) else ""
         return (
             f"paper Appendix {self.table}; printed Delta x_EH {dx} replaced by phi_h {self.phi_h} ({how}); "
-            f"h6 ours {self.ours[0]:.2f} vs paper {self.h6:.2f}; h4 ours {self.ours[1]:.2f} vs paper {self.h4:.2f} "
-            "(nan: does not assemble)"
+            f"h6 ours {self.ours[0]:.2f} vs paper {self.h6:.2f}; h4 ours {self.ours[1]:.2f} vs paper {self.h4:.2f}"
+            + nan
         )
 
 
