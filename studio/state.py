@@ -264,10 +264,13 @@ class Session:
         if keep_assembly and self.view.assembles and not view.assembles:
             raise ValueError(assembly_reason(view))
         old, new = self.view.design.mechanism, view.design.mechanism
+        if self.study.status.running and view.design is not self.view.design:
+            # The run's pick replaces the editor's design when it ends: an edit made meanwhile would be lost.
+            what = "switching the mechanism" if new.name != old.name else "editing the design"
+            raise ValueError(f"a stage is running, and its pick replaces the design when it ends; stop it or wait "
+                             f"before {what}")
         pipe = self.study.pipeline
         if new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name:
-            if self.study.status.running:
-                raise ValueError("a stage is running; stop it before switching the mechanism")
             self.study.start_over(f"before switching to {new.title}")
         self.view = view
         self.version += 1

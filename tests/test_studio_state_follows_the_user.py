@@ -411,3 +411,30 @@ def test_the_pick_panel_holds_the_result_its_labels_were_drawn_from():
         assert drawn() is None  # and it is let go once a later one is drawn
     finally:
         s.close()
+
+
+def test_design_edits_are_refused_while_a_stage_runs_since_its_pick_replaces_the_design():
+    # A parameter typed or a preset chosen mid-run was applied, then silently replaced by the run's pick at its end.
+    from dataclasses import replace
+
+    import pytest
+
+    from studio.state import Session
+
+    s = Session.default()
+    before = s.view
+    s.study.status = replace(s.study.status, state="running", stage="subtask2")
+    edits = {"parameter": lambda: s.set_param("r4", 129.33), "preset": lambda: s.load_preset("stephenson1/X1"),
+             "reset": s.reset_to_preset, "design": lambda: s.set_design(get("stephenson1/X1").design())}
+    for what, edit in edits.items():
+        with pytest.raises(ValueError, match="^a stage is running, and its pick replaces the design when it ends; "
+                                             "stop it or wait before editing the design$"):
+            edit()
+        assert s.view is before, what
+    with pytest.raises(ValueError, match="before switching the mechanism$"):
+        s.select_mechanism("jansen")
+    assert s.view is before
+    s.set_target(length=310.0)  # the target is not the design: it may change
+    assert s.view.design is before.design and s.view.target.length == 310.0
+    s.study.status = replace(s.study.status, state="idle")
+    assert s.set_param("r4", 129.33).design.named(0)["r4"] == 129.33
