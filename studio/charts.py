@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 
 import plotly.graph_objects as go
@@ -43,12 +44,20 @@ def result_figure(r: StageResult, labels: dict[str, str] | None = None, target: 
                               knees=r.shortlist.knees, best=r.shortlist.best, passed=r.picked, title=title)
 
 
-def target_text(settings: object) -> str:
-    """The target a stage was run against, from its settings (``cycloid L=300 H=100 T=2``), else ""."""
+def target_text(settings: object, curve_names: Mapping[str, str] | None = None) -> str:
+    """The target a stage was run against, from its settings (``cycloid L=300.0 H=100.0 T=2.0``, ``curve leg.csv``),
+    else "". A curve file is named by ``curve_names`` (``{target option: name}``, an upload's name) or its file name,
+    never by its path: the studio keeps curves in the server's cache folder, whose path has no place on a chart."""
     problem = settings.get("problem") if isinstance(settings, dict) else None
     options = problem.get("options") if isinstance(problem, dict) else None
     target = options.get("target") if isinstance(options, dict) else None
-    return str(target) if isinstance(target, str) and len(target) < 200 else ""
+    if not isinstance(target, str) or not target or len(target) >= 200:
+        return ""
+    if curve_names and target in curve_names:
+        return curve_names[target]
+    if target.startswith("cycloid"):
+        return target.replace(":", " ").replace(",", " ")
+    return f"curve {Path(target).name}"
 
 
 def run_charts(run_dir: Path) -> list[Path]:

@@ -6,6 +6,7 @@ Tests call them directly; the panels hand the result to ``GuiPlotlyHandle.figure
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -275,14 +276,16 @@ def _eps_note(trace: Sequence[Mapping[str, float]]) -> str:
 
 
 def wrapped(text: str, chars: int) -> list[str]:
-    """``text``'s `` · ``-separated parts joined into lines of at most ``chars`` characters (a part longer than
-    that is a line of its own)."""
+    """``text``'s `` · ``-separated parts joined into lines of at most ``chars`` characters; a part longer than
+    that (a run's "no feasible member: order_6 0.0448 > 0; or ..." status) is broken at its spaces first."""
     lines: list[str] = []
     for part in text.split(" · "):
-        if lines and len(lines[-1]) + 3 + len(part) <= chars:
-            lines[-1] += " · " + part
-        else:
-            lines.append(part)
+        pieces = textwrap.wrap(part, chars, break_on_hyphens=False) if len(part) > chars else [part]
+        for k, piece in enumerate(pieces):
+            if k == 0 and lines and len(lines[-1]) + 3 + len(piece) <= chars:
+                lines[-1] += " · " + piece
+            else:
+                lines.append(piece)
     return lines
 
 

@@ -31,6 +31,7 @@ class StudyView:
         box: the search box ``next_stage`` would get, or None; box_note: what it is built around.
         branches: labels of the kept branches.
         constraints: ``next_stage``'s constraints in words (``assembles``, ``h_s <= 6.5``).
+        run_target: the target of the pipeline's last run (None before any).
     """
 
     key: tuple[int, int]
@@ -48,6 +49,7 @@ class StudyView:
     box_note: str
     branches: tuple[str, ...]
     constraints: tuple[str, ...] = ()
+    run_target: TargetSpec | None = None
 
     def result(self, name: str | None) -> StageResult | None:
         if name is None or name not in self.names:
@@ -101,6 +103,7 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
         box_note=note,
         branches=tuple(b.label for b in study.branches),
         constraints=() if stage is None else _constraints(stage, study.settings_for(stage), target),
+        run_target=study.target,
     )
 
 

@@ -353,6 +353,11 @@ def test_a_long_chart_title_is_broken_at_its_separators_for_the_side_panel():
     fig = make_pareto_figure(np.array([[1.0, 2.0], [2.0, 1.0]]), np.zeros(2), objectives=("f1", "f2"), title=title)
     side = with_title_wrapped(fig, 42)
     assert side.layout.title.text == "<br>".join(lines) and side.layout.margin.t > fig.layout.margin.t
+    # A part longer than a line (a "no feasible member" status) is broken at its spaces: it ran off the chart.
+    status = "complete — no feasible member: order_6 0.0448 > 0; or theta1_6 0.0112 > 0; or psi2_4 0.031 > 0"
+    lines = wrapped(f"RTCLM · rtclm2 · {status} · 0 feasible of 24", 42)
+    assert all(len(x) <= 42 for x in lines) and " ".join(lines).replace(" · ", " ").split() == (
+        f"RTCLM rtclm2 {status} 0 feasible of 24".split())
     assert fig.layout.title.text == title  # the large chart and the PNG keep one line
     short = make_pareto_figure(np.array([[1.0, 2.0]]), np.zeros(1), objectives=("f1", "f2"), title="a · b")
     assert with_title_wrapped(short, 42) is short

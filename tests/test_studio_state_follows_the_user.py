@@ -438,3 +438,28 @@ def test_design_edits_are_refused_while_a_stage_runs_since_its_pick_replaces_the
     assert s.view.design is before.design and s.view.target.length == 310.0
     s.study.status = replace(s.study.status, state="idle")
     assert s.set_param("r4", 129.33).design.named(0)["r4"] == 129.33
+
+
+def test_a_chart_names_an_uploaded_curve_target_never_its_path_in_the_servers_cache():
+    # The Pareto chart's title printed "target /root/.cache/clm-studio/targets/target-7b54....csv" for every curve
+    # target (each non-paper topology's and every upload's): the server's home folder, and a line that ran off the
+    # chart.
+    from studio.charts import target_text
+    from studio.panels.pareto import pareto_figure
+    from studio.state import Session
+    from studio.study_view import study_view
+    from studio.target import CURVE_DIR, Curve
+
+    t = np.arange(40) / 40
+    pts = tuple((150.0 + 150.0 * np.cos(2 * np.pi * u), -50.0 + 50.0 * np.sin(2 * np.pi * u)) for u in t)
+    s = Session.default()
+    s.set_curve(Curve("my leg.csv", pts, None, 2.0))
+    chain = run_stage(s, "subtask1")
+    sv = study_view(s.study, s.view.design, chain, s.view.target)
+    title = pareto_figure(sv).layout.title.text
+    assert title.endswith(" · target curve my leg.csv") and str(CURVE_DIR) not in title
+    # Without the upload's name (an older stage's curve, a config's file): the file name, not its folders.
+    settings = sv.result("subtask1").settings
+    assert target_text(settings).startswith("curve target-") and "/" not in target_text(settings)
+    cycloid = {"problem": {"options": {"target": "cycloid:L=300.0,H=100.0,T=2.0"}}}
+    assert target_text(cycloid) == "cycloid L=300.0 H=100.0 T=2.0"

@@ -48,7 +48,8 @@ def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figu
     labels = dict(spec.problem.labels) if spec is not None else {}
     running = sv.status.running and sv.status.stage == sv.viewing
     state = f"generation {r.generation}/{r.n_gen}" if running else status_text(r)
-    target = target_text(r.settings)
+    t = sv.run_target
+    target = target_text(r.settings, {t.option(): f"curve {t.curve.name}"} if t is not None and t.curve else None)
     title = (f"{r.mechanism.title} · {sv.viewing} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
              f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels, front=r.front,
