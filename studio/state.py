@@ -12,6 +12,7 @@ and edits are then accepted so the designer can repair it.
 
 from __future__ import annotations
 
+import functools
 import math
 import threading
 from dataclasses import dataclass, field, replace
@@ -21,7 +22,7 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
-from core.analysis.evaluate import Evaluation
+from core.analysis.evaluate import Evaluation, evaluate
 from core.analysis.targets import compound_cycloid
 from core.formats.design import check_params, design_from_dict, design_to_dict
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
@@ -59,6 +60,26 @@ BACKEND: Backend = _backend()
 def presets_for(mechanism: str) -> tuple[str, ...]:
     """Names of the registered presets of one mechanism, in registry order."""
     return tuple(name for name, p in presets.PRESETS.items() if p.mechanism.name == mechanism)
+
+
+@functools.cache
+def opening_preset(mechanism: str) -> str:
+    """The preset a topology opens on: its first that walks (assembles, and its path meets the metrics'
+    constraints), else its first that assembles, else its first. The RTCLM's first rows are paper rows that
+    do not reproduce: "RTCLM, auxiliary mode" opened on a linkage that jams for 42 % of the crank cycle."""
+    names = presets_for(mechanism)
+    if not names:
+        raise ValueError(f"{mechanism} has no preset")
+    assembles = None
+    for name in names:
+        design = presets.get(name).design()
+        if solve(design.mechanism, design.params, N_SAMPLES, output=design.output, joints=False,
+                 derivatives=False, backend=BACKEND).violation[0] > 0:
+            continue
+        if evaluate(design, N_SAMPLES, backend=BACKEND).violation[0] == 0:
+            return name
+        assembles = assembles or name
+    return assembles or names[0]
 
 
 def preset_label(name: str) -> str:
@@ -297,15 +318,14 @@ class Session:
         return preset_target(preset, v.target.period)
 
     def select_mechanism(self, name: str) -> DesignView:
-        """Switch topology: loads the mechanism's first preset (the registry gives no other design)."""
+        """Switch topology: loads the mechanism's opening preset (``opening_preset``)."""
         mech = mechanisms.get(name)
         with self.lock:
             if mech.name == self.view.design.mechanism.name:
                 return self.view
-            names = presets_for(mech.name)
-            if not names:
+            if not presets_for(mech.name):
                 raise ValueError(f"{mech.title} has no preset yet; there is no design to start from")
-            return self.load_preset(names[0])
+            return self.load_preset(opening_preset(mech.name))
 
     def reset_to_preset(self) -> DesignView:
         """Back to the values of the preset the design started from."""

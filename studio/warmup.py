@@ -23,21 +23,23 @@ from core.optimize.evolve.qnet import QNet
 from core.optimize.evolve.variation import de_rand_1
 from core.optimize.pipeline import Pipeline
 from studio.chains import RunSettings, chain_for, stage_spec
-from studio.state import DEFAULT_PRESET, Session
+from studio.state import DEFAULT_PRESET, Session, opening_preset
 
 POP, GENERATIONS = 12, 2  # 12: the smallest population every algorithm accepts (CMOEMT needs 10)
 
 
 def first_presets() -> list[str]:
-    """The opening preset, then the first preset of each other mechanism (a topology the studio can switch to)."""
+    """The opening preset, then the preset each other mechanism opens on (a topology the studio can switch to)."""
     seen = {presets.get(DEFAULT_PRESET).mechanism.name: DEFAULT_PRESET}
     for name in presets.PRESETS:
-        seen.setdefault(presets.get(name).mechanism.name, name)
+        mech = presets.get(name).mechanism.name
+        if mech not in seen:
+            seen[mech] = opening_preset(mech)
     return list(seen.values())
 
 
 def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str, str]]:
-    """Run every stage of each mechanism's first preset once, tiny: with every algorithm on the opening design,
+    """Run every stage of each mechanism's opening preset once, tiny: with every algorithm on the opening design,
     with NSGA-II on the others (their stages' problems; the algorithms' kernels do not depend on them). Returns
     the (preset, algorithm, stage) runs, in order."""
     session = Session.default()

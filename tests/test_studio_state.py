@@ -21,6 +21,7 @@ from studio.state import (
     Session,
     build_view,
     check_value,
+    opening_preset,
     preset_label,
     presets_for,
 )
@@ -214,6 +215,17 @@ def test_switching_topology_loads_its_first_preset_and_unknown_ones_are_refused(
     assert session.view is view
     with pytest.raises(ValueError, match="unknown preset"):
         session.load_preset("stephenson1/X9")
+
+
+@pytest.mark.parametrize("mechanism", ["rtclm_primary", "rtclm_auxiliary"])
+def test_a_topology_opens_on_a_preset_that_walks(session: Session, mechanism: str) -> None:
+    # Its first preset, a paper row that does not reproduce, opened RTCLM's auxiliary mode on a linkage that jams for
+    # 42 % of the cycle (a yellow "does not assemble" warning and NaN metrics) and its primary mode infeasible.
+    first = build_view(presets.get(presets_for(mechanism)[0]).design(), None, session.view.target)
+    assert not first.assembles or first.evaluation.violation[0] > 0
+    view = session.select_mechanism(mechanism)
+    assert view.design.mechanism.name == mechanism and view.assembles and view.evaluation.violation[0] == 0
+    assert view.preset == opening_preset(mechanism) and opening_preset("stephenson3") == presets_for("stephenson3")[0]
 
 
 def test_concurrent_edits_leave_a_consistent_view(session: Session) -> None:

@@ -51,7 +51,7 @@ class MechanismPanel:
         self.folder = gui.add_folder("Mechanism", order=order)
         with self.folder:
             self.topology = gui.add_dropdown("Topology", tuple(self._titles), initial_value=view.design.mechanism.title,
-                                             hint="the linkage; its first preset is loaded")
+                                             hint="the linkage; its first preset that walks is loaded")
             self.preset = gui.add_dropdown("Preset", self._preset_options(view),
                                            initial_value=self._preset_value(view),
                                            hint="named designs of this topology (paper appendices)")
