@@ -70,6 +70,12 @@ class PickPanel:
         # Held, not only its id: a freed live result's id went to a later generation's, whose labels then never
         # replaced the older ones (the key matched) while the Pareto chart showed the later front.
         self._key, self._held = key, r
+        # One batch: the page drew the table's new member up to 100 ms before the dropdown's (whose options,
+        # replaced every live generation, first reset its value to the first of them).
+        with self.studio.server.atomic():
+            self._show(sv, r, running)
+
+    def _show(self, sv: StudyView, r: Any, running: bool) -> None:
         self._stage = sv.viewing
         if r is None or r.pop == 0:
             self._cands, self._front = (), ()
