@@ -259,6 +259,10 @@ class Studio:
         pos = inset_positions(xy[members], box) if len(members) else np.zeros((0, 2))
         markers = tuple(InsetMarker(c.member, c.tag, c.kind, (float(pos[j, 0]), float(pos[j, 1])))
                         for j, c in enumerate(marks))
+        if sv.shown is not None and sv.shown in front and all(c.member != sv.shown for c in marks):
+            # A front member picked with the slider or the dropdown: red like a picked knee (it was a grey dot).
+            j = len(marks) + int(np.flatnonzero(front == sv.shown)[0])
+            markers += (InsetMarker(sv.shown, f"#{sv.shown}", "shown", (float(pos[j, 0]), float(pos[j, 1]))),)
         self.inset.place(box, axes + " (scaled)", frames.text_height)
         self.inset.show(markers, pos[len(marks):], sv.shown)
 

@@ -12,6 +12,7 @@ from core.analysis.targets import parse_target
 from core.kinematics import presets
 from core.optimize.box import SUBTASK_STEPS, periodic_mask
 from core.optimize.result import StageResult
+from studio import palette
 from studio.chains import RunSettings, chain_for, find, stage_spec
 from studio.runner import LIVE_PERIOD, Runner
 from studio.session_pack import pack_array, unpack_study
@@ -434,13 +435,14 @@ def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
 
     studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
     try:
-        tiny(studio.session.study, "subtask2", pop=16, gens=15)
+        tiny(studio.session.study, "subtask2", pop=40, gens=20)
         with studio.session.lock:
             studio.session.study.next_stage = "subtask2"
         studio.start_run()
         studio.runner.join(60)
         r = studio.session.study.result("subtask2")
         shown = {c.member for c in candidates(r) if c.kind in ("knee", "best")}
+        assert set(r.front) - shown  # front members that are neither a knee nor a best (below)
         assert set(studio.inset._spheres) == shown  # one clickable sphere per knee / best member
         member = next(m for m in shown if m != r.picked)
 
@@ -450,6 +452,14 @@ def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
         studio.inset._clicked(member)(Click())  # type: ignore[arg-type]
         assert studio.session.study.shown_member("subtask2") == member
         np.testing.assert_array_equal(studio.session.view.design.params[0], r.X[member])
+        # A plain front member picked with the slider or the dropdown gets a red sphere of its own (it stayed a grey
+        # dot: nothing in the scene said which member was shown).
+        plain = next(m for m in r.front if m not in shown)
+        studio.pick("subtask2", plain, None)
+        assert set(studio.inset._spheres) == shown | {plain}
+        assert tuple(studio.inset._spheres[plain].color) == palette.FOOT
+        studio.pick("subtask2", member, None)
+        assert set(studio.inset._spheres) == shown
     finally:
         studio.close()
 
