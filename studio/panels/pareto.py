@@ -57,6 +57,17 @@ def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figu
                               passed=passed_on(sv), title=title, axes=axes if len(r.objectives) >= 3 else None)
 
 
+def large_size(client: viser.ClientHandle) -> dict[str, float]:
+    """The large chart's window: 960 x 760 px, or less on a canvas too small for it (a 1024 x 768 screen's is
+    636 px wide beside the side panel): a fixed size covered the side panel, Stop included, and ran off the
+    screen's bottom edge."""
+    try:
+        w, h = client.camera.image_width, client.camera.image_height
+    except (AssertionError, AttributeError):  # no camera report from this client yet
+        w, h = 1200, 900
+    return {"width": float(min(960, max(480, w - 48))), "height": float(min(760, max(400, h - 48)))}
+
+
 def passed_on(sv: StudyView) -> int | None:
     """The member of the stage in view that was passed on: the next stage ran from it, or the designer chose
     "Use for next stage" (not merely the stage's automatic pick)."""
@@ -189,7 +200,7 @@ class ParetoPanel:
             plot = client.gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
                                          config=CONFIG)
         close.on_click(lambda _: self._close_large(client.client_id))
-        panel.float(x=24, y=24, width=960, height=760)
+        panel.float(x=24, y=24, **large_size(client))
         self._large[client.client_id] = (panel, plot)
 
     def _forget(self, client: viser.ClientHandle) -> None:

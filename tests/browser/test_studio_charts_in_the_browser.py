@@ -45,6 +45,32 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     close.click()
     expect(big).to_have_count(1)
 
+    # On a 1024 x 768 screen the large chart fits the canvas beside the side panel: at a fixed 960 x 760 it covered
+    # the panel, Stop included, and ran past the screen's bottom edge.
+    size = page.viewport_size
+    page.set_viewport_size({"width": 1024, "height": 768})
+    try:
+        wait_for(lambda: any(c.camera.image_width < 700 for c in studio.server.get_clients().values()),
+                 "the page to report its smaller canvas")
+        page.get_by_role("button", name="Open large chart").click()
+        expect(big).to_have_count(2)
+        stop = page.get_by_role("button", name="Stop", exact=True)
+        stop.scroll_into_view_if_needed()
+        sb = stop.bounding_box()
+        assert sb is not None
+        hit = page.evaluate("([x, y]) => document.elementFromPoint(x, y).closest('button')?.textContent ?? ''",
+                            [sb["x"] + sb["width"] / 2, sb["y"] + sb["height"] / 2])
+        assert "Stop" in hit  # not under the large chart's window
+        close = page.get_by_role("button", name="Close", exact=True)
+        cb = close.bounding_box()
+        assert cb is not None and cb["y"] + cb["height"] <= 768
+        wait_for(lambda: (bb := big.nth(1).bounding_box()) is not None and bb["y"] + bb["height"] <= 768,
+                 "the large chart to fit the screen's height")
+        close.click()
+        expect(big).to_have_count(1)
+    finally:
+        page.set_viewport_size(size)
+
     if not page.get_by_role("button", name="Pareto chart (PNG)", exact=True).is_visible():
         expand(page, "Session and export")  # the page is shared: an earlier test may have left it open
     got = download(page, "Pareto chart (PNG)")
