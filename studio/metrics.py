@@ -20,6 +20,7 @@ from core.analysis.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluatio
 from core.analysis.features import FEATURE_NAMES
 from core.analysis.targets import Target
 from core.kinematics.solver import Solution
+from studio.tables import INSET
 
 F64 = NDArray[np.float64]
 
@@ -198,6 +199,5 @@ def metrics_html(rows: tuple[Row, ...]) -> str:
             f'<td style="opacity:0.7">{html.escape(r.unit)}</td></tr>'
         )
     return (
-        '<table class="clm-metrics" style="width:100%;font-size:0.85em;border-collapse:collapse;'
-        'padding:0 0.75em">' + "".join(cells) + "</table>"
+        f'<table class="clm-metrics" style="{INSET};font-size:0.85em">' + "".join(cells) + "</table>"
     )

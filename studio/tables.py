@@ -14,7 +14,9 @@ from core.optimize.box import Box
 from core.optimize.result import StageResult
 from studio.candidates import HistoryRow
 
-STYLE = "width:100%;font-size:0.8em;border-collapse:collapse;padding:0 0.75em"
+# Inset from the folder's edges by a margin: a collapsed-border table ignores its own padding and ran under them.
+INSET = "width:calc(100% - 1.5em);margin:0 0.75em;border-collapse:collapse"
+STYLE = f"{INSET};font-size:0.8em"
 NUM = "text-align:right;font-variant-numeric:tabular-nums;padding:1px 4px"
 VERDICT = "font-size:0.8em;padding:2px 0.75em;font-weight:600;"
 

@@ -48,6 +48,12 @@ PLOT_NAMES_JS = """(title) => {
 }"""
 
 
+# A table's [left, right] and its folder's (the nearest ancestor with a border), in page pixels.
+FOLDER_BOX_JS = """t => { let e = t.parentElement;
+  while (e && parseFloat(getComputedStyle(e).borderLeftWidth) === 0) e = e.parentElement;
+  const a = t.getBoundingClientRect(), b = e.getBoundingClientRect();
+  return [[a.left, a.right], [b.left, b.right]]; }"""
+
 def shown_setting(studio: Any, stage: str, key: str) -> int:
     return int(getattr(studio.session.study.settings_for(
         next(s for s in studio.chain() if s.name == stage)), key))
@@ -182,6 +188,10 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
     styles = cells.evaluate_all("cs => cs.map(c => [getComputedStyle(c).color, getComputedStyle(c).fontWeight])")
     assert any(c in ("rgb(21, 128, 61)", "rgb(185, 28, 28)") for c, _ in styles), styles
     assert all(int(w) < 600 for _, w in styles), styles
+    # The comparison and the metrics tables keep a margin inside their folders' borders (their text touched them).
+    for table in ("table.clm-compare", "table.clm-metrics"):
+        t, f = page.locator(table).first.evaluate(FOLDER_BOX_JS)
+        assert t[0] >= f[0] + 6 and t[1] <= f[1] - 6, (table, t, f)
 
     # The exported chart says what it shows: mechanism, stage and target.
     if not page.get_by_role("button", name="Pareto chart (HTML)", exact=True).is_visible():
