@@ -54,6 +54,7 @@ FOLDER_BOX_JS = """t => { let e = t.parentElement;
   const a = t.getBoundingClientRect(), b = e.getBoundingClientRect();
   return [[a.left, a.right], [b.left, b.right]]; }"""
 
+
 def shown_setting(studio: Any, stage: str, key: str) -> int:
     return int(getattr(studio.session.study.settings_for(
         next(s for s in studio.chain() if s.name == stage)), key))
