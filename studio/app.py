@@ -23,7 +23,7 @@ from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, takes_target
 from studio.charts import png
 from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
-from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE
+from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE, inset_caption
 from studio.geometry import frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
 from studio.pacer import Pacer
@@ -249,10 +249,10 @@ class Studio:
         labels = dict(spec.problem.labels) if spec is not None else {}
         if len(r.objectives) == 1:
             xy = np.stack([r.F[:, 0], r.cv], axis=1)
-            axes = f"x: {labels.get(r.objectives[0], r.objectives[0])}, y: violation"
+            axes = inset_caption(labels.get(r.objectives[0], r.objectives[0]), "violation")
         else:
             xy = r.F[:, :2]
-            axes = " · ".join(f"{'xy'[k]}: {labels.get(o, o)}" for k, o in enumerate(r.objectives[:2]))
+            axes = inset_caption(*(labels.get(o, o) for o in r.objectives[:2]))
         front = np.array(sorted(set(r.front)), dtype=np.intp)
         marks = [c for c in candidates(r) if c.kind in ("knee", "best", "fallback")]
         members = np.array([c.member for c in marks] + front.tolist(), dtype=np.intp)
@@ -263,7 +263,7 @@ class Studio:
             # A front member picked with the slider or the dropdown: red like a picked knee (it was a grey dot).
             j = len(marks) + int(np.flatnonzero(front == sv.shown)[0])
             markers += (InsetMarker(sv.shown, f"#{sv.shown}", "shown", (float(pos[j, 0]), float(pos[j, 1]))),)
-        self.inset.place(box, axes + " (scaled)", frames.text_height)
+        self.inset.place(box, axes, frames.text_height)
         self.inset.show(markers, pos[len(marks):], sv.shown)
 
     def _fit_client(self, client: viser.ClientHandle) -> None:

@@ -6,6 +6,7 @@ Pure functions of a DesignView (no viser): ``build_frames`` and ``build_walk_sce
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -47,6 +48,16 @@ DESIGN_TITLE = "Mechanism (design frame)"
 LEG_TITLE = "Bench trajectory (leg frame)"
 INSET_TITLE = "Candidates (click to pick)"
 INSET_NOTE = "after a run: its knee candidates\n(K1 ...) and best members"
+# The room the layout keeps under the inset for its note or its axes caption (``inset_caption``): three lines of
+# this many characters. The caption was one line of up to 60 and ran past the canvas on a 1024-pixel screen.
+NOTE_CHARS = 34
+NOTE_ROOM = "\n".join(["x" * NOTE_CHARS] * 3)
+
+
+def inset_caption(x: str, y: str) -> str:
+    """The inset's axes caption ``x: <x> · y: <y> (scaled)`` in at most three lines of ``NOTE_CHARS``."""
+    lines = textwrap.wrap(f"x: {x}", NOTE_CHARS) + textwrap.wrap(f"y: {y} (scaled)", NOTE_CHARS)
+    return "\n".join(lines[:2] + [" ".join(lines[2:])] if len(lines) > 3 else lines)
 WALK_TITLE = "Walking (world frame): trunk, feet, obstacle a × b"
 # Labels are sized in the scene (mm), so the layout can keep every view's text clear of the others at any
 # zoom and window size: their height is the composition's size over TEXT_SCALE (about 12 px once framed).
@@ -403,7 +414,7 @@ def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_
                  for k, span in (("design", dw), ("leg", lw + 2 * pad))}
         gap1 = pad + 2.0 * h + max(0.0, text_width(DESIGN_TITLE, h) - dw, bar_w["design"] - dw)
         gap2 = 2.0 * h + max(pad, text_width(LEG_TITLE, h) - lw - pad, bar_w["leg"] - lw - pad)
-        walk_gap = pad + 3.0 * small + text_height(INSET_NOTE, small) + 5.0 * h
+        walk_gap = pad + 3.0 * small + text_height(NOTE_ROOM, small) + 5.0 * h
         lay = layout(design_pts, leg_pts, gap1)
         comp = compose(lay, walk_bounds, gap2, walk_gap)
         off = lay.leg_offset
@@ -413,7 +424,7 @@ def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_
             _text("design_title", DESIGN_TITLE, d[0], d[3] + 0.6 * h, "bottom-left", h),
             _text("leg_title", LEG_TITLE, legbox[0], legbox[3] + 0.6 * h, "bottom-left", h),
             _text("inset_title", INSET_TITLE, inset[0], inset[3] + 0.6 * h, "bottom-left", h),
-            _text("inset_note", INSET_NOTE, inset[0], inset[1] - 0.6 * small, "top-left", small),
+            _text("inset_note", NOTE_ROOM, inset[0], inset[1] - 0.6 * small, "top-left", small),
         ]
         bars = []
         for key, x0, y, span in (("design", d[0], d[1] - 1.5 * small, dw),

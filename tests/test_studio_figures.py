@@ -375,3 +375,26 @@ def test_a_label_at_the_plots_edge_stays_inside_it_even_over_a_marker():
     assert pos is not None
     box = _label_box(1.0 * PLOT_PX[0], 0.5 * PLOT_PX[1], "best I", pos)
     assert box[0] >= 0 and box[2] <= PLOT_PX[0] and box[1] >= 0 and box[3] <= PLOT_PX[1]
+
+
+def test_the_inset_caption_fits_the_room_the_layout_keeps_for_it(x3_view) -> None:
+    # The caption was one line of up to ~60 characters outside the layout's bounds: the camera framed the views
+    # without it, and on a 1024-pixel screen it ran past the canvas's edge.
+    from core.optimize.problem import make_problem, problem_names
+    from studio.frames import NOTE_CHARS, NOTE_ROOM, SMALL_TEXT, inset_caption, text_width
+
+    tried = 0
+    for name in problem_names():
+        try:
+            spec = make_problem(name)
+        except (TypeError, ValueError):  # a problem that needs options (none of the studio's stages)
+            continue
+        tried += 1
+        labels = [spec.labels.get(o, o) for o in spec.objectives[:2]]
+        lines = inset_caption(labels[0], labels[1] if len(labels) > 1 else "violation").split("\n")
+        assert len(lines) <= 3 and all(len(x) <= NOTE_CHARS for x in lines), (name, lines)
+    assert tried >= 8
+    f = build_frames(x3_view)
+    inset, bounds = f.composition.inset, f.composition.bounds
+    h = f.text_height / SCENE_SCALE
+    assert inset[0] + text_width(NOTE_ROOM, SMALL_TEXT * h) <= bounds[2] + 1e-9
