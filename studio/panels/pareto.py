@@ -60,7 +60,8 @@ def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figu
 def large_size(client: viser.ClientHandle) -> dict[str, float]:
     """The large chart's window: 960 x 760 px, or less on a canvas too small for it (a 1024 x 768 screen's is
     636 px wide beside the side panel): a fixed size covered the side panel, Stop included, and ran off the
-    screen's bottom edge."""
+    screen's bottom edge. The page reports its canvas in device pixels, so on a high-DPI screen the window can
+    still be too large (it can be resized and moved)."""
     try:
         w, h = client.camera.image_width, client.camera.image_height
     except (AssertionError, AttributeError):  # no camera report from this client yet
@@ -200,7 +201,7 @@ class ParetoPanel:
             plot = client.gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
                                          config=CONFIG)
         close.on_click(lambda _: self._close_large(client.client_id))
-        panel.float(x=24, y=24, **large_size(client))
+        panel.float(x=-24, y=24, **large_size(client))  # right edge by the side panel: never over it
         self._large[client.client_id] = (panel, plot)
 
     def _forget(self, client: viser.ClientHandle) -> None:

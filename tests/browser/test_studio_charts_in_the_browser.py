@@ -13,6 +13,7 @@ from typing import Any
 
 from playwright.sync_api import expect
 from test_studio_stages_in_the_browser import choose, download, expand, run_stage, wait_for
+from test_studio_views_in_the_browser import close_notices
 
 SUBTASK1 = "Subtask 1 → X1 (shape, position)"
 
@@ -49,6 +50,7 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     # the panel, Stop included, and ran past the screen's bottom edge.
     size = page.viewport_size
     page.set_viewport_size({"width": 1024, "height": 768})
+    close_notices(page)  # viser's software-WebGL notice sits at the top left, over any window there
     try:
         wait_for(lambda: any(c.camera.image_width < 700 for c in studio.server.get_clients().values()),
                  "the page to report its smaller canvas")
