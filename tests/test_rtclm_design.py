@@ -114,6 +114,8 @@ def test_c_taea_refuses_a_single_objective_by_name() -> None:
     # Its population is one member per reference direction: one, for one objective.
     with pytest.raises(ValueError, match="ctaea needs at least two objectives.*has 1"):
         make_algorithm(AlgorithmSpec("ctaea", 20), 1, 5)
+    with pytest.raises(ValueError, match="ctaea needs at least two objectives.*has 1"):  # not "set pop_size = 1"
+        make_algorithm(AlgorithmSpec("ctaea", 20, {"n_partitions": 4}), 1, 5)
     assert np.array_equal(reference_directions(1, 20), [[1.0]])
 
 

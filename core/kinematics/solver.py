@@ -159,14 +159,15 @@ def prepare(mechanism: Mechanism, params: F64) -> Prepared:
         n = mechanism.n_params
         raise ValueError(f"{mechanism.name} takes {n} parameters, params of shape (pop, {n}) or ({n},); got {shape}")
     prog = mechanism.compile()
-    internal, derive_viol = mechanism.internal(params)
+    # Beyond a kilometre the floating-point geometry is noise (products overflow near 1e150): out of domain.
+    # Such rows are NaN before anything is derived or solved from them (1e300 squared only overflowed to the
+    # same infinite violation, with numpy warnings).
+    with np.errstate(invalid="ignore"):
+        bad = np.asarray(~(np.abs(params) <= MAX_ABS_PARAM).all(axis=1), dtype=np.bool_)
+    internal, derive_viol = mechanism.internal(np.where(bad[:, None], np.nan, params) if bad.any() else params)
     vals = np.ascontiguousarray(prog.operands(internal))
     # Non-finite operands (bad input, or a coupling that has no solution) poison the whole row.
     vals[~np.isfinite(vals).all(axis=(1, 2))] = np.nan
-    # Beyond a kilometre the floating-point geometry is noise (products overflow near 1e150): out of domain.
-    with np.errstate(invalid="ignore"):
-        bad = np.asarray(~(np.abs(params) <= MAX_ABS_PARAM).all(axis=1), dtype=np.bool_)
-    vals[bad] = np.nan  # solving them would only overflow (1e300 squared) to the same infinite violation
     derive_viol = np.asarray(derive_viol, dtype=np.float64) + length_shortfall(mechanism, params)
     return Prepared(prog, vals, derive_viol, bad)
 

@@ -159,6 +159,9 @@ def _ga(cls_path: str, ops: Callable[[], dict[str, Any]]) -> Build:
 def _ref(cls_path: str, ops: Callable[[], dict[str, Any]], fixed_pop: bool = False) -> Build:
     def build(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
         cls = _import(cls_path)
+        if fixed_pop and n_obj < 2:  # C-TAEA's population is its set of reference directions
+            raise ValueError(f"{spec.name} needs at least two objectives (its population is one member per "
+                             f"reference direction); this problem has {n_obj}")
         parts = opts.pop("n_partitions", None)
         dirs = reference_directions(n_obj, spec.pop_size, parts)
         kept = len(dirs) if fixed_pop else max(spec.pop_size, len(dirs))
@@ -169,10 +172,7 @@ def _ref(cls_path: str, ops: Callable[[], dict[str, Any]], fixed_pop: bool = Fal
                              f"pop_size = {kept}, or leave n_partitions out (pop_size alone takes the largest lattice "
                              f"that fits: {fits} directions here)")
         kw = {**_sbx_pm(opts, ALGORITHMS[spec.name].defaults), **ops()}
-        if fixed_pop:  # C-TAEA's population is its set of reference directions
-            if n_obj < 2:
-                raise ValueError(f"{spec.name} needs at least two objectives (its population is one member per "
-                                 f"reference direction); this problem has {n_obj}")
+        if fixed_pop:
             return cls(dirs, seed=seed, **kw)
         return cls(dirs, pop_size=max(spec.pop_size, len(dirs)), seed=seed, **kw)
 
