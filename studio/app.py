@@ -114,6 +114,7 @@ class Studio:
         self._optimized_by: tuple[str, ...] | None = None
         self._study_key: object = None
         self._inset_key: object = None
+        self._inset_held: object = None
         self._last_push = 0.0
         self._study_dirty = False
         self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
@@ -454,11 +455,11 @@ class Studio:
                 r = session.study.result(stage)
                 if r is None:
                     raise ValueError(f"{stage} has no result")
+                i = session.study.shown_member(stage)
+                if i is not None:  # first: if the design may not change now, the stage in view does not either
+                    session.set_design(r.pick(i))
                 session.study.viewing = stage
                 session.study.touch()
-                i = session.study.shown_member(stage)
-                if i is not None:
-                    session.set_design(r.pick(i))
         except ValueError as exc:
             if client is not None:
                 self.notify(client, "Stage not shown", str(exc))

@@ -10,6 +10,7 @@ studio's side, draws it; the studio's Files panel serves the same PNG of the sta
 from __future__ import annotations
 
 import argparse
+import html
 import json
 import sys
 from collections.abc import Mapping
@@ -54,10 +55,12 @@ def target_text(settings: object, curve_names: Mapping[str, str] | None = None) 
     if not isinstance(target, str) or not target or len(target) >= 200:
         return ""
     if curve_names and target in curve_names:
-        return curve_names[target]
-    if target.startswith("cycloid"):
-        return target.replace(":", " ").replace(",", " ")
-    return f"curve {Path(target).name}"
+        text = curve_names[target]
+    elif target.split(":", 1)[0] == "cycloid":  # as core.analysis.targets.parse_target reads it
+        text = target.replace(":", " ").replace(",", " ")
+    else:
+        text = f"curve {Path(target).name}"
+    return html.escape(text, quote=False)  # a chart's title is HTML to plotly: an upload named "<b>" is text
 
 
 def run_charts(run_dir: Path) -> list[Path]:

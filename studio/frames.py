@@ -55,9 +55,12 @@ NOTE_ROOM = "\n".join(["x" * NOTE_CHARS] * 3)
 
 
 def inset_caption(x: str, y: str) -> str:
-    """The inset's axes caption ``x: <x> · y: <y> (scaled)`` in at most three lines of ``NOTE_CHARS``."""
+    """The inset's axes caption ``x: <x> · y: <y> (scaled)`` in at most three lines of ``NOTE_CHARS`` (what does
+    not fit is cut with an ellipsis; the Pareto chart's axes carry the whole titles)."""
     lines = textwrap.wrap(f"x: {x}", NOTE_CHARS) + textwrap.wrap(f"y: {y} (scaled)", NOTE_CHARS)
-    return "\n".join(lines[:2] + [" ".join(lines[2:])] if len(lines) > 3 else lines)
+    if len(lines) > 3:
+        lines = lines[:2] + [textwrap.shorten(" ".join(lines[2:]), NOTE_CHARS, placeholder=" …")]
+    return "\n".join(lines)
 WALK_TITLE = "Walking (world frame): trunk, feet, obstacle a × b"
 # Labels are sized in the scene (mm), so the layout can keep every view's text clear of the others at any
 # zoom and window size: their height is the composition's size over TEXT_SCALE (about 12 px once framed).

@@ -27,6 +27,7 @@ from core.analysis.targets import compound_cycloid
 from core.formats.design import check_params, design_from_dict, design_to_dict
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
+from core.kinematics.checks import MAX_ABS
 from core.kinematics.design import Design
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
@@ -64,9 +65,10 @@ def presets_for(mechanism: str) -> tuple[str, ...]:
 
 @functools.cache
 def opening_preset(mechanism: str) -> str:
-    """The preset a topology opens on: its first that walks (assembles, and its path meets the metrics'
-    constraints), else its first that assembles, else its first. The RTCLM's first rows are paper rows that
-    do not reproduce: "RTCLM, auxiliary mode" opened on a linkage that jams for 42 % of the crank cycle."""
+    """The preset a topology opens on: its first whose evaluation is feasible (the Metrics panel's "Feasible:
+    yes": it assembles and its foot path gives every metric), else its first that assembles, else its first. The
+    RTCLM's first rows are paper rows that do not reproduce: "RTCLM, auxiliary mode" opened on a linkage that jams
+    for 42 % of the crank cycle. (The RTCLM's own Eqs. 29-31 are its stages' constraints, not checked here.)"""
     names = presets_for(mechanism)
     if not names:
         raise ValueError(f"{mechanism} has no preset")
@@ -225,13 +227,16 @@ def check_value(param: Param, value: object) -> float:
     """A typed value for one parameter, or ValueError with the reason (name, unit, bounds).
 
     Lengths must be > 0; every non-angle must lie within the parameter's global bounds;
-    angles are periodic and only need to be finite.
+    angles are periodic and need only be finite and within +-1e6 rad (the design files' limit: a session
+    holding more would not load back).
     """
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ValueError(f"{param.name} must be a number ({param.unit}), got {value!r}")
     v = float(value)
     if not math.isfinite(v):
         raise ValueError(f"{param.name} must be a finite number ({param.unit}), got {v}")
+    if abs(v) > MAX_ABS:
+        raise ValueError(f"{param.name} must be within +-{MAX_ABS:g} {param.unit}, got {v:g} {param.unit}")
     if param.kind == "length" and v <= 0.0:
         raise ValueError(f"{param.name} is a length and must be > 0 {param.unit}, got {v:g} {param.unit}")
     if param.kind != "angle" and not param.lo <= v <= param.hi:
@@ -483,8 +488,8 @@ class Session:
                 return self.view
             target = self.study.target
             if target is None:
-                names = presets_for(design.mechanism.name)
-                target = self._target_for(design.mechanism.name, names[0]) if names else None
+                name = design.mechanism.name
+                target = self._target_for(name, opening_preset(name)) if presets_for(name) else None
             return self._commit(self._rebuild(design, None, target))
 
     def restore(self, other: Session) -> None:

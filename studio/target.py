@@ -207,11 +207,18 @@ def _read_stored(path: Path) -> dict[str, Any] | None:  # a name fixes the conte
         return None
 
 
+def curve_path(curve: Curve, directory: Path | None = None) -> Path:
+    """Where ``curve_file`` keeps the curve (named by its content); nothing is written."""
+    text = curve.csv_text()
+    folder = CURVE_DIR if directory is None else directory
+    return folder / f"target-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
+
+
 def curve_file(curve: Curve, directory: Path | None = None) -> Path:
     """The curve as a CSV file named by its content (written if missing); its path."""
     text = curve.csv_text()
     folder = CURVE_DIR if directory is None else directory
-    path = folder / f"target-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
+    path = curve_path(curve, directory)
     if not path.exists():
         folder.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")

@@ -394,6 +394,8 @@ def test_the_inset_caption_fits_the_room_the_layout_keeps_for_it(x3_view) -> Non
         lines = inset_caption(labels[0], labels[1] if len(labels) > 1 else "violation").split("\n")
         assert len(lines) <= 3 and all(len(x) <= NOTE_CHARS for x in lines), (name, lines)
     assert tried >= 8
+    long = inset_caption("a very long objective name that takes two lines (mm)", "another long one of the kind (mm^2)")
+    assert len(long.split("\n")) == 3 and all(len(x) <= NOTE_CHARS for x in long.split("\n")) and long.endswith("…")
     f = build_frames(x3_view)
     inset, bounds = f.composition.inset, f.composition.bounds
     h = f.text_height / SCENE_SCALE

@@ -197,6 +197,11 @@ def test_check_value_keeps_lengths_positive_and_in_bounds() -> None:
     for bad in (r1.lo - 1e-9, r1.hi + 1e-9, -1.0):
         with pytest.raises(ValueError, match="r1"):
             check_value(r1, bad)
+    # An angle is periodic but still within the design files' +-1e6: a session holding 2e6 rad did not load back.
+    b = presets.get(X3).mechanism.params[0]
+    assert b.kind == "angle" and check_value(b, 7.5) == 7.5
+    with pytest.raises(ValueError, match=r"^b must be within \+-1e\+06 rad, got 2e\+06 rad$"):
+        check_value(b, 2e6)
 
 
 def test_reset_returns_to_the_preset_values(session: Session) -> None:

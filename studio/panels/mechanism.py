@@ -179,6 +179,6 @@ class MechanismPanel:
             self.studio.session.reset_to_preset()
         except ValueError as exc:
             if event.client is not None:
-                self.studio.notify(event.client, "Nothing to reset", str(exc))
+                self.studio.notify(event.client, "Not reset", str(exc))
             return
         self.studio.refresh()

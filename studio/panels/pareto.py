@@ -18,6 +18,7 @@ from studio.figures import make_pareto_figure, make_trace_figure, objective_labe
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import algorithm_name, status_text
 from studio.study_view import StudyView
+from studio.target import curve_path
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -48,8 +49,9 @@ def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figu
     labels = dict(spec.problem.labels) if spec is not None else {}
     running = sv.status.running and sv.status.stage == sv.viewing
     state = f"generation {r.generation}/{r.n_gen}" if running else status_text(r)
-    t = sv.run_target
-    target = target_text(r.settings, {t.option(): f"curve {t.curve.name}"} if t is not None and t.curve else None)
+    t = sv.run_target  # its upload's name, by its path (computed: drawing a chart writes nothing)
+    target = target_text(r.settings, {str(curve_path(t.curve)): f"curve {t.curve.name}"}
+                         if t is not None and t.curve is not None else None)
     title = (f"{r.mechanism.title} · {sv.viewing} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
              f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels, front=r.front,

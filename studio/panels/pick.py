@@ -45,7 +45,8 @@ class PickPanel:
         self._cands: tuple[Candidate, ...] = ()
         self._front: tuple[int, ...] = ()
         self._stage: str | None = None
-        self._start_cache: dict[int, dict[str, float]] = {}
+        self._start_of: object = None  # the result whose start design's metrics are cached (held, not its id)
+        self._start: dict[str, float] = {}
         self._key: object = None
         self._held: object = None
         self.folder = gui.add_folder("Pick", order=order)
@@ -113,7 +114,7 @@ class PickPanel:
         spec = sv.specs.get(sv.viewing or "")
         labels = dict(spec.problem.labels) if spec is not None else {}
         cons = tuple(c.metric for c in spec.problem.constraints) if spec is not None else ()
-        start = self._start_cache.get(id(r))
+        start = self._start if self._start_of is r else None
         if start is None:
             start = {}
             if spec is not None:
@@ -122,7 +123,7 @@ class PickPanel:
                     start = {k: float(np.asarray(v)[0]) for k, v in m.items()}
                 except ValueError:
                     start = {}
-            self._start_cache = {id(r): start}
+            self._start, self._start_of = start, r
         names = compared_metrics(r, cons)
         rows = comparison(r, sv.shown, start, names, labels)
         upper = {c.metric for c in spec.problem.constraints if c.upper is not None} if spec is not None else set()
