@@ -443,6 +443,10 @@ def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
         r = studio.session.study.result("subtask2")
         shown = {c.member for c in candidates(r) if c.kind in ("knee", "best")}
         assert set(r.front) - shown  # front members that are neither a knee nor a best (below)
+        # The run's end puts its pick into the editor (design edits are refused while it runs: not this one).
+        end = studio.session.study.shown_member("subtask2")
+        assert end is not None
+        np.testing.assert_array_equal(studio.session.view.design.params[0], r.X[end])
         assert set(studio.inset._spheres) == shown  # one clickable sphere per knee / best member
         member = next(m for m in shown if m != r.picked)
 
