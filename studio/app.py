@@ -221,6 +221,7 @@ class Studio:
         return outside or shrunk
 
     def _show_study(self, sv: StudyView) -> None:
+        self.mechanism.hold(sv.status.running)
         self.stages.show(sv)
         self.pareto.show(sv)
         self.pick_panel.show(sv)

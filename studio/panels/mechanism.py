@@ -48,6 +48,7 @@ class MechanismPanel:
         self._numbers = NumberFields(studio)
         self._mechanism: Mechanism | None = None
         self._inputs: dict[str, NumberField] = {}
+        self._running = False
         self.folder = gui.add_folder("Mechanism", order=order)
         with self.folder:
             self.topology = gui.add_dropdown("Topology", tuple(self._titles), initial_value=view.design.mechanism.title,
@@ -91,7 +92,7 @@ class MechanismPanel:
             for p in mech.params:
                 self._inputs[p.name] = self._numbers.add(
                     p.name, param_label(p.name, p.unit), float(values[p.name]), form=param_form(p), hint=p.doc,
-                    apply=self._setter(p.name), current=self._getter(p.name))
+                    apply=self._setter(p.name), current=self._getter(p.name), disabled=self._running)
         self._mechanism = mech
 
     def _setter(self, name: str) -> Callable[[float], object]:
@@ -115,10 +116,22 @@ class MechanismPanel:
         if tuple(self.preset.options) != options:
             self.preset.options = options
         set_value(self.preset, self._preset_value(view))
-        self.reset.disabled = view.preset is None or not view.edited
+        self.reset.disabled = self._running or view.preset is None or not view.edited
         for name, field in self._inputs.items():
             field.show(float(values[name]))
         self.status.content = self._status(view)
+
+    def hold(self, running: bool) -> None:
+        """Disable the design's controls while a stage runs: its pick replaces the design when it ends, so an edit
+        would be lost (the session refuses one anyway, ``Session._commit``)."""
+        if running == self._running:
+            return
+        self._running = running
+        self.topology.disabled = self.preset.disabled = running
+        for field in self._inputs.values():
+            field.disabled = running
+        view = self.studio.session.view
+        self.reset.disabled = running or view.preset is None or not view.edited
 
     @staticmethod
     def _status(view: DesignView) -> str:

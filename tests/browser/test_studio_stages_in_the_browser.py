@@ -163,6 +163,10 @@ def test_controls_are_disabled_while_a_stage_runs_and_stop_keeps_the_partial_res
     page.get_by_role("button", name="Run", exact=True).click()
     expect(page.get_by_role("button", name="Run", exact=True)).to_be_disabled()
     expect(field(page, "Population")).to_be_disabled()
+    # The design too: the run's pick replaces it when it ends (a parameter typed meanwhile was silently lost).
+    expect(field(page, "r4 [mm]")).to_be_disabled()
+    expect(page.get_by_label("Topology", exact=True)).to_be_disabled()
+    expect(page.get_by_label("Preset", exact=True)).to_be_disabled()
     stop = page.get_by_role("button", name="Stop", exact=True)
     expect(stop).to_be_enabled()
     stop.click()
@@ -171,6 +175,8 @@ def test_controls_are_disabled_while_a_stage_runs_and_stop_keeps_the_partial_res
     r = studio.session.study.result("subtask2")
     assert r.status == "cancelled" and 0 < r.generation < 5000
     expect(page.get_by_role("button", name="Run", exact=True)).to_be_enabled()
+    expect(field(page, "r4 [mm]")).to_be_enabled()
+    expect(page.get_by_label("Topology", exact=True)).to_be_enabled()
 
 
 def test_picking_a_candidate_animates_it_and_use_for_next_stage_starts_there(page: Any, studio: Any) -> None:
