@@ -233,6 +233,8 @@ ERRORS: list[tuple[str, list[str], object | None, str]] = [
     ("bad samples", ["simulate", "--preset", "stephenson1/X3", "--samples", "0"], None, "--samples must be between"),
     ("one sample is no revolution", ["simulate", "--preset", "stephenson1/X3", "--samples", "1"], None,
      "--samples must be between 8 and"),
+    ("odd samples for evaluate", ["evaluate", "--preset", "stephenson1/X3", "--samples", "9"], None,
+     "--samples must be an even number between 8 and 100000"),
     ("unknown command", ["fly"], None, "invalid choice: 'fly'"),
 ]
 

@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trunk", type=float, default=DEFAULT_TRUNK,
                    help=f"quadruped hip distance (mm, default {DEFAULT_TRUNK:g})")
     p.add_argument("--period", type=float, default=DEFAULT_PERIOD, help="crank period T (s, default 2)")
-    p.add_argument("--samples", type=int, default=360, metavar="N", help="samples per revolution (default 360)")
+    p.add_argument("--samples", type=int, default=360, metavar="N", help="samples per revolution, even (default 360)")
     p.add_argument("--phase-optimal", action="store_true", help="also report the shape error at the best cyclic shift")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--backend", choices=("numpy", "numba", "auto"), default="numpy",
@@ -57,8 +57,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _check(args: argparse.Namespace) -> None:
-    if not MIN_SAMPLES <= args.samples <= MAX_SAMPLES:
-        raise CLIError(f"--samples must be between {MIN_SAMPLES} and {MAX_SAMPLES}, got {args.samples}")
+    if not MIN_SAMPLES <= args.samples <= MAX_SAMPLES or args.samples % 2:
+        raise CLIError(f"--samples must be an even number between {MIN_SAMPLES} and {MAX_SAMPLES} (take-off is "
+                       f"landing + T/2, which must fall on a sample), got {args.samples}")
     if not (math.isfinite(args.period) and args.period > 0):
         raise CLIError(f"--period must be a positive number of seconds, got {args.period}")
     a, b = args.obstacle
