@@ -32,7 +32,7 @@ def param_label(name: str, unit: str) -> str:
 def param_form(p: Param) -> NumberForm:
     """What a parameter's field takes; the model checks the bounds (``studio.state.check_value``) and assembly."""
     if p.kind == "angle":
-        return NumberForm(text=f"an angle in {p.unit} (any finite number; angles are periodic)")
+        return NumberForm(text=f"an angle in {p.unit} (any number within ±1e6; angles are periodic)")
     what = "a length" if p.kind == "length" else "a number"
     return NumberForm(text=f"{what} in {p.unit} within its bounds [{p.lo:g}, {p.hi:g}] that keeps the design assembled")
 
