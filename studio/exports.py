@@ -9,8 +9,6 @@ from __future__ import annotations
 import io
 import json
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import plotly.graph_objects as go
@@ -75,13 +73,8 @@ def parse_trajectories_csv(data: bytes) -> dict[str, np.ndarray]:
 def drawing_export(view: DesignView, angle: float, kind: str) -> tuple[str, bytes]:
     """The shown design at the shown crank angle as a fabrication drawing: ``dxf`` (one layer per link, pivot
     holes, dimensions) or ``svg``; ValueError if it does not assemble there (the panel says so)."""
-    from core.formats.drawing import drawing, svg, write_dxf
+    from core.formats.drawing import drawing, dxf, svg
 
     d = drawing(view.design, angle)
     name = f"{slug(view.preset or view.design.mechanism.name)}-drawing.{kind}"
-    if kind == "svg":
-        return name, svg(d).encode()
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "drawing.dxf"
-        write_dxf(d, path)
-        return name, path.read_bytes()
+    return name, (svg(d) if kind == "svg" else dxf(d)).encode()

@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from core.cli import CLIError
-from core.formats.drawing import drawing, svg, write_dxf
+from core.formats.drawing import drawing, dxf, svg
 from core.formats.files import atomic_write
 
 
@@ -49,13 +49,7 @@ def run(args: argparse.Namespace) -> int:
         if not os.access(folder, os.W_OK):
             raise CLIError(f"cannot write {out}: the folder {folder} is not writable")
     if args.dxf is not None:
-        tmp = args.dxf.with_name(args.dxf.name + ".tmp")
-        try:
-            write_dxf(d, tmp)
-            tmp.replace(args.dxf)
-        except OSError as e:  # name the file asked for, not the temporary one, and leave no half file
-            tmp.unlink(missing_ok=True)
-            raise OSError(e.errno, e.strerror or str(e), str(args.dxf)) from None
+        atomic_write(args.dxf, dxf(d))
         print(f"wrote {args.dxf} ({len(d.links)} links, {len(d.ground)} ground pivots)")
     if args.svg is not None:
         atomic_write(args.svg, svg(d))

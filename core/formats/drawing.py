@@ -6,10 +6,10 @@ Coordinates are the design frame in mm, y up (SVG flips y for the screen).
 
 from __future__ import annotations
 
+import io
 import math
 from dataclasses import dataclass
 from itertools import combinations
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,9 +62,9 @@ def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
     return Drawing(m.name, tuple(m.joint_names), joints, links, ground, np.asarray(sol.point[member]), float(angle))
 
 
-def write_dxf(d: Drawing, path: str | Path) -> None:
-    """DXF R2010: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned dimensions), ``GROUND``
-    (pivot holes and cross marks), ``PATH`` (the foot path)."""
+def dxf(d: Drawing) -> str:
+    """The drawing as DXF R2010 text: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned
+    dimensions), ``GROUND`` (pivot holes and cross marks), ``PATH`` (the foot path)."""
     import ezdxf
 
     doc = ezdxf.new("R2010", setup=True)
@@ -92,7 +92,9 @@ def write_dxf(d: Drawing, path: str | Path) -> None:
     finite = d.path[np.isfinite(d.path).all(axis=1)]
     if len(finite) > 1:
         msp.add_lwpolyline([tuple(p) for p in finite], close=True, dxfattribs={"layer": "PATH"})
-    doc.saveas(str(path))
+    out = io.StringIO()
+    doc.write(out)
+    return out.getvalue()
 
 
 def svg(d: Drawing, margin: float = 20.0) -> str:
