@@ -114,7 +114,7 @@ class Studio:
         self._optimized_by: tuple[str, ...] | None = None
         self._study_key: object = None
         self._inset_key: object = None
-        self._inset_held: object = None
+        self._inset_drawn: object = None
         self._last_push = 0.0
         self._study_dirty = False
         self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
@@ -235,14 +235,14 @@ class Studio:
             return
         box = frames.composition.inset
         r = sv.result(sv.viewing)
-        key = (tuple(np.round(box, 6)), frames.text_height, id(r), sv.shown)
-        if key == self._inset_key:
+        key = (tuple(np.round(box, 6)), frames.text_height, sv.shown)
+        if r is self._inset_drawn and key == self._inset_key:  # by identity: a freed result's id can be reused
             return
         running = sv.status.running and sv.status.stage == sv.viewing
         if running:
             self._inset_key = None  # held still while the stage runs: the end of the run redraws it
             return
-        self._inset_key, self._inset_held = key, r  # held: a freed result's id can go to the next one
+        self._inset_key, self._inset_drawn = key, r
         if r is None or r.pop == 0:
             self.inset.place(box, INSET_NOTE, frames.text_height)
             self.inset.show((), np.zeros((0, 2)), None)

@@ -133,8 +133,6 @@ class Prepared(NamedTuple):
 
 # A parameter of kind "length" below this is no link (mm): its shortfall is part of the violation.
 MIN_LENGTH = 1e-6
-# Parameters beyond this magnitude (mm or rad) make a design's violation infinite, as non-finite ones do.
-MAX_ABS_PARAM = checks.MAX_ABS
 
 
 def length_shortfall(mechanism: Mechanism, params: F64) -> F64:
@@ -159,11 +157,11 @@ def prepare(mechanism: Mechanism, params: F64) -> Prepared:
         n = mechanism.n_params
         raise ValueError(f"{mechanism.name} takes {n} parameters, params of shape (pop, {n}) or ({n},); got {shape}")
     prog = mechanism.compile()
-    # Beyond a kilometre the floating-point geometry is noise (products overflow near 1e150): out of domain.
-    # Such rows are NaN before anything is derived or solved from them (1e300 squared only overflowed to the
-    # same infinite violation, with numpy warnings).
+    # Beyond checks.MAX_ABS (a kilometre, mm or rad) the geometry is floating-point noise (products overflow near
+    # 1e150): out of domain. Such rows are NaN before anything is derived or solved from them (1e300 squared only
+    # overflowed to the same infinite violation, with numpy warnings).
     with np.errstate(invalid="ignore"):
-        bad = np.asarray(~(np.abs(params) <= MAX_ABS_PARAM).all(axis=1), dtype=np.bool_)
+        bad = np.asarray(~(np.abs(params) <= checks.MAX_ABS).all(axis=1), dtype=np.bool_)
     internal, derive_viol = mechanism.internal(np.where(bad[:, None], np.nan, params) if bad.any() else params)
     vals = np.ascontiguousarray(prog.operands(internal))
     # Non-finite operands (bad input, or a coupling that has no solution) poison the whole row.

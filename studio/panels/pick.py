@@ -63,7 +63,7 @@ class PickPanel:
         self._start_of: object = None  # the result whose start design's metrics are cached (held, not its id)
         self._start: dict[str, float] = {}
         self._key: object = None
-        self._held: object = None
+        self._drawn: object = None  # the result the panel shows
         self.folder = gui.add_folder("Pick", order=order)
         with self.folder:
             self.candidate = gui.add_dropdown("Candidate", (NONE,), disabled=True,
@@ -81,12 +81,12 @@ class PickPanel:
     def show(self, sv: StudyView) -> None:
         r = sv.result(sv.viewing)
         running = sv.status.running
-        key = (id(r), sv.shown, running, sv.viewing)
-        if key == self._key:
+        key = (sv.shown, running, sv.viewing)
+        # The result itself, by identity (not its id: a freed live result's id went to a later generation's, whose
+        # labels then never replaced the older ones while the Pareto chart showed the later front).
+        if r is self._drawn and key == self._key:
             return
-        # Held, not only its id: a freed live result's id went to a later generation's, whose labels then never
-        # replaced the older ones (the key matched) while the Pareto chart showed the later front.
-        self._key, self._held = key, r
+        self._key, self._drawn = key, r
         # One batch: the page drew the table's new member up to 100 ms before the dropdown's (whose options,
         # replaced every live generation, first reset its value to the first of them).
         with self.studio.server.atomic():
@@ -130,7 +130,7 @@ class PickPanel:
         spec = sv.specs.get(sv.viewing or "")
         labels = dict(spec.problem.labels) if spec is not None else {}
         cons = tuple(c.metric for c in spec.problem.constraints) if spec is not None else ()
-        start = self._start if self._start_of is r else None
+        start = self._start if self._start_of is r else None  # the start design's metrics, once per result
         if start is None:
             start = {}
             if spec is not None:
