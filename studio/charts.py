@@ -37,10 +37,16 @@ def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT) -> bytes:
                          "package and a chromium browser (apt-get install chromium)") from None
 
 
+def chart_title(r: StageResult, state: str, target: str = "") -> str:
+    """A Pareto chart's title, readable on its own: mechanism, stage, ``state``, feasible count, front size and
+    the target (``target_text``)."""
+    return (f"{r.mechanism.title} · {r.name} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
+            f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
+
+
 def result_figure(r: StageResult, labels: dict[str, str] | None = None, target: str = "") -> go.Figure:
     """A stage result's chart, titled with its mechanism, stage, status and target (readable on its own)."""
-    title = (f"{r.mechanism.title} · {r.name} · {status_text(r)} · {int(r.feasible.sum())} feasible of {r.pop}"
-             + (f" · target {target}" if target else ""))
+    title = chart_title(r, status_text(r), target)
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels or {}, front=r.front,
                               knees=r.shortlist.knees, best=r.shortlist.best, passed=r.picked, title=title)
 

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import plotly.graph_objects as go
 import viser
 
-from studio.charts import target_text
+from studio.charts import chart_title, target_text
 from studio.figures import make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import algorithm_name, status_text
@@ -52,8 +52,7 @@ def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figu
     t = sv.run_target  # its upload's name, by its path (computed: drawing a chart writes nothing)
     target = target_text(r.settings, {str(curve_path(t.curve)): f"curve {t.curve.name}"}
                          if t is not None and t.curve is not None else None)
-    title = (f"{r.mechanism.title} · {sv.viewing} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
-             f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
+    title = chart_title(r, state, target)
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels, front=r.front,
                               knees=r.shortlist.knees, best=r.shortlist.best, shown=sv.shown,
                               passed=passed_on(sv), title=title, axes=axes if len(r.objectives) >= 3 else None)
