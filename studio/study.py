@@ -115,16 +115,20 @@ def algorithm_name(settings: object) -> str:
     return name if isinstance(name, str) else ""
 
 
-def _ends_on(r: StageResult, shown: dict[str, int]) -> int | None:
-    """The member a branch ends on: the one shown (what Restore brings back), else the pick, else the first
-    candidate."""
-    i = shown.get(r.name, r.picked if r.picked is not None else r.shortlist.first)
-    return i if i is not None and 0 <= i < r.pop else None
+def member_shown(r: StageResult | None, shown: Mapping[str, int]) -> int | None:
+    """The member shown for a stage result: the designer's choice (``shown``, by stage), else its pick, else its
+    automatic one; what a branch ends on and Restore brings back."""
+    if r is None or r.pop == 0:
+        return None
+    i = shown.get(r.name)
+    if i is not None and 0 <= i < r.pop:
+        return i
+    return r.picked if r.picked is not None else r.shortlist.first
 
 
 def _values(r: StageResult, shown: dict[str, int]) -> str:
     """`` · h_s 5.93, I 0.452``: the objective values of the member a branch ends on (what tells branches apart)."""
-    i = _ends_on(r, shown)
+    i = member_shown(r, shown)
     if i is None:
         return ""
     return " · " + ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[i], strict=True))
@@ -135,7 +139,7 @@ def branch_stages(lineage: list[StageResult], shown: dict[str, int]) -> str:
     another, and the last stage's algorithm (branches made to compare algorithms differ only there)."""
     parts = [r.name + (f" #{r.picked}" if r.picked is not None else "") for r in lineage]
     last = lineage[-1]
-    i = _ends_on(last, shown)
+    i = member_shown(last, shown)
     if i is not None and i != last.picked:
         parts[-1] += f" showing #{i}"
     name = algorithm_name(last.settings)
@@ -213,15 +217,7 @@ class Study:
 
     def shown_member(self, name: str | None) -> int | None:
         """The member shown for a stage: the designer's choice, else its pick, else its automatic one."""
-        r = self.result(name)
-        if r is None or r.pop == 0:
-            return None
-        i = self.shown.get(name or "")
-        if i is not None and 0 <= i < r.pop:
-            return i
-        if r.picked is not None:
-            return r.picked
-        return r.shortlist.first
+        return member_shown(self.result(name), self.shown)
 
     def parent_result(self, name: str) -> StageResult | None:
         k = self.index(name)
