@@ -30,7 +30,7 @@ from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import ga
-from core.optimize.evolve.weights import das_dennis, neighbours
+from core.optimize.evolve.weights import OnePerWeight, das_dennis, neighbours
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -68,7 +68,7 @@ def _place(j0: int, j1: int, pools: I64, offs: I64, X: F64, F: F64, G: F64, cv: 
     return j1
 
 
-class CMOEMT(ArrayAlgorithm):
+class CMOEMT(OnePerWeight, ArrayAlgorithm):
     """CMOEMT; the output population is the main task's (P1).
 
     Args:
@@ -85,10 +85,6 @@ class CMOEMT(ArrayAlgorithm):
             raise ValueError(f"cmoemt needs a population of at least 10, got {pop_size}")
         super().__init__(pop_size=pop_size, **kwargs)
         self.variant, self.ahead = variant, ahead
-
-    def kept_size(self, n_obj: int) -> int:
-        """Members the output keeps: one per Das-Dennis weight (91 for 100 at three objectives)."""
-        return len(das_dennis(self.pop_size, n_obj)) if n_obj > 1 else self.pop_size
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p, rng = self.problem, self.random_state

@@ -21,7 +21,7 @@ from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, draw_pools, make_children, numbers, powers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import cmt_differences, cmt_replace, fmin_into, pbi_replace
-from core.optimize.evolve.weights import das_dennis, neighbours
+from core.optimize.evolve.weights import OnePerWeight, das_dennis, neighbours
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -66,7 +66,7 @@ def _place(j0: int, j1: int, pools: I64, offs: I64, X1: F64, F1: F64, G1: F64, c
     return j1
 
 
-class MOEADCMT(ArrayAlgorithm):
+class MOEADCMT(OnePerWeight, ArrayAlgorithm):
     """MOEA/D-CMT; the effective population is the number of Das-Dennis vectors (<= pop_size; all of it for
     one objective).
 
@@ -78,10 +78,6 @@ class MOEADCMT(ArrayAlgorithm):
     def __init__(self, pop_size: int = 100, ahead: bool = True, **kwargs: Any) -> None:
         super().__init__(pop_size=pop_size, **kwargs)
         self.ahead = ahead
-
-    def kept_size(self, n_obj: int) -> int:
-        """Members the output keeps: one per Das-Dennis weight (91 for 100 at three objectives)."""
-        return len(das_dennis(self.pop_size, n_obj)) if n_obj > 1 else self.pop_size
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p = self.problem

@@ -19,6 +19,17 @@ def das_dennis(n: int, m: int) -> F64:
     return np.maximum(simplex_lattice(n, m), 1e-6)
 
 
+class OnePerWeight:
+    """An algorithm whose output keeps one member per Das-Dennis weight (CMOEMT, MOEA/D-CMT): ``kept_size``
+    tells a config which member indices will exist before the stage runs."""
+
+    pop_size: int
+
+    def kept_size(self, n_obj: int) -> int:
+        """Members the output keeps: one per weight (91 for 100 at three objectives), all for one objective."""
+        return len(das_dennis(self.pop_size, n_obj)) if n_obj > 1 else self.pop_size
+
+
 def simplex_lattice(n: int, m: int) -> F64:
     """:func:`das_dennis`'s lattice as it is, zeros included (reference fronts on it: the points of the
     boundary)."""
