@@ -24,10 +24,9 @@ from numpy.typing import NDArray
 
 from core.analysis.evaluate import Evaluation, evaluate
 from core.analysis.targets import compound_cycloid
-from core.formats.design import check_params, design_from_dict, design_to_dict
+from core.formats.design import check_params, design_from_dict, design_to_dict, value_problem
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
-from core.kinematics.checks import MAX_ABS
 from core.kinematics.design import Design
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
@@ -233,12 +232,9 @@ def check_value(param: Param, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ValueError(f"{param.name} must be a number ({param.unit}), got {value!r}")
     v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{param.name} must be a finite number ({param.unit}), got {v}")
-    if abs(v) > MAX_ABS:
-        raise ValueError(f"{param.name} must be within +-{MAX_ABS:g} {param.unit}, got {v:g} {param.unit}")
-    if param.kind == "length" and v <= 0.0:
-        raise ValueError(f"{param.name} is a length and must be > 0 {param.unit}, got {v:g} {param.unit}")
+    problem = value_problem(param, v)  # what any design file refuses too
+    if problem is not None:
+        raise ValueError(problem)
     if param.kind != "angle" and not param.lo <= v <= param.hi:
         raise ValueError(
             f"{param.name} = {v:g} {param.unit} is outside its bounds [{param.lo:g}, {param.hi:g}] {param.unit}"

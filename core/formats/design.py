@@ -30,6 +30,7 @@ from core.kinematics import mechanisms
 from core.kinematics.checks import MAX_ABS
 from core.kinematics.design import Design
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
+from core.kinematics.params import Param
 
 F64 = NDArray[np.float64]
 
@@ -98,14 +99,21 @@ def check_params(mechanism: Mechanism, params: ArrayLike) -> F64:
         bad = ~(np.abs(col) <= MAX_ABS) | ((col <= 0.0) if spec.kind == "length" else False)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            who = f"{spec.name} of design {i}" if many else spec.name
-            v = float(col[i])
-            if not math.isfinite(v):
-                raise ValueError(f"{who} ({spec.unit}) must be finite, got {v}")
-            if abs(v) > MAX_ABS:  # the solver's domain: beyond it the geometry is floating-point noise
-                raise ValueError(f"{who} must be within +-{MAX_ABS:g} {spec.unit}, got {v:g} {spec.unit}")
-            raise ValueError(f"{who} is a length and must be > 0 {spec.unit}, got {v:g} {spec.unit}")
+            raise ValueError(value_problem(spec, float(col[i]), f"{spec.name} of design {i}" if many else None))
     return p
+
+
+def value_problem(spec: Param, v: float, who: str | None = None) -> str | None:
+    """Why ``v`` cannot be parameter ``spec`` of a design (``who`` names it in the message), or None: not finite,
+    beyond +-1e6 (the solver's domain: past it the geometry is floating-point noise), or a length <= 0."""
+    who = who or spec.name
+    if not math.isfinite(v):
+        return f"{who} ({spec.unit}) must be finite, got {v}"
+    if abs(v) > MAX_ABS:
+        return f"{who} must be within +-{MAX_ABS:g} {spec.unit}, got {v:g} {spec.unit}"
+    if spec.kind == "length" and v <= 0.0:
+        return f"{who} is a length and must be > 0 {spec.unit}, got {v:g} {spec.unit}"
+    return None
 
 
 def params_from(mechanism: Mechanism, values: Mapping[str, object] | Sequence[object]) -> F64:
