@@ -11,15 +11,13 @@ from __future__ import annotations
 
 import argparse
 import html
-import json
 import sys
 from collections.abc import Mapping
 from pathlib import Path
 
 import plotly.graph_objects as go
 
-from core.analysis.targets import read_user_file
-from core.formats.files import MAX_RESULT_BYTES, atomic_write, chart_file
+from core.formats.files import atomic_write, chart_file, read_design_result
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
 from studio.figures import make_pareto_figure
@@ -71,9 +69,7 @@ def target_text(settings: object, curve_names: Mapping[str, str] | None = None) 
 
 def run_charts(run_dir: Path) -> list[Path]:
     """Write ``pareto-<k>_<stage>.png`` for every stage with a result in ``run_dir/result.json``."""
-    data = json.loads(read_user_file(run_dir / "result.json", MAX_RESULT_BYTES, what="result.json"))
-    if not isinstance(data, dict) or data.get("format") != "clm-design":
-        raise ValueError(f"{run_dir / 'result.json'} is not a `clm design` result")
+    data = read_design_result(run_dir / "result.json")
     if not isinstance(data.get("pipeline"), dict):
         raise ValueError(f"{run_dir / 'result.json'} has no pipeline (a baseline run has no Pareto front)")
     pipe = Pipeline.from_dict(data["pipeline"])

@@ -11,14 +11,12 @@ RTCLM runs add the columns h6 and h4.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
-from core.analysis.targets import read_user_file
 from core.cli import CLIError
 from core.cli.design import table
-from core.formats.files import MAX_RESULT_BYTES
+from core.formats.files import read_design_result
 from core.optimize.result import decode_float
 
 # Appendix B-5 as printed: method, time (min), MSE (mm), S (%), I (mm/s).
@@ -57,15 +55,7 @@ def load_rows(path: Path) -> list[dict[str, Any]]:
     f = path / "result.json" if path.is_dir() else path
     if not f.exists():
         raise CLIError(f"{str(f)!r} not found (expected a 'clm design --out' directory)")
-    text = read_user_file(f, MAX_RESULT_BYTES, "result file")
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise CLIError(f"{f}: not valid JSON: {e.msg} at line {e.lineno}") from None
-    except RecursionError:
-        raise CLIError(f"{f}: not a 'clm design' result: nested too deep") from None
-    if not isinstance(data, dict) or data.get("format") != "clm-design":
-        raise CLIError(f"{f}: not a 'clm design' result")
+    data = read_design_result(f)  # its ValueError is one clm: error line
     if not isinstance(data.get("status"), str) or "rows" not in data:  # every run writes both, a cancelled one too
         raise CLIError(f"{f}: an incomplete 'clm design' result (no status or rows)")
     rows = data.get("rows") or []

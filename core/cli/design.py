@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import json
 import signal
 import sys
 import threading
@@ -23,10 +22,9 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from core.analysis.targets import read_user_file
 from core.cli import CLIError
 from core.formats.config import load_config
-from core.formats.files import MAX_RESULT_BYTES, atomic_write, chart_file, check_out_dir, stage_file
+from core.formats.files import atomic_write, chart_file, check_out_dir, read_design_result, stage_file
 from core.formats.typed import MAX_SEED
 from core.optimize.baselines import DP_METHODS
 from core.optimize.design_config import DesignConfig
@@ -156,11 +154,9 @@ def earlier_outputs(result: Path) -> list[str]:
     CSVs (or baseline CSV) and the ``pareto-<k>_<stage>.png`` charts clm-charts draws from it. CLIError when the
     file is not such a result (it is not ours to replace)."""
     try:
-        data = json.loads(read_user_file(result, MAX_RESULT_BYTES, "result file"))
-    except (ValueError, RecursionError):
-        data = None
-    if not isinstance(data, dict) or data.get("format") != "clm-design":
-        raise CLIError(f"{result} is not a 'clm design' result; not replacing it (choose another --out)")
+        data = read_design_result(result)
+    except ValueError:
+        raise CLIError(f"{result} is not a 'clm design' result; not replacing it (choose another --out)") from None
     names: list[str] = []
     if data.get("method") in DP_METHODS:
         names.append(f"{data['method']}.csv")

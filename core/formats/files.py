@@ -3,11 +3,13 @@ one), and into an output folder checked writable before any work starts."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import tempfile
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 
 def atomic_write(path: Path, text: str | bytes) -> None:
@@ -54,6 +56,24 @@ def check_out_dir(out: str | Path, files: Iterable[str] = ()) -> Path:
 
 MAX_RESULT_BYTES = 512 * 2**20
 """The largest result.json read back (clm compare, clm design --overwrite, clm-charts)."""
+
+
+def read_design_result(path: Path) -> dict[str, Any]:
+    """A ``clm design`` result.json as data; ValueError naming the file when it is not one (too large, not a
+    regular file, not JSON, another format)."""
+    from core.analysis.targets import read_user_file
+    from core.optimize.run import RESULT_FORMAT
+
+    text = read_user_file(path, MAX_RESULT_BYTES, "result file")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not valid JSON: {e.msg} at line {e.lineno}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: not a 'clm design' result: nested too deep") from None
+    if not isinstance(data, dict) or data.get("format") != RESULT_FORMAT:
+        raise ValueError(f"{path}: not a 'clm design' result")
+    return data
 
 
 def slug(text: str) -> str:

@@ -31,6 +31,8 @@ from core.optimize.result import StageResult
 from core.optimize.stage import Progress
 from core.optimize.workers import resolve as resolve_workers
 
+RESULT_FORMAT = "clm-design"  # result.json's "format": what clm compare, clm-charts and --overwrite accept
+
 F64 = NDArray[np.float64]
 
 
@@ -99,7 +101,7 @@ class DesignRun:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "format": "clm-design",
+            "format": RESULT_FORMAT,
             "format_version": 1,
             "name": self.config.name,
             "method": self.config.method,
