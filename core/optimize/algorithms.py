@@ -25,7 +25,8 @@ from pymoo.core.repair import Repair
 from pymoo.operators.crossover.sbx import SBX
 from pymoo.operators.mutation.pm import PM
 from pymoo.operators.selection.tournament import TournamentSelection
-from pymoo.util.ref_dirs import get_reference_directions
+
+from core.optimize.evolve.weights import simplex_lattice
 
 DEFAULT_ALGORITHM = "nsga2"
 DEFAULT_POP_SIZE = 200
@@ -82,11 +83,10 @@ def reference_directions(n_obj: int, n_max: int, n_partitions: int | None = None
     has the single direction (1,) whatever the partitions (the search for the most would never end)."""
     if n_obj < 2:
         return np.ones((1, max(n_obj, 1)))
+    # The CMOEAs' own lattice (the same points in the same order as pymoo's "das-dennis"); at least one partition.
     if n_partitions is None:
-        n_partitions = 1
-        while comb(n_partitions + 1 + n_obj - 1, n_obj - 1) <= n_max:
-            n_partitions += 1
-    return get_reference_directions("das-dennis", n_obj, n_partitions=int(n_partitions))
+        return simplex_lattice(max(n_max, n_obj), n_obj)
+    return simplex_lattice(comb(int(n_partitions) + n_obj - 1, n_obj - 1), n_obj)
 
 
 def _sbx_pm(opts: dict[str, Any], defaults: Mapping[str, Any]) -> dict[str, Any]:
