@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample
+from core.kinematics.model import OutputStage
 
 F64 = NDArray[np.float64]
 
@@ -58,8 +59,11 @@ class Curve:
         return Curve(t.name, pts, times, float(t.period))
 
     @staticmethod
-    def from_csv(content: bytes, name: str) -> Curve:
-        """Parse an uploaded CSV (``x,y`` or ``x,y,t`` rows, optional header); ValueError naming the problem."""
+    def from_csv(content: bytes, name: str, leg: OutputStage | None = None) -> Curve:
+        """Parse an uploaded CSV (``x,y`` or ``x,y,t`` rows, optional header); ValueError naming the problem.
+
+        With ``leg``, the file is a foot path in the leg frame (as the bench view draws it: stance at the
+        bottom, swing above) and is mapped to the design frame by the inverse of that output stage."""
         if len(content) > MAX_CURVE_BYTES:
             raise ValueError(f"{name}: {len(content)} bytes is too large for a target curve "
                              f"(at most {MAX_CURVE_BYTES // 1000} kB)")
@@ -67,7 +71,11 @@ class Curve:
             text = content.decode("utf-8-sig")
         except UnicodeDecodeError:
             raise ValueError(f"{name}: not a text file (expected CSV rows 'x,y' or 'x,y,t')") from None
-        return Curve.from_target(curve_from_rows(list(csv.reader(io.StringIO(text))), name))
+        curve = Curve.from_target(curve_from_rows(list(csv.reader(io.StringIO(text))), name))
+        if leg is None:
+            return curve
+        pts = leg.invert(np.array(curve.points, dtype=np.float64))
+        return replace(curve, points=tuple((float(x), float(y)) for x, y in pts))
 
     def target(self) -> Target:
         pts = np.array(self.points, dtype=np.float64)

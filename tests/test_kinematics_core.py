@@ -200,6 +200,22 @@ def test_a_mirrored_output_stage_reflects_x_about_o_then_scales():
     assert "mirror" not in OutputStage(k=-1.0).to_dict()
 
 
+@settings(max_examples=60, deadline=None)
+@given(k=st.floats(-5, 5).filter(lambda v: abs(v) > 1e-3), ox=st.floats(-500, 500), oy=st.floats(-500, 500),
+       mirror=st.booleans(), seed=st.integers(0, 2**31))
+def test_invert_takes_the_leg_frame_back_to_the_design_frame(k, ox, oy, mirror, seed):
+    stage = OutputStage(k=k, ox=ox, oy=oy, mirror=mirror)
+    p = np.random.default_rng(seed).uniform(-400, 400, (7, 2))
+    np.testing.assert_allclose(stage.invert(stage.apply(p)), p, atol=1e-9)
+    np.testing.assert_allclose(stage.apply(stage.invert(p)), p, atol=1e-9)
+
+
+def test_the_paper_pantograph_inverts_a_foot_path_about_its_centre():
+    # k = -1 about (150, 0) is its own inverse: (x, y) -> (300 - x, -y)
+    p = np.array([[0.0, 0.0], [150.0, 100.0], [300.0, 0.0]])
+    np.testing.assert_allclose(PAPER_PANTOGRAPH.invert(p), [[300.0, 0.0], [150.0, -100.0], [0.0, 0.0]], atol=1e-12)
+
+
 @pytest.mark.parametrize("backend", ["numpy", "numba"])
 def test_both_backends_map_the_leg_frame_through_a_mirror(backend):
     stage = OutputStage(k=-1.0, ox=150.0, oy=0.0, mirror=True)

@@ -133,6 +133,22 @@ def test_a_malformed_curve_upload_is_refused_naming_the_file_and_the_problem(con
     assert "mine.csv" in str(info.value)
 
 
+def test_a_curve_uploaded_in_the_leg_frame_is_the_design_frame_curve_the_output_stage_maps_to_it(x3: Session) -> None:
+    out = x3.view.design.output
+    assert out.k == -1.0  # the paper's pantograph: a leg-frame upload must not be taken as it is
+    leg = Curve.from_csv(ellipse_csv(), "ellipse.csv", leg=out)
+    plain = Curve.from_csv(ellipse_csv(), "ellipse.csv")
+    np.testing.assert_allclose(out.apply(np.array(leg.points)), np.array(plain.points), atol=1e-9)
+    assert leg.name == plain.name and leg.times == plain.times and leg.period == plain.period
+    # the bench view draws the target in the leg frame: there it is the uploaded curve
+    s = Session.from_dict(x3.to_dict())
+    view = s.set_curve(leg)
+    drawn = out.apply(view.target.points(240))
+    up = np.array(plain.points)
+    gap = np.min(np.linalg.norm(drawn[:, None, :] - up[None, :, :], axis=-1), axis=1)
+    assert gap.max() < 0.05 * np.ptp(up[:, 0])  # every drawn sample is near an uploaded point
+
+
 def test_a_curve_target_is_evaluated_and_saved_with_the_session(x3: Session) -> None:
     s = Session.from_dict(x3.to_dict())
     view = s.set_curve(Curve.from_csv(ellipse_csv(), "ellipse.csv"))

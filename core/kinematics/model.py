@@ -121,6 +121,12 @@ class OutputStage:
         out += np.array([(1.0 - kx) * self.ox, (1.0 - ky) * self.oy])
         return out
 
+    def invert(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Points ``(*, 2)`` in the leg frame -> design frame (the inverse of :meth:`apply`)."""
+        kx, ky = self.ratios
+        o = np.array([self.ox, self.oy])
+        return (np.asarray(p, dtype=np.float64) - o) / np.array([kx, ky]) + o
+
     def apply_derivative(self, dp: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.multiply(dp, np.array(self.ratios))
 

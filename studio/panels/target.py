@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
+from core.kinematics.model import OutputStage
 from studio.panels._inputs import NumberField, NumberFields, NumberForm
 from studio.state import DesignView
 from studio.target import Curve
@@ -19,6 +20,7 @@ from studio.target import Curve
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
+FRAMES = ("design frame (mechanism view)", "leg frame (bench view)")
 FIELDS = (("length", "L [mm]", "mm", "step length of the arch"), ("height", "H [mm]", "mm", "height of the arch"),
           ("period", "T [s]", "s", "period of one step cycle (one crank revolution)"))
 
@@ -40,6 +42,11 @@ class TargetPanel:
                     key, label, float(getattr(target, key)), form=NumberForm(lo=0.0, lo_open=True, unit=unit),
                     apply=self._setter(key), current=self._getter(key), what=f"target {label}",
                     hint=hint + "; compound cycloid, editing returns to it")
+            self.frame = gui.add_dropdown("CSV frame", FRAMES, initial_value=FRAMES[0],
+                                          hint="design: the coupler path as the mechanism view draws it (the "
+                                               "paper's frame, the cycloid's arch below); leg: the foot path as "
+                                               "the bench view draws it (swing above), mapped by the design's "
+                                               "output stage")
             self.upload = gui.add_upload_button("Upload CSV curve", icon=viser.Icon.UPLOAD, mime_type=".csv,text/csv",
                                                 hint="a closed curve: rows x,y or x,y,t (mm, s), optional header")
             self.cycloid = gui.add_button("Back to the compound cycloid", disabled=True)
@@ -64,7 +71,7 @@ class TargetPanel:
             field.show(float(getattr(t, key)))
         self.cycloid.disabled = not t.is_curve
         note = "" if t.has_time else " (no times: compared at the best cyclic shift)"
-        line = f"Target: {t.label()}{note}."
+        line = f"Target: {t.label()}{note}, in the design frame."
         if optimized_by is not None:
             mech = view.design.mechanism.title
             line += (f"  \nOptimized by {', '.join(optimized_by)}." if optimized_by else
@@ -83,8 +90,10 @@ class TargetPanel:
             return
         f = self.upload.value
         name = f.name or "upload.csv"
+        leg = self.frame.value == FRAMES[1]
+        output = self.studio.session.view.design.output
         try:
-            curve = Curve.from_csv(f.content, name)
+            curve = Curve.from_csv(f.content, name, leg=output if leg else None)
             self.studio.session.set_curve(curve)
         except ValueError as exc:
             problem = str(exc).removeprefix(f"{name}: ")
@@ -93,8 +102,19 @@ class TargetPanel:
                                f"{name} was uploaded but is not a target curve: {problem}. "
                                f"The target is unchanged: {kept}.")
             return
+        if leg:
+            self.studio.notify(event.client, "Target curve read in the leg frame",
+                               f"{name}: mapped to the design frame by the design's output stage "
+                               f"({output_text(output)}); targets are kept in the design frame.", color="green")
         self.studio.refresh(fit_camera=True)
 
     def _on_cycloid(self, event: viser.GuiEvent[Any]) -> None:
         self.studio.session.set_curve(None)
         self.studio.refresh(fit_camera=True)
+
+
+def output_text(o: OutputStage) -> str:
+    """The output stage in words: "identity", or its ratio, centre and mirror."""
+    if o.k == 1.0 and not o.mirror:
+        return "identity: the frames are the same"
+    return f"k = {o.k:g} about ({o.ox:g}, {o.oy:g}) mm" + (", mirrored" if o.mirror else "")

@@ -150,6 +150,34 @@ def test_a_malformed_csv_is_refused_naming_the_file_and_the_target_is_unchanged(
     close_notices(page)
 
 
+def test_a_foot_path_uploaded_in_the_leg_frame_becomes_the_design_frame_target(
+        page: Any, studio: Any, tmp_path: Path) -> None:
+    """A designer's foot path (stance below, swing above, as the bench view draws it) is not the paper's
+    design-frame curve: chosen as a leg-frame file, it is mapped by the design's output stage, and the page
+    says so. Back to the cycloid and the design frame afterwards (the page is shared between tests)."""
+    open_target_panel(page)
+    out = studio.session.view.design.output
+    t = np.arange(40) / 40
+    foot = np.stack([150 + 150 * np.cos(2 * np.pi * t), np.maximum(0.0, 80 * np.sin(2 * np.pi * t))], -1)
+    path = tmp_path / "foot.csv"
+    path.write_text("x,y\n" + "".join(f"{x:.6f},{y:.6f}\n" for x, y in foot))
+    choose(page, "CSV frame", "leg frame (bench view)")
+    wait_for(lambda: studio.target.frame.value == "leg frame (bench view)", "the frame to reach the server")
+    page.locator('input[type="file"][accept=".csv,text/csv"]').set_input_files(str(path))
+    said = notification(page, "Target curve read in the leg frame", "foot.csv: mapped to the design frame")
+    expect(said).to_be_visible()
+    expect(said).to_contain_text("k = -1 about (150, 0) mm")
+    wait_for(lambda: studio.session.view.target.is_curve, "the curve to become the target")
+    curve = studio.session.view.target.curve
+    np.testing.assert_allclose(out.apply(np.array(curve.points)), foot, atol=1e-5)
+    assert max(y for _, y in curve.points) <= 1e-9  # in the design frame the swing hangs below, as the cycloid's
+    expect(page.get_by_text(re.compile(r"Target: curve foot\.csv .*in the design frame"))).to_be_visible()
+    page.get_by_role("button", name="Back to the compound cycloid").click()
+    wait_for(lambda: not studio.session.view.target.is_curve, "the cycloid back")
+    choose(page, "CSV frame", "design frame (mechanism view)")
+    close_notices(page)
+
+
 def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_truth(
         page: Any, studio: Any, tmp_path: Path) -> None:
     # Before any run there is no front to slide over: no slider (it used to span 1-2, disabled).
