@@ -55,6 +55,12 @@ def test_a_closing_repeat_sets_the_period() -> None:
     np.testing.assert_allclose(c.sample(10)[8], [0.0, 0.5])  # t = 4: halfway along the last edge
 
 
+def test_a_header_is_a_first_row_without_a_number() -> None:
+    rows = [["0", "0"], ["10", "0"], ["10", "10"], ["0", "10"]]
+    for head in (["x", "y"], ["x (mm)", "y (mm)"], ["foot x", "foot y"]):
+        np.testing.assert_array_equal(curve_from_rows([head, *rows]).points, np.array(rows, float))
+
+
 def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
     square = [["x", "y"], ["0", "0"], ["10", "0"], ["10", "10"], ["0", "10"]]
     c = curve_from_rows(square)
@@ -69,6 +75,7 @@ def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
     [
         ("x,y\n0,0\n1,0\n", "at least 4"),
         ("0,0\n1,0\n1,abc\n0,1\n", "'abc' is not a number"),
+        ("abc,0\n1,0\n1,1\n0,1\n0,0.5\n", "data row 1: 'abc' is not a number"),  # not taken for a header
         ("0,0\n1,0\n1,nan\n0,1\n", "NaN or infinite"),
         ("0,0\n1,0\n2,0\n3,0\n4,0\n50,0\n", "open curve"),
         ("0,0,0\n1,0,1\n1,1,1\n0,1,3\n", "strictly increasing"),

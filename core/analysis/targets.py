@@ -129,15 +129,16 @@ def resample(points: F64, n_samples: int, times: F64 | None = None, period: floa
 
 
 def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
-    """Validate CSV rows (``x,y`` or ``x,y,t``; an optional header) into a closed Target.
+    """Validate CSV rows (``x,y`` or ``x,y,t``; an optional header, a first row without a number) into a
+    closed Target.
 
     Raises:
         ValueError: one clear sentence for too few points, non-numeric or non-finite values, a
             wrong number of columns, times not increasing, or an open curve.
     """
     body = [r for r in rows if r and any(c.strip() for c in r)]
-    if body and not _numeric(body[0][0]):
-        body = body[1:]  # header
+    if body and not any(_numeric(c) for c in body[0]):
+        body = body[1:]  # a header: no cell of it is a number ("abc,1.5" is a bad data row, not a header)
     if not body:
         raise ValueError(f"{name}: no data rows (expected lines 'x,y' or 'x,y,t')")
     ncol = len(body[0])
