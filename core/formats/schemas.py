@@ -7,8 +7,8 @@
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +49,14 @@ def write_all(directory: str | Path = DEFAULT_DIR) -> list[Path]:
     return out
 
 
-if __name__ == "__main__":
-    for p in write_all(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_DIR):
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m core.formats.schemas",
+                                     description="(Re)write the file formats' JSON Schemas.")
+    parser.add_argument("directory", nargs="?", default=str(DEFAULT_DIR),
+                        help="where to write *.schema.json (default: assets/schemas)")
+    for p in write_all(parser.parse_args(argv).directory):
         print(p)
+
+
+if __name__ == "__main__":
+    main()
