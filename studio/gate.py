@@ -120,6 +120,10 @@ class Gate:
             tasks.add(task)
             try:
                 await self._handle(reader, writer)
+            except asyncio.CancelledError:
+                # Closing the gate cancels the connections it relays. Ending quietly: Python 3.11's stream
+                # server asks a cancelled handler for its exception in a callback and prints a traceback.
+                writer.close()
             finally:
                 tasks.discard(task)
 
