@@ -12,7 +12,8 @@ from cmoea_common import check_repair_and_generations, check_seed, replace_ok
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
-from core.optimize.evolve.cmoemt import CMOEMT, change_rate
+from core.optimize.evolve.base import Arrays
+from core.optimize.evolve.cmoemt import ALPHA, CMOEMT, CP, TAU, change_rate
 from core.optimize.moea import problem_by_name
 
 
@@ -53,6 +54,19 @@ def test_two_n_evaluations_per_generation_push_then_pull_and_transfer_in_the_sec
     assert sorted(pull) == pull and first >= 20  # push, then pull for good; no switch before the 20-generation window
     eps = [r["eps"] for r in rows[first:]]
     assert eps[0] > 0 and eps[-1] < eps[0]
+    # The improved epsilon rule, generation by generation (spec §2): shrink by (1 - tau) while the feasible ratio
+    # is below alpha, else the schedule eps0 (1 - gen / Tc)^cp; gen counts 2N-evaluation loops, Tc N-evaluation
+    # ones (Tc = 0.9 ceil(maxFE / N), never reached: spec pitfall 2).
+    assert alg.Tc == pytest.approx(0.9 * math.ceil(20000 / alg.n))
+    both = {"shrink": 0, "schedule": 0}
+    for before, row in zip(rows[first:], rows[first + 1 :], strict=False):
+        gen = math.ceil(before["n_eval"] / (2 * alg.n))
+        if row["rf"] < ALPHA:
+            want, both["shrink"] = (1 - TAU) * before["eps"], both["shrink"] + 1
+        else:
+            want, both["schedule"] = row["eps0"] * (1 - gen / alg.Tc) ** CP, both["schedule"] + 1
+        assert row["eps"] == pytest.approx(want, rel=1e-12), (gen, row)
+    assert both["shrink"] > 0  # CTP2's task 2 stays below alpha feasible: the schedule is tested below
     # The switch happens when the change rate over 20 generations is at most 0.1.
     assert rows[first]["r"] <= 0.1 and all(r["r"] > 0.1 for r in rows[1:first] if math.isfinite(r["r"]))
     transfer = [r["transfer"] for r in rows]
@@ -63,9 +77,50 @@ def test_two_n_evaluations_per_generation_push_then_pull_and_transfer_in_the_sec
     assert any(r["from_P2"] + r["from_P3"] > 0 for r in rows[half + 1 :])
 
 
+def test_the_epsilon_schedule_once_task_two_is_feasible_enough_and_zero_from_tc():
+    alg = CMOEMT(pop_size=20)
+    alg.P2 = members([[0, 1], [1, 0], [2, 2]], [0.0, 0.0, 0.0])  # feasible ratio 1 >= alpha
+    alg.z, alg.pull, alg.eps0, alg.eps, alg.Tc, alg.r = np.zeros(2), True, 2.0, 0.5, 100.0, 0.0
+    alg.ideal, alg.nadir = {}, {}
+    alg._epsilon(30)
+    assert alg.eps == pytest.approx(2.0 * (1 - 30 / 100.0) ** 2)
+    alg.P2 = members([[0, 1], [1, 0], [2, 2]], [0.0, 3.0, 0.0])  # 2/3 < alpha: shrink by (1 - tau)
+    alg._epsilon(31)
+    assert alg.eps == pytest.approx((1 - TAU) * 2.0 * 0.7**2)
+    alg._epsilon(100)
+    assert alg.eps == 0.0 and alg.pull
+
+
 def test_the_effective_population_is_the_number_of_weight_vectors():
     res, alg = run("mw4", 2000, pop=100)  # three objectives: 91 vectors
     assert alg.n == 91 and len(res.pop) == 91 and alg.trace[0]["n_eval"] == 3 * 91
+    # Task 2's subset always holds the m extreme subproblems (the axis weights) and the middle one (spec §2).
+    axes = np.flatnonzero(alg.W.max(axis=1) > 1 - 1e-3)
+    assert len(axes) == 3 and sorted(alg.extremes.tolist()) == sorted(axes.tolist())
+    subset = alg._subset()
+    assert len(subset) == 91 // 5 and set(axes) | {91 // 2 - 1} <= set(subset.tolist())
+
+
+def members(F, cv):
+    F = np.asarray(F, dtype=float)
+    return Arrays(np.zeros((len(F), 1)), F, np.zeros((len(F), 1)), np.asarray(cv, dtype=float))
+
+
+def test_the_author_repo_task_two_counts_a_violation_equal_to_epsilon_as_feasible():
+    alg = CMOEMT(pop_size=20, variant="author_repo")
+    alg.n, alg.eps = 2, 1.0
+    # A (cv = eps) dominates all; B dominates C; D is infeasible beyond eps. Relaxed: A and B survive.
+    kept = alg._select_task2(members([[0, 0], [1, 1]], [1.0, 0.0]), members([[2, 2], [0.5, 0.5]], [0.0, 5.0]))
+    assert sorted(kept.F[:, 0].tolist()) == [0.0, 1.0]
+
+
+def test_the_author_repo_trial_gives_a_tie_to_task_two():
+    alg = CMOEMT(pop_size=20, variant="author_repo")
+    alg.n = 2
+    worse = members([[5, 5]], [0.0])
+    alg.p3 = members([[1, 0]], [0.0])  # one survivor from task 3 ...
+    pool, src = alg._trial(worse, members([[0, 1]], [0.0]), worse, worse, worse)  # ... and one from task 2
+    assert set(src.tolist()) == {0, 1, 3, 4} and [0.0, 1.0] in pool.F.tolist()
 
 
 def test_same_seed_same_population_and_another_seed_another():
