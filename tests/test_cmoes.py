@@ -46,13 +46,15 @@ def arrays(F, cv):
 
 
 def test_even_search_keeps_the_regions_non_dominated_and_its_nearly_feasible_members():
-    pool = arrays([[0.5, 2.0], [2.0, 0.5], [1.0, 1.0], [3.0, 3.0], [0.4, 2.5]], [0.0, 5.0, 0.2, 0.0, 9.0])
+    pool = arrays([[0.5, 2.0], [2.0, 0.5], [1.0, 1.0], [3.0, 3.0], [0.4, 2.5], [0.45, 2.2], [1.2, 1.2]],
+                  [0.0, 5.0, 0.2, 0.0, 9.0, 1.5, 3.0])
     R = np.array([[2.5, 2.5]])  # (3, 3) is dominated by it: out of the region
     p2, fit2, p3, key3, q = even_search(pool, R, n=10, tau=0.5, max_cv=4.0)
-    assert q == 4
-    # Unconstrained non-dominated members of the region, not filled up to n.
-    assert sorted(p2.X[:, 0].tolist()) == [0.0, 1.0, 2.0, 4.0] and np.all(fit2 < 1)
-    # CV <= maxCV (1 - tau)^2 = 1.0: members 0 and 2; the key is their CV.
+    assert q == 6
+    # Unconstrained non-dominated members of the region, not filled up to n with (1.2, 1.2).
+    assert sorted(p2.X[:, 0].tolist()) == [0.0, 1.0, 2.0, 4.0, 5.0] and np.all(fit2 < 1)
+    # CV <= maxCV (1 - tau)^2 = 1.0 (not maxCV (1 - tau) = 2: member 5's 1.5 is out): members 0 and 2; the key is
+    # their CV.
     assert sorted(p3.X[:, 0].tolist()) == [0.0, 2.0] and sorted(key3.tolist()) == [0.0, 0.2]
     p2, _, p3, _, _ = even_search(pool, R, n=2, tau=0.5, max_cv=4.0)
     assert len(p2) == 2 and len(p3) == 2  # truncated down to n
@@ -85,6 +87,23 @@ def test_stage_one_costs_3n_then_stage_two_n_plus_the_helpers_and_epsilon_shrink
         tau = math.ceil(rows[k - 1]["n_eval"] / 40) / alg.max_gen
         assert rows[k]["tau"] == pytest.approx(tau)
         assert rows[k]["eps"] == pytest.approx(rows[k]["max_cv"] * (1 - tau) ** 2)
+
+
+def test_stage_one_lasts_while_gen_is_at_most_a_fifth_of_max_gen_and_ends_after_it():
+    _, alg = run("mw3", 5800)  # max_gen 145: gen = ceil(FE / N) runs 2, 5, ..., 29, 32 and meets 0.2 max_gen = 29
+    rows = alg.trace
+    assert alg.max_gen == 145
+    gens = [math.ceil(r["n_eval"] / 40) for r in rows]  # row k ran at gens[k - 1]
+    at = gens.index(29) + 1
+    assert rows[at - 1]["R"] > 0 and rows[at]["stage"] == 1  # feasible already, but gen 29 is still stage one
+    assert rows[at + 1]["stage"] == 2
+
+
+def test_max_gen_under_a_generation_budget_counts_stage_ones_3n_a_generation():
+    p = problem_by_name("mw3")
+    alg = make_algorithm(AlgorithmSpec("cmoes", 40, {}), p.n_obj, 1)
+    minimize(p, alg, ("n_gen", 10), seed=1, copy_algorithm=False)
+    assert alg.max_fe == 2 * 40 + 9 * 3 * 40 and alg.max_gen == math.ceil(alg.max_fe / 40)
 
 
 def test_the_de_operator_makes_n_children_in_stage_one():
