@@ -38,6 +38,14 @@ def test_n_evaluations_per_generation_and_the_probabilities_move_after_30_percen
     early = [row["p1"] for row in alg.trace[1:] if row["n_eval"] <= 0.3 * 3000]
     late = [row["p1"] for row in alg.trace if row["n_eval"] > 0.3 * 3000 + 50]
     assert set(early) == {0.5} and any(p != 0.5 for p in late)
+    # sigma_cv = 10 fr, fr the feasible ratio of P1 as the generation starts (spec §7)
+    rows = alg.trace
+    assert all(r["sigma_cv"] == pytest.approx(10.0 * r["feasible_ratio_P1"]) for r in rows[1:])
+    assert any(0.0 < r["feasible_ratio_P1"] < 0.5 for r in rows[1:])  # where 10 fr and 10 (1 - fr) differ
+    # Cmin: the least violation seen, never rising, at most every member's of P1 (each was evaluated once)
+    cmin = [r["cmin"] for r in rows]
+    assert all(b <= a for a, b in zip(cmin, cmin[1:], strict=False)) and cmin[-1] <= alg.P1.cv.min()
+    assert cmin[0] > cmin[-1]
 
 
 def test_same_seed_same_archive_and_another_seed_another():

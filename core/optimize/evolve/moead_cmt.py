@@ -99,7 +99,7 @@ class MOEADCMT(OnePerWeight, ArrayAlgorithm):
         self.rwd = np.zeros(2)
         self.max_fe = self.budget(n, 2 * n)
         self.arrays = self.P1.take(np.arange(n))  # the archive: a copy (P1 is updated in place)
-        self.log(task=0.0, p1=0.5, feasible_ratio_P1=float((self.P1.cv <= 0).mean()))
+        self.log(task=0.0, p1=0.5, feasible_ratio_P1=float((self.P1.cv <= 0).mean()), cmin=self.cmin)
 
     def _draw(self, k: int) -> tuple[I64, I64, I64, I64, F64]:
         """Each child's numbers, in the published loop's order: its pool (neighbourhood or population, permuted),
@@ -155,6 +155,7 @@ class MOEADCMT(OnePerWeight, ArrayAlgorithm):
             self.rwd[k] += from_q / n
         self.arrays = pool_a.take(order)
         self.log(task=float(k + 1), p1=float(prob[0]), rwd1=float(self.rwd[0]), rwd2=float(self.rwd[1]),
-                 from_children=float(from_q), feasible_ratio_P1=fr, sigma_cv=s_cv, replaced_task1=float(rep1),
+                 from_children=float(from_q), feasible_ratio_P1=fr, sigma_cv=s_cv, cmin=self.cmin,
+                 replaced_task1=float(rep1),
                  replaced_task2=float(rep2), feasible_ratio_archive=float((self.arrays.cv <= 0).mean()),
                  evaluated_ahead_unused=float(missed))
