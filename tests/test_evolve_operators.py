@@ -6,13 +6,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from pymoo.operators.crossover.sbx import cross_sbx
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.duplicates import fresh_rows
-from core.optimize.evolve.sorting import cdp_ranks, epsilon_cv
-from core.optimize.evolve.variation import de_current_to_pbest_1, de_rand_1, polynomial_mutation, sbx_bounded
-from core.optimize.evolve.weights import tchebycheff, tchebycheff_div
+from core.optimize.evolve.moead import _pbi, _tchebycheff
+from core.optimize.evolve.sorting import cdp_better, cdp_ranks, epsilon_cv
+from core.optimize.evolve.variation import de_current_to_pbest_1, de_rand_1, polynomial_mutation, sbx, sbx_bounded
+from core.optimize.evolve.weights import das_dennis, pbi, tchebycheff, tchebycheff_div
 
 
 class Draws:
@@ -83,6 +85,29 @@ def test_bounded_sbx_keeps_parents_where_it_must_and_stays_in_bounds():
     assert (c1[:, :2] != P1[:, :2]).mean() > 0.3
 
 
+def test_platemos_sbx_puts_the_first_child_on_either_parents_side_at_random():
+    # GAhalf keeps only the first child: without the random sign it would always lie on the first parent's side.
+    n = 20_000
+    P1, P2 = np.full((n, 1), 0.2), np.full((n, 1), 0.8)
+    c1, c2 = sbx(P1, P2, np.zeros(1), np.ones(1), np.random.default_rng(3), prob=1.0, prob_var=1.0)
+    assert abs((c1[:, 0] > 0.5).mean() - 0.5) < 0.02  # 14 sigma from 0 or 1
+    np.testing.assert_allclose(c1 + c2, P1 + P2)  # the pair stays symmetric about the parents' middle
+
+
+def test_polynomial_mutation_changes_one_variable_in_d_by_default():
+    n, d = 40_000, 10
+    X = np.full((n, d), 0.5)
+    Y = polynomial_mutation(X, np.zeros(d), np.ones(d), np.random.default_rng(4))
+    assert abs((Y != X).mean() - 1 / d) < 0.005  # sigma 0.0005; 1 / (d + 1) would be 0.0091 off
+
+
+def test_bounded_sbx_recombines_parents_a_hair_apart():
+    n = 2000
+    P1, P2 = np.full((n, 1), 0.5), np.full((n, 1), 0.5 + 1e-9)
+    c1, _ = sbx_bounded(P1, P2, np.zeros(1), np.ones(1), np.random.default_rng(6), prob=1.0)
+    assert (c1 != P1).mean() > 0.3 and np.abs(c1 - 0.5).max() < 1e-6
+
+
 def test_bounded_sbx_draws_from_pymoos_distribution():
     n = 40_000
     P1 = np.tile([0.2, 0.5, 0.97], (n, 1))
@@ -127,6 +152,30 @@ def test_spea2_equal_violation_falls_back_to_pareto_and_truncation_ties_drop_the
     fit = spea2.fitness(F9)
     np.testing.assert_allclose(fit[0], 1 / (3 * math.sqrt(2) + 2))
     np.testing.assert_allclose(fit[4], 1 / (2 * math.sqrt(2) + 2))
+
+
+def test_epsilon_and_cdp_at_their_edges():
+    assert epsilon_cv(np.array([0.1, 0.1 + 1e-12]), 0.1).tolist() == [0.0, 0.1 + 1e-12]  # within eps: feasible
+    F, cv = np.array([[0.0, 1.0], [1.0, 0.0], [0.0, 0.0]]), np.array([0.5, 0.5, 0.5])
+    # equal violation: Pareto dominance decides; neither of two incomparable members wins
+    assert cdp_better(F, cv, np.array([0, 1, 2, 2]), np.array([1, 0, 0, 2])).tolist() == [False, False, True, False]
+
+
+def test_pbi_of_a_point_off_the_weight_ray():
+    # w = (1, 1) / sqrt 2; f - z = (3, 1): d1 = 4 / sqrt 2 = 2 sqrt 2, d2 = |(3, 1) - (2, 2)| = sqrt 2
+    assert pbi(np.array([3.0, 1.0]), np.array([0.5, 0.5]), np.zeros(2)) == pytest.approx(7 * math.sqrt(2))
+    assert pbi(np.array([3.0, 1.0]), np.array([0.5, 0.5]), np.zeros(2), theta=0.0) == pytest.approx(2 * math.sqrt(2))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_compiled_scalarisations_are_the_reference_ones(seed):
+    rng = np.random.default_rng(seed)
+    F, W, z = rng.uniform(0, 3, (40, 3)), das_dennis(40, 3), rng.uniform(-1, 0, 3)
+    for i in range(len(F)):
+        for w in range(0, len(W), 7):
+            assert _tchebycheff(F, i, W, w, z) == pytest.approx(float(tchebycheff(F[i], W[w], z)), rel=1e-12)
+            nw = float(np.linalg.norm(W[w]))
+            assert _pbi(F, i, W, w, nw, z, 5.0, np.nan) == pytest.approx(float(pbi(F[i], W[w], z)), rel=1e-9)
 
 
 def test_tchebycheff_forms():
