@@ -193,7 +193,8 @@ def select_by_definition(F, n, cv=None, fit_F=None, fill=True):
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.integers(1, 70), st.integers(1, 4), st.integers(0, 2**32 - 1), st.sampled_from(["plain", "cv", "fit_F"]))
+@given(st.integers(1, 70), st.integers(1, 4), st.integers(0, 2**32 - 1),
+       st.sampled_from(["plain", "cv", "fit_F", "infeasible"]))
 def test_spea2_select_equals_its_definition(size, m, seed, kind):
     # select computes only the survivors' densities when enough members are non-dominated; the survivors, their
     # order and their fitness must be the definition's (fill, exact and truncation cases; copies; +inf members)
@@ -202,6 +203,8 @@ def test_spea2_select_equals_its_definition(size, m, seed, kind):
     if seed % 5 == 0:
         F[rng.random(size) < 0.2] = np.inf
     cv = np.where(rng.random(size) < 0.4, rng.random(size), 0.0) if kind == "cv" else None
+    if kind == "infeasible":  # every member violates, with ties: the least violation's Pareto set leads
+        cv = 1.0 + rng.integers(0, 3, size).astype(float)
     fit_F = np.hstack([F, rng.random((size, 1))]) if kind == "fit_F" else None
     if seed % 7 == 0:  # exact copies, computed once
         F[size // 2 :] = F[: size - size // 2]
