@@ -111,6 +111,19 @@ def test_collinear_front_gives_the_point_nearest_the_ideal() -> None:
     assert sl.best[0] == 0 and sl.best[1] == 20
 
 
+def test_an_objective_that_varies_by_rounding_near_zero_does_not_count() -> None:
+    t = np.linspace(0.0, 1.0, 21)
+    noise = np.where(np.arange(21) % 3 == 1, 1e-14, 0.0)  # a constant 0 up to rounding: not an objective to trade
+    sl = shortlist(np.stack([t, 1.0 - t, noise], 1))
+    assert sl.knees == (10,)
+
+
+def test_the_fallback_among_equal_violations_prefers_defined_objectives() -> None:
+    F = np.array([[np.nan, 1.0], [2.0, 3.0], [1.0, 1.0]])
+    sl = shortlist(F, np.array([2.0, 2.0, 2.0]))
+    assert sl.knees == () and sl.fallback == 1
+
+
 def test_duplicates_collapse_to_their_first_member() -> None:
     F = corner_front((0.2, 0.2), 20)
     dup = np.vstack([F, F, F])
