@@ -63,3 +63,26 @@ def test_transmission_angle_ranges_are_the_extremes_of_the_angles_at_the_dyads_j
         # the solver takes the exact extremes (at the extreme |PQ|), the samples come within 1e-3 rad of them
         assert sol.mu_min[0, k] <= mu.min() + 1e-9 and sol.mu_min[0, k] == pytest.approx(mu.min(), abs=2e-3), s
         assert sol.mu_max[0, k] >= mu.max() - 1e-9 and sol.mu_max[0, k] == pytest.approx(mu.max(), abs=2e-3), s
+
+
+def two_hump_path(n: int = 360) -> np.ndarray:
+    """Stance along y = 0 from x = 0 to 300 in the first half-cycle, then a swing back with two humps
+    (y = 60 sin(pi s) + 25 sin(3 pi s), 35 mm at its middle)."""
+    h = n // 2
+    s = np.arange(h) / h
+    stance = np.stack([300.0 * s, np.zeros(h)], -1)
+    swing = np.stack([300.0 * (1 - s), 60 * np.sin(np.pi * s) + 25 * np.sin(3 * np.pi * s)], -1)
+    return np.vstack([stance, swing])[None]
+
+
+def test_a_flat_topped_swing_peak_is_still_a_peak():
+    p = two_hump_path()
+    y = p[0, :, 1]
+    j = 180 + int(np.argmax(y[180:270]))  # the first hump's top sample
+    p[0, j + 1, 1] = y[j]  # two equal top samples
+    fp = feature_points(p)
+    q7, q8 = fp.index[0, 6], fp.index[0, 7]
+    assert abs(q7 - j) < 1.0 and q8 > 270  # t7 on the flat top, t8 on the second hump
+    q6 = fp.index[0, 5]
+    assert q7 < q6 < q8 and fp.point("t6")[0, 1] < 40.0  # t6 between them, near the 35 mm dip
+
