@@ -176,3 +176,20 @@ def test_stage_specs_and_pipelines_check_their_arguments():
         pipe.stage(0, spec="subtask2")
     with pytest.raises(TypeError, match="records StageResults"):
         pipe.record(0, None)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_the_domain_edge_of_a_million_is_inside_and_the_next_float_outside(backend: str) -> None:
+    from core.formats.design import value_problem
+    from core.kinematics.checks import MAX_ABS
+
+    d = get("stephenson1/X3").design()
+    spec = d.mechanism.params[d.mechanism.param_names.index("x_a")]
+    beyond = float(np.nextafter(MAX_ABS, np.inf))
+    assert value_problem(spec, MAX_ABS) is None and value_problem(spec, -MAX_ABS) is None
+    assert "within +-1e+06" in (value_problem(spec, beyond) or "")
+    rows = np.tile(d.params, (3, 1))
+    rows[0, 2], rows[1, 2] = MAX_ABS, beyond
+    v = solve(d.mechanism, rows, 36, output=d.output, backend=backend).violation
+    assert np.isfinite(v[0])  # the crank pivot a kilometre away: inside the domain, solved
+    assert v[1] == np.inf and v[2] == 0.0  # past the domain: out of it, not solved
