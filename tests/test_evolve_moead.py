@@ -4,6 +4,7 @@ penalised (+inf) and undefined (NaN) objectives, and stamps exactly the members 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from cmoea_common import logistic, replace_ok
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -93,7 +94,7 @@ def pbi_by_numpy(P, W, pool, y, z, theta=5.0):
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.integers(2, 12), st.integers(1, 3), st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.5, 3.0]))
+@given(st.integers(2, 12), st.integers(1, 3), st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.02, 0.1, 0.5, 3.0]))
 def test_moead_cmt_compiled_replacements_equal_the_numpy_rules(n, m, seed, s_cv):
     from core.optimize.evolve.moead import cmt_differences, cmt_replace, pbi_replace
 
@@ -125,3 +126,17 @@ def test_moead_cmt_compiled_replacements_equal_the_numpy_rules(n, m, seed, s_cv)
     assert replaced == want[4]
     np.testing.assert_array_equal(np.flatnonzero(stamp == 7), np.sort(want[5]))
     assert set(stamp) <= {0, 7}
+
+
+@pytest.mark.parametrize(("dg", "replaced"), [(2.5, 0), (3.5, 1)])
+def test_the_1e_4_floor_lets_a_large_objective_gain_outweigh_a_worse_violation(dg, replaced):
+    # The child's violation is worse by 0.5 (normalised) at s_cv 0.02: its L(dc) underflows to the floor 1e-4
+    # (spec §7), so it wins iff L(dg / 0.3) 1e-4 >= L(-dg / 0.3): dg >= 0.3 ln(1e4 - 1) = 2.76.
+    from core.optimize.evolve.moead import cmt_replace
+
+    X, F, G, cv = np.zeros((1, 2)), np.ones((1, 2)), np.zeros((1, 1)), np.zeros(1)
+    y = (np.ones((1, 2)), np.zeros((1, 2)), np.zeros((1, 1)), 0.5)
+    stamp = np.zeros(1, dtype=np.int64)
+    got = cmt_replace(X, F, G, cv, np.zeros(1, dtype=np.int64), *y, np.array([dg]), np.array([-0.5]), 0.3, 0.02, 2,
+                      stamp, 1)
+    assert got == replaced and (X[0, 0] == 1.0) == bool(replaced)
