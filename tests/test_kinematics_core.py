@@ -223,3 +223,19 @@ def test_both_backends_map_the_leg_frame_through_a_mirror(backend):
     np.testing.assert_allclose(sol.leg, stage.apply(sol.point), atol=1e-12)
     np.testing.assert_allclose(sol.dleg, stage.apply_derivative(sol.dpoint), atol=1e-12)
     np.testing.assert_allclose(sol.leg[..., 0], sol.point[..., 0], atol=1e-12)  # k = -1 and mirror: x kept
+
+
+def test_only_a_dyad_from_a_crank_point_closes_a_crank_loop():
+    # Q rides on the crank line A->B but is an attachment, not the crank: the dyad Q-D is no crank loop, even
+    # though Q's first parent is a ground point as a crank's is.
+    from core.kinematics.mechanisms.fourbar import FOURBAR
+    from core.kinematics.model import Attach, Dyad, Mechanism
+    from core.kinematics.solver import _crank_dyads
+
+    steps = (*FOURBAR.steps, Attach("Q", "A", "B", 10.0, 0.0), Dyad("E", "Q", "D", 150.0, 150.0, +1))
+    mech = Mechanism(name="fourbar_q", title="four-bar with a second dyad", params=FOURBAR.params, steps=steps,
+                     tracked="P")
+    ops = mech.compile().ops
+    loops = _crank_dyads(ops.tobytes(), ops.shape[0])
+    names = [mech.joint_names[j] for j, _, _ in loops]
+    assert names == ["C"]
