@@ -1,0 +1,65 @@
+"""A study's numbers against hand-made values: the rank-sum verdict's direction and significance, medians and
+IQRs, the case's normalisation, HV and IGD+, and which run the report shows as best and as the median front
+(the study tests run real studies and read the report; these check its numbers)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from core.study.report import case_report
+from core.study.stats import front_quality, normaliser, summary, verdict
+
+BETTER, WORSE = [5.0, 6.0, 7.0, 8.0, 9.0], [1.0, 2.0, 3.0, 4.0, 4.5]  # rank-sum p = 0.012
+
+
+def test_the_verdict_follows_the_metrics_direction_and_needs_significance() -> None:
+    assert verdict(BETTER, WORSE, True) == "+" and verdict(WORSE, BETTER, True) == "-"
+    assert verdict(BETTER, WORSE, False) == "-" and verdict(WORSE, BETTER, False) == "+"
+    assert verdict([1.0, 2.0, 3.0, 4.0], [1.5, 2.5, 3.5, 4.5], True) == "≈"  # p = 0.56
+    assert verdict(BETTER, WORSE, None) == "≈"  # a metric without a better direction
+
+
+def test_summary_is_the_median_and_the_interquartile_range_of_the_finite_values() -> None:
+    assert summary([1.0, 2.0, 3.0, 4.0, 5.0, np.nan]) == {"median": 3.0, "iqr": 2.0, "n": 5}
+    assert summary([2.0, 10.0]) == {"median": 6.0, "iqr": 4.0, "n": 2}
+
+
+def test_the_normalisation_spans_the_pooled_non_dominated_points() -> None:
+    norm = normaliser([np.array([[0.0, 4.0], [2.0, 0.0]]), np.array([[3.0, 5.0]])])  # (3, 5) is dominated
+    assert norm is not None
+    np.testing.assert_array_equal(norm.ideal, [0.0, 0.0])
+    np.testing.assert_array_equal(norm.nadir, [2.0, 4.0])
+    np.testing.assert_array_equal(norm.reference, [[0.0, 1.0], [1.0, 0.0]])
+    # HV with the reference point 1.1: two 1.1 x 0.1 strips overlapping in a 0.1 x 0.1 square
+    q = front_quality(np.array([[0.0, 4.0], [2.0, 0.0]]), norm)
+    assert q["hv"] == pytest.approx(0.21) and q["igd_plus"] == pytest.approx(0.0)
+    q = front_quality(np.array([[1.0, 2.0]]), norm)  # (0.5, 0.5): a 0.6 x 0.6 box, IGD+ 0.5 from each end
+    assert q["hv"] == pytest.approx(0.36) and q["igd_plus"] == pytest.approx(0.5)
+    assert front_quality(np.zeros((0, 2)), norm) == {"hv": 0.0, "igd_plus": pytest.approx(np.nan, nan_ok=True)}
+
+
+class Rows:
+    def __init__(self, rows: list[dict[str, Any]]) -> None:
+        self._rows = rows
+
+    def rows(self) -> list[dict[str, Any]]:
+        return self._rows
+
+
+def run_row(algorithm: str, seed: int, mse: float, front: list[list[float]], feasible: bool = True) -> dict[str, Any]:
+    return {"key": f"c/{algorithm}/{seed}", "case": "c", "algorithm": algorithm, "seed": seed, "status": "done",
+            "error": None, "metrics": {"front": front, "objectives": ["f1", "f2"], "feasible_ratio": 1.0,
+                                       "pick": {"mse": mse}, "pick_feasible": feasible, "params": {"r1": seed},
+                                       "wall_time": 1.0, "n_eval": 100}}
+
+
+def test_the_report_shows_the_smallest_feasible_pick_as_best_and_the_median_hv_run_as_the_front() -> None:
+    fronts = {1: [[0.0, 1.0], [1.0, 0.0]], 2: [[0.5, 0.5]], 3: [[0.9, 0.9]]}  # normalised HV 0.21, 0.36, 0.04
+    rows = [run_row("a", 1, 4.0, fronts[1]), run_row("a", 2, 3.0, fronts[2]), run_row("a", 3, 1.0, fronts[3], False)]
+    c = case_report(Rows(rows), "c", ["a"], {"a": "A"}, "a", "mse")
+    assert c["best_by"] == "mse" and c["best"]["a"]["seed"] == 2  # seed 3's smaller MSE is not feasible
+    assert c["fronts"]["a"]["seed"] == 1  # the median HV of three
+    assert c["table"]["mse"]["a"]["median"] == 3.0
