@@ -35,6 +35,10 @@ def stages(n_gen: int = 2) -> list[StageSpec]:
     )
 
 
+def test_one_run_seed_gives_each_stage_its_own() -> None:
+    assert [s.seed for s in stages()] == [11, 12, 13]
+
+
 def test_each_stage_searches_the_spec_box_around_the_previous_pick() -> None:
     pipe = Pipeline(stages(), X0)
     res = pipe.run()
@@ -60,10 +64,12 @@ def test_same_seed_gives_the_same_picks() -> None:
 def test_rerun_from_an_earlier_pick_replaces_the_later_stages() -> None:
     pipe = Pipeline(stages(), X0)
     first = pipe.run()
-    other = next(i for i in range(first[0].pop) if i != first[0].picked and first[0].feasible[i])
+    other = max(i for i in range(first[0].pop) if i != first[0].picked and first[0].feasible[i])
     again = pipe.run(start=1, pick=other)
     assert again[0] is pipe.results[0] and again[0].picked == other
     assert again[1].parent_pick == other
+    # the explicit pick is stage 1's start only: stage 1 keeps its own rule's pick (best:f1) for stage 2
+    assert again[1].picked == again[1].shortlist.best[0] != other and again[2].parent_pick == again[1].picked
     np.testing.assert_array_equal(again[1].box.center, wrap_like(first[0].X[other], again[1].box))
     assert len(again) == 3
 
@@ -93,9 +99,12 @@ def test_stepping_by_hand_record_and_select() -> None:
     assert pipe.results[0].picked == i  # type: ignore[union-attr]
     assert len(pipe.lineage) == 2
     # Changing stage 0's pick drops stage 1, which grew from the old pick.
-    j = next(k for k in pipe.results[0].shortlist.front if k != i)  # type: ignore[union-attr]
+    knee = pipe.results[0].choose("knee")  # type: ignore[union-attr]
+    j = next(k for k in range(10) if pipe.results[0].feasible[k] and k not in (i, knee))  # type: ignore[union-attr]
     pipe.select(0, j)
     assert pipe.results[1] is None and len(pipe.lineage) == 1
+    start, member = pipe.parent(1)  # the designer's pick, not stage 0's rule, starts stage 1
+    assert member == j and np.array_equal(start.params[0], pipe.results[0].X[j])  # type: ignore[union-attr]
     with pytest.raises(ValueError, match="needs a result of stage 1"):
         pipe.stage(2)
 
