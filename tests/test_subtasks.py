@@ -12,7 +12,7 @@ from core.analysis.targets import compound_cycloid
 from core.kinematics.design import Design
 from core.kinematics.presets import PAPER_PANTOGRAPH, get
 from core.optimize import make_problem
-from core.optimize.objectives import EQ22, EQ23, load_target, metrics_of, shape_metrics, width_penalty
+from core.optimize.objectives import EQ22, EQ23, load_target, metrics_of, shape_metrics, tiered, width_penalty
 from core.optimize.subtasks import parse_relative, resolve_limits
 
 N = 120  # samples: enough for the metrics, quick
@@ -72,8 +72,16 @@ def test_subtask_constraints_are_eq22_and_eq23_limits_on_the_metrics() -> None:
 def test_eq30_option_adds_order_and_angle_constraints() -> None:
     p = make_problem("subtask1", n_samples=N, eq30=True)
     assert [c.metric for c in p.constraints] == ["violation", "order", "theta1_margin", "theta2_margin"]
+    assert all(c.upper == 0.0 and c.lower is None for c in p.constraints)  # each g <= 0 is satisfied
     m = p.evaluate_metrics(get("stephenson1/X3").design())
     assert m["theta1_margin"][0] == pytest.approx(np.deg2rad(15.0) - m["theta1"][0])
+    assert m["theta2_margin"][0] == pytest.approx(np.deg2rad(15.0) - m["theta2"][0])
+    assert m["theta1"][0] != pytest.approx(m["theta2"][0])  # (so the two margins are told apart)
+
+
+def test_the_assembly_violation_is_tiered_above_any_constraint_and_unreadable_paths_above_that() -> None:
+    v = tiered(np.array([0.0, 1.5, np.nan, np.inf, -0.0]))
+    np.testing.assert_array_equal(v, [0.0, 1001.5, 2000.0, 2000.0, 0.0])
 
 
 def test_unassemblable_members_get_nan_metrics_and_a_positive_violation() -> None:
@@ -106,6 +114,9 @@ def test_relative_limits_resolve_against_the_start() -> None:
             parse_relative(bad)
     with pytest.raises(ValueError, match="no finite"):
         resolve_limits({"f1_max": "start+1"}, {"f1": np.array([np.nan])})
+    # a list of limits: the loosest holds (an absolute floor with a relative allowance)
+    assert resolve_limits({"f1_max": [4.0, "start+0.05"]}, {"f1": np.array([5.0])})["f1_max"] == 5.05
+    assert resolve_limits({"f1_max": [4.0, "start+0.05"]}, {"f1": np.array([3.0])})["f1_max"] == 4.0
 
 
 def test_a_csv_target_with_times_gives_the_formula_targets_metrics(tmp_path) -> None:  # type: ignore[no-untyped-def]

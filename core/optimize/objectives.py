@@ -144,4 +144,4 @@ def tiered(violation: F64) -> F64:
     """``(pop,)`` assembly violation for pymoo: 0 where a design assembles, else ``ASSEMBLY_TIER`` + the
     shortfall (mm); a non-finite violation (a path that cannot be read) becomes twice the tier."""
     v = np.asarray(violation, dtype=np.float64)
-    return np.where(v > 0.0, ASSEMBLY_TIER + np.where(np.isfinite(v), v, ASSEMBLY_TIER), 0.0)
+    return np.where((v > 0.0) | np.isnan(v), ASSEMBLY_TIER + np.where(np.isfinite(v), v, ASSEMBLY_TIER), 0.0)
