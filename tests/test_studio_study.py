@@ -272,6 +272,62 @@ def test_re_running_a_stage_keeps_the_previous_lineage_as_a_branch(session: Sess
     assert len(session.study.branches) == 1
 
 
+def test_re_running_a_stage_from_its_pick_keeps_the_old_results_as_a_branch(session: Session) -> None:
+    study, chain = session.study, chain_for(X3.mechanism)
+    run(session, "subtask1", from_pick=False)
+    study.use_for_next("subtask1", study.result("subtask1").picked, chain)
+    run(session, "subtask2", from_pick=True)
+    old = study.result("subtask2")
+    run(session, "subtask2", from_pick=True)  # again, from the same pick: the first run stays reachable
+    assert len(study.branches) == 1 and study.result("subtask2") is not old
+    study.restore_branch(0)
+    np.testing.assert_array_equal(study.result("subtask2").X, old.X)
+
+
+def test_a_kept_branch_does_not_change_with_later_picks(session: Session) -> None:
+    study, chain = session.study, chain_for(X3.mechanism)
+    run(session, "subtask1", from_pick=False)
+    r1 = study.result("subtask1")
+    first, other = r1.picked, next(i for i in range(r1.pop) if i != r1.picked)
+    study.use_for_next("subtask1", first, chain)
+    run(session, "subtask2", from_pick=True)
+    study.show("subtask1", first)
+    study.use_for_next("subtask1", other, chain)  # later stages grew from `first`: they become a branch
+    study.show("subtask1", other)
+    assert len(study.branches) == 1 and study.branches[-1].shown.get("subtask1", first) == first
+    run(session, "subtask2", from_pick=True)  # subtask 2 grows from `other` now
+    n = len(study.branches)
+    study.use_for_next("subtask1", other, chain)  # the same pick again: nothing to keep, subtask 2 stays
+    assert len(study.branches) == n and study.result("subtask2") is not None
+
+
+def test_show_views_that_stage_and_a_re_run_shows_its_new_pick(session: Session) -> None:
+    study = session.study
+    run(session, "subtask1", from_pick=False)
+    r1 = study.result("subtask1")
+    other = next(i for i in range(r1.pop) if i != r1.picked)
+    study.viewing = None
+    study.show("subtask1", other)
+    assert study.viewing == "subtask1" and study.shown_member("subtask1") == other
+    run(session, "subtask1", from_pick=False)
+    assert study.shown_member("subtask1") == study.result("subtask1").picked
+
+
+def test_stop_with_nothing_running_changes_nothing() -> None:
+    s = Session.default()
+    runner = Runner(s.lock, lambda: s.study, lambda p: None, lambda: None, 0.0)
+    assert runner.stop() is False and s.study.status.state == "idle" and not s.study.status.running
+    tiny(s.study, "subtask1")
+    run(s, "subtask1", from_pick=False)
+    assert s.study.result("subtask1") is not None and s.study.live is None  # the live copy ends with the run
+
+
+def test_a_fresh_session_runs_its_first_stage_first() -> None:
+    s = Session.default()
+    sv = study_view(s.study, s.view.design, chain_for(s.view.design.mechanism), s.view.target)
+    assert sv.next_stage == chain_for(s.view.design.mechanism)[0].name == "predesign"
+
+
 def test_the_study_view_shows_the_next_box_around_the_editor_design_when_starting_fresh(session: Session) -> None:
     with session.lock:
         session.study.next_stage = "subtask3"
