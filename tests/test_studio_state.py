@@ -194,6 +194,7 @@ def test_a_design_that_does_not_assemble_is_shown_and_can_be_repaired_by_edits(s
 def test_check_value_keeps_lengths_positive_and_in_bounds() -> None:
     r1 = presets.get(X3).mechanism.params[4]
     assert check_value(r1, 56) == 56.0 and isinstance(check_value(r1, 56), float)
+    assert check_value(r1, r1.lo) == r1.lo and check_value(r1, r1.hi) == r1.hi  # the bounds themselves are in
     for bad in (r1.lo - 1e-9, r1.hi + 1e-9, -1.0):
         with pytest.raises(ValueError, match="r1"):
             check_value(r1, bad)
@@ -294,6 +295,34 @@ def test_session_round_trips_through_json(session: Session) -> None:
     assert back.playback == session.playback
 
 
+def test_every_parameter_edit_counts_as_edited_the_first_too(session: Session) -> None:
+    b = session.view.values["b"]
+    view = session.set_param("b", b + 0.01)
+    assert view.edited == ("b",)
+
+
+def test_back_to_the_cycloid_after_a_curve_keeps_the_cycloids_length_and_height(session: Session) -> None:
+    from studio.target import Curve
+
+    session.set_target(length=280.0, height=90.0)
+    t = np.arange(40) / 40
+    csv = "x,y\n" + "".join(f"{150 + 100 * np.cos(2 * np.pi * a):.6f},{-40 + 40 * np.sin(2 * np.pi * a):.6f}\n"
+                             for a in t)
+    session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    back = session.set_curve(None).target
+    assert back.curve is None and (back.length, back.height) == (280.0, 90.0)
+    session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    assert session.set_target(height=95.0).target.curve is None  # editing the cycloid returns to it
+
+
+def test_restoring_a_loaded_session_takes_its_playback_too(session: Session, x3_session_data: dict) -> None:
+    data = json.loads(json.dumps(x3_session_data))
+    data["playback"] = {"playing": False, "speed": 3.0, "angle": 1.0}
+    other = Session.from_dict(data)
+    session.restore(other)
+    assert session.playback == other.playback and not session.playback.playing and session.playback.speed == 3.0
+
+
 @pytest.mark.parametrize(
     ("change", "message"),
     [
@@ -303,6 +332,8 @@ def test_session_round_trips_through_json(session: Session) -> None:
         (lambda d: d["design"]["params"].update(r4=-1.0), "r4"),
         (lambda d: d["target"].update(H="high"), "height"),
         (lambda d: d.update(playback={"speed": math.nan}), "speed"),
+        (lambda d: d.update(playback={"playing": True, "speed": 0.0, "angle": 0.0}), "speed"),
+        (lambda d: d.update(playback={"playing": True, "speed": 50.0, "angle": 0.0}), "speed"),
     ],
 )
 def test_a_malformed_session_is_refused_naming_the_problem(x3_session_data: dict, change, message: str) -> None:
