@@ -59,6 +59,8 @@ BAD = [
     ("target.H", "tall", "target.H: expected a number"),
     ("bounds.r1", [200.0, 100.0], "bounds.r1: impossible bounds"),
     ("bounds.r1", [-5.0, 100.0], "bounds.r1: a length must stay > 0"),
+    ("bounds.r1", [0.0, 100.0], "bounds.r1: a length must stay > 0"),
+    ("stages.1.pick", 10, "stages[1].pick: member 10 does not exist"),  # pop 10: members 0..9
     ("bounds.r1", 5.0, "bounds.r1: expected [lower, upper]"),
     ("bounds.q7", [0.0, 1.0], "bounds.q7: unknown key"),
     ("algorithm.name", "simplex", "algorithm.name: 'simplex' is not one of"),

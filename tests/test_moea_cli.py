@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from core.cli import main
-from core.optimize.moea import PROBLEMS, hv_platemo, igd, reference_front, run
+from core.optimize.moea import PROBLEMS, feasible_front, hv_platemo, igd, reference_front, run
 from core.optimize.problem_names import KNOWN
 
 
@@ -21,6 +21,9 @@ def test_indicators_by_hand():
     # HV: (0.5, 0.5) normalised by fmax * 1.1 = 1.1 -> (0.4545..), box to (1, 1): (1 - 0.5/1.1)^2.
     assert hv_platemo(np.array([[0.5, 0.5]]), pf) == pytest.approx((1 - 0.5 / 1.1) ** 2)
     assert hv_platemo(np.array([[2.0, 2.0]]), pf) == 0.0  # outside the normalised box
+    # Only feasible, non-dominated members count: (0, 0) violates, (1, 1) is dominated by (0.5, 0.5).
+    F = np.array([[0.0, 0.0], [1.0, 1.0], [0.5, 0.5]])
+    np.testing.assert_array_equal(feasible_front(F, np.array([1.0, 0.0, 0.0])), [[0.5, 0.5]])
 
 
 def test_the_listing_in_help_and_errors_names_exactly_the_problems(capsys):

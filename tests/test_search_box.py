@@ -69,6 +69,11 @@ def test_decoded_members_stay_in_the_box_and_wrap_into_pm_pi(
     X = np.random.default_rng(seed).uniform(box.xl, box.xu, (20, box.n_var))
     params = box.decode(X)
     assert box.contains(params).all()
+    free = np.flatnonzero(~box.fixed & ~box.periodic & (box.upper - box.lower > 1e-6))
+    if free.size:  # one coordinate beyond its bound: out of the box
+        out = params.copy()
+        out[:, free[0]] = box.upper[free[0]] + 1.0
+        assert not box.contains(out).any()
     per = box.periodic
     assert ((params[:, per] >= -np.pi) & (params[:, per] < np.pi)).all()
     assert (params[:, m.param_names.index("r4")] == box.center[m.param_names.index("r4")]).all()

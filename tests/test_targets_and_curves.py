@@ -61,6 +61,14 @@ def test_a_header_is_a_first_row_without_a_number() -> None:
         np.testing.assert_array_equal(curve_from_rows([head, *rows]).points, np.array(rows, float))
 
 
+def test_times_that_start_late_give_the_same_curve() -> None:
+    rows = [["0", "0", "0"], ["10", "0", "0.5"], ["10", "10", "1"], ["0", "10", "1.5"], ["0", "0", "2"]]
+    late = [[x, y, str(float(t) + 1.0)] for x, y, t in rows]
+    a, b = curve_from_rows(rows), curve_from_rows(late)
+    assert a.period == b.period == 2.0 and b.times[0] == 0.0
+    np.testing.assert_array_equal(a.sample(16), b.sample(16))
+
+
 def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
     square = [["x", "y"], ["0", "0"], ["10", "0"], ["10", "10"], ["0", "10"]]
     c = curve_from_rows(square)
