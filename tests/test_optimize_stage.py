@@ -141,6 +141,27 @@ def test_early_stop_when_objectives_reach_their_thresholds() -> None:
     assert res.status == "complete" and res.generation == 3
 
 
+def test_early_stop_needs_every_objective_below_its_threshold() -> None:
+    # f1 can never go below -1: meeting the f2 threshold alone does not stop the stage
+    res = Stage(spec(n_gen=3, stop_below=(-1.0, 1e12)), X0).run()
+    assert res.status == "complete" and res.generation == 3
+
+
+def test_fixed_parameters_stay_at_the_start_value() -> None:
+    res = Stage(spec(n_gen=2, fixed=("x_a", "r4")), X0).run()
+    names = X0.mechanism.param_names
+    for name in ("x_a", "r4"):
+        j = names.index(name)
+        assert (res.X[:, j] == X0.params[0, j]).all() and res.box.fixed[j]
+    assert np.ptp(res.X[:, names.index("r1")]) > 0  # the others move
+
+
+def test_a_member_with_undefined_objectives_is_never_feasible() -> None:
+    p = ProblemSpec("p", None, ("f1",), (ASSEMBLY,))  # type: ignore[arg-type]
+    F, G = p.columns({"f1": np.array([np.nan, 1.0]), "violation": np.array([0.0, 0.0])})
+    assert F[0, 0] == np.inf and G[0, 0] == np.inf and G[1, 0] == 0.0
+
+
 def test_metrics_of_every_member_are_kept() -> None:
     res = Stage(spec(), X0).run()
     assert set(res.metrics) >= {"f1", "f2", "width", "y_min", "violation"}
