@@ -181,6 +181,11 @@ def test_picks_and_starts_take_any_reported_metric() -> None:
     assert c.stages[1].starts is None and c.stages[2].pick_where == ()
 
 
+def test_fixed_parameters_reach_the_stage() -> None:
+    cfg = parse_config(with_("stages.1.fixed", ["x_a", "r4"]))
+    assert cfg.stages[1].fixed == ("x_a", "r4") and cfg.stages[0].fixed == ()
+
+
 def test_bounds_narrow_the_mechanism() -> None:
     c = parse_config(with_("bounds.r1", [40.0, 60.0]))
     i = c.mechanism.param_names.index("r1")
