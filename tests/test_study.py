@@ -112,8 +112,8 @@ def test_a_failing_task_is_recorded_and_the_study_goes_on(tmp_path: Path):
     assert {r["algorithm"] for r in failed} == {"spea2"}
     assert all("no_such_option" in r["error"] for r in failed)
     assert sum(r["status"] == "done" for r in rows) == 3
-    # A rerun tries the failed cells again and counts the attempt.
-    run_study(study, str(tmp_path / "out"), workers=1, stream=None)
+    # A rerun (from the command line) tries the failed cells again, counts the attempt and exits 1.
+    assert main(["study", str(write(tmp_path, bad)), "--out", str(tmp_path / "out"), "--workers", "1", "--quiet"]) == 1
     assert {r["attempts"] for r in Store(tmp_path / "out").rows() if r["status"] == "failed"} == {2}
 
 
