@@ -209,6 +209,15 @@ def test_a_malformed_study_file_is_refused_with_one_line(tmp_path: Path, capsys:
     assert not (tmp_path / "out").exists()  # nothing was started
 
 
+def test_the_run_cap_counts_cases_too(tmp_path: Path):
+    # 50 000 seeds x 2 algorithms is the cap itself; a second case doubles it
+    text = TINY.replace('seeds = "1..3"', 'seeds = "1..50000"')
+    load_study(write(tmp_path, text))
+    two = text + TINY[TINY.index("[[cases]]"):].replace('name = "subtask2"', 'name = "again"')
+    with pytest.raises(ValueError, match="study: 200000 runs is more than the 100000"):
+        load_study(write(tmp_path, two, "two.toml"))
+
+
 def test_command_line_mistakes_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
     study = write(tmp_path, TINY)
     (tmp_path / "file").write_text("x")
