@@ -89,6 +89,18 @@ def test_different_shapes_are_far_apart_and_distance_is_symmetric() -> None:
     assert descriptor_distance(cyc, cyc)[0] == pytest.approx(0.0, abs=1e-7)
 
 
+def test_distance_is_the_minimum_over_rotation_and_start_point_to_rounding() -> None:
+    # Brute force: |a|^2 + |b|^2 - 2 max_sigma |C(sigma)| on 200 000 sigmas; a coarse grid (n_grid 64) is refined by
+    # the Newton steps to the true maximum.
+    a, b = descriptors(blob(360, 3))[0], descriptors(blob(360, 4))[0]
+    kk = np.concatenate([np.arange(1, 17), -np.arange(1, 17)])
+    sig = np.linspace(0.0, 2.0 * np.pi, 200_000, endpoint=False)
+    C = np.abs(np.exp(1j * sig[:, None] * kk[None, :]) @ (np.conj(a) * b))
+    want = np.sqrt(np.sum(np.abs(a) ** 2) + np.sum(np.abs(b) ** 2) - 2.0 * C.max())
+    got = descriptor_distance(a, b, n_grid=64)[0]
+    assert got == pytest.approx(want, rel=1e-7) and got <= want
+
+
 def test_distance_does_not_depend_on_the_normalisation_branch() -> None:
     """Flipping the even harmonics is the start point shifted by half the perimeter."""
     a = descriptors(blob(360, 2))
