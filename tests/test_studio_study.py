@@ -322,6 +322,41 @@ def test_stop_with_nothing_running_changes_nothing() -> None:
     assert s.study.result("subtask1") is not None and s.study.live is None  # the live copy ends with the run
 
 
+def test_an_older_sessions_branch_restores_on_its_last_stage_from_its_pick_without_a_target(
+        session: Session) -> None:
+    import dataclasses
+
+    study, chain = session.study, chain_for(X3.mechanism)
+    run(session, "subtask1", from_pick=False)
+    first = study.result("subtask1").picked
+    study.use_for_next("subtask1", first, chain)
+    run(session, "subtask2", from_pick=True)
+    assert study.target is not None
+    study.use_for_next("subtask1", next(i for i in range(study.result("subtask1").pop) if i != first), chain)
+    # as a session saved before branches kept their state: no target, no shown members, no next stage
+    study.branches[0] = dataclasses.replace(study.branches[0], target=None, shown={}, next_stage=None,
+                                            from_pick=False)
+    study.restore_branch(0)
+    assert study.target is None and study.next_stage == "subtask2" and study.from_pick
+    assert study.shown == {"subtask2": study.result("subtask2").picked}
+    back = Study.from_dict(json.loads(json.dumps(study.to_dict())), None)
+    assert back.from_pick and back.next_stage == "subtask2"
+    tiny(study, "subtask3")
+    run(session, "subtask3", from_pick=True)  # the chain's last stage has a result now
+    assert study.parent_result(study.pipeline.stages[0].name) is None  # the first stage has no parent
+    assert study.target is not None
+    study.start_over("another topology")
+    assert study.target is None and study.pipeline is None and not study.from_pick
+
+
+def test_a_shown_member_beyond_the_population_falls_back_to_the_pick(session: Session) -> None:
+    from studio.study import member_shown
+
+    run(session, "subtask1", from_pick=False)
+    r = session.study.result("subtask1")
+    assert member_shown(r, {"subtask1": r.pop}) == r.picked and member_shown(r, {"subtask1": 0}) == 0
+
+
 def test_a_fresh_session_runs_its_first_stage_first() -> None:
     s = Session.default()
     sv = study_view(s.study, s.view.design, chain_for(s.view.design.mechanism), s.view.target)
