@@ -88,6 +88,15 @@ def test_walk_settings_are_validated(kw: dict, message: str) -> None:
         WalkSpec(**kw)
 
 
+def test_the_obstacle_moves_forward_one_stride_as_place_goes_from_0_to_1(x3: Session) -> None:
+    at = {p: walk(x3.view, place=p) for p in (0.0, 0.5, 1.0)}
+    x0 = {p: float(w.obstacle[0, 0]) for p, w in at.items()}
+    stride = at[0.5].stride
+    assert x0[1.0] - x0[0.0] == pytest.approx(stride) and x0[0.5] - x0[0.0] == pytest.approx(stride / 2)
+    centre = 0.5 * (at[0.5].trails[..., 0].min() + at[0.5].trails[..., 0].max())
+    assert x0[0.5] + 12.5 == pytest.approx(centre)  # place 0.5: the 25 mm obstacle centred on the feet's range
+
+
 def test_the_obstacle_size_is_psis(x3: Session) -> None:
     s = Session.from_dict(x3.to_dict())
     view = s.set_walk(a=60.0, b=40.0)
@@ -147,6 +156,16 @@ def test_a_curve_uploaded_in_the_leg_frame_is_the_design_frame_curve_the_output_
     up = np.array(plain.points)
     gap = np.min(np.linalg.norm(drawn[:, None, :] - up[None, :, :], axis=-1), axis=1)
     assert gap.max() < 0.05 * np.ptp(up[:, 0])  # every drawn sample is near an uploaded point
+
+
+def test_an_uploaded_curve_stays_the_target_on_another_topology_even_from_a_file_without_its_origin(
+        x3: Session) -> None:
+    curve = Curve.from_csv(ellipse_csv(), "ellipse.csv")
+    data = {"L": 300.0, "H": 100.0, "T": 2.0, "curve": curve.to_dict()}  # as an older session wrote it
+    assert TargetSpec.from_dict(data).origin == "uploaded"
+    s = Session.from_dict({**x3.to_dict(), "target": data})
+    view = s.select_mechanism("stephenson3")
+    assert view.target.curve == curve
 
 
 def test_a_curve_target_is_evaluated_and_saved_with_the_session(x3: Session) -> None:
