@@ -357,6 +357,18 @@ def test_a_shown_member_beyond_the_population_falls_back_to_the_pick(session: Se
     assert member_shown(r, {"subtask1": r.pop}) == r.picked and member_shown(r, {"subtask1": 0}) == 0
 
 
+def test_the_stage_panel_names_the_pick_the_next_box_is_built_around(session: Session) -> None:
+    study, chain = session.study, chain_for(X3.mechanism)
+    run(session, "subtask1", from_pick=False)
+    r1 = study.result("subtask1")
+    member = next(i for i in range(r1.pop) if i not in (r1.picked, r1.shortlist.first))
+    study.use_for_next("subtask1", member, chain)
+    study.viewing = None
+    sv = study_view(study, session.view.design, chain, session.view.target)
+    assert sv.box_note == f"around subtask1's pick #{member}"
+    assert sv.viewing == sv.names[0]  # nothing chosen to view: the pipeline's first stage
+
+
 def test_a_fresh_session_runs_its_first_stage_first() -> None:
     s = Session.default()
     sv = study_view(s.study, s.view.design, chain_for(s.view.design.mechanism), s.view.target)
