@@ -78,6 +78,14 @@ def test_switching_topology_starts_a_new_pipeline_and_keeps_the_old_as_a_branch(
     assert len(s.study.branches) == 1
 
 
+def test_a_branch_restored_on_the_same_mechanism_is_its_own_design_not_the_editors_preset():
+    s, _ = session_after_subtask1()
+    assert s.view.preset == "stephenson1/X3"
+    s.study.keep_branch("by hand")
+    s.restore_branch(0)
+    assert s.view.design.mechanism.name == "stephenson1" and s.view.preset is None
+
+
 def test_restoring_a_branch_restores_its_mechanism_and_design_with_the_pipeline():
 
     import numpy as np
