@@ -369,6 +369,16 @@ def test_the_stage_panel_names_the_pick_the_next_box_is_built_around(session: Se
     assert sv.viewing == sv.names[0]  # nothing chosen to view: the pipeline's first stage
 
 
+def test_a_stage_that_stops_early_on_its_target_gets_its_automatic_pick() -> None:
+    s = Session.default()
+    s.select_mechanism("rtclm_primary")
+    tiny(s.study, "rtclm1", pop=40, gens=40, seed=1)
+    run(s, "rtclm1", from_pick=False)
+    r = s.study.result("rtclm1")
+    assert r.status == "stopped" and r.generation < 40  # |h6 - h6_t| reached: an early stop, not a Stop click
+    assert r.picked is not None and r.feasible[r.picked]
+
+
 def test_a_fresh_session_runs_its_first_stage_first() -> None:
     s = Session.default()
     sv = study_view(s.study, s.view.design, chain_for(s.view.design.mechanism), s.view.target)
