@@ -62,6 +62,27 @@ def test_sqp_does_not_worsen_a_feasible_start() -> None:
     assert info["nit"] >= 1
 
 
+def test_the_sqp_batch_keeps_the_best_assembling_point_and_its_constraint_holds_only_where_it_assembles() -> None:
+    from core.optimize.baselines import _Batch, keeps_best
+
+    x0, x3 = get("stephenson1/X0").design(), get("stephenson1/X3").design()
+    b = _Batch(x3.mechanism, x3.output, TINY)
+    u = {k: (d.params[0] - b.lo) / b.span for k, d in (("x0", x0), ("x3", x3))}
+    bad = x3.params[0].copy()
+    bad[4] = 400.0  # r1 too long: does not assemble
+    u["bad"] = (bad - b.lo) / b.span
+    err = {k: dp_error(d, n_points=12, n_samples=72, backend="numpy")[0][0] for k, d in (("x0", x0), ("x3", x3))}
+    assert err["x3"] < err["x0"]
+    f, _, c, _ = b(u["x3"])
+    assert f == pytest.approx(err["x3"]) and c == 0.0  # SLSQP's "ineq": -violation >= 0 iff it assembles
+    assert b(u["bad"])[2] < 0.0
+    b(u["x0"])
+    assert b.best is not None and b.best[0] == pytest.approx(err["x3"])  # the smallest error seen, not the last
+    w = np.zeros(3)
+    assert keeps_best((1.0, w), 2.0, 0.0) and not keeps_best((3.0, w), 2.0, 0.0)
+    assert keeps_best((3.0, w), 2.0, -0.5) and not keeps_best(None, 2.0, -0.5)  # the final point does not assemble
+
+
 def test_sqp_from_a_random_start_moves_far_downhill() -> None:
     # A random start's DP error is ~1e5-1e6 mm^2: unscaled, SLSQP stopped on its start after 5 iterations and
     # DP+SQP reported the start itself (MSE ~1 m) as its result.

@@ -255,10 +255,17 @@ def sqp(mechanism: Mechanism, output: OutputStage, x0: F64, settings: BaselineSe
     u = np.clip(res.x, 0.0, 1.0)
     f_end, _, c_end, _ = batch(u)
     kept = "final"
-    if batch.best is not None and (c_end < 0.0 or batch.best[0] < f_end):
+    if keeps_best(batch.best, f_end, c_end):
+        assert batch.best is not None
         u, kept = batch.best[1], "best assembling iterate"
     return batch.params(u), {"message": str(res.message), "nit": int(res.nit), "batches": batch.n_calls,
                              "success": bool(res.success), "kept": kept}
+
+
+def keeps_best(best: tuple[float, F64] | None, f_end: float, c_end: float) -> bool:
+    """Whether SLSQP's result is the best assembling iterate rather than its final point: when the final point
+    does not assemble (``c_end = -violation < 0``) or an earlier assembling iterate had a smaller error."""
+    return best is not None and (c_end < 0.0 or best[0] < f_end)
 
 
 def report(mechanism: Mechanism, output: OutputStage, params: F64,
