@@ -58,6 +58,38 @@ def test_a_wrong_or_late_answer_does_not_count(server, monkeypatch):
     assert p.answered == 1 and p.ready()  # answered: the next frame may go
 
 
+class Connection:
+    def __init__(self) -> None:
+        self.sent: list[str] = []
+
+    def queue_message(self, message: object) -> None:
+        self.sent.append(message.request_uuid)  # type: ignore[attr-defined]
+
+
+class ProbedClient(FakeClient):
+    def __init__(self, client_id: int) -> None:
+        super().__init__(client_id)
+        self._websock_connection = Connection()
+
+    def flush(self) -> None:
+        pass
+
+
+def test_a_page_is_probed_once_until_it_answers_or_stalls_and_then_again(server, monkeypatch):
+    p, page = Pacer(server), ProbedClient(1)
+    monkeypatch.setattr(server, "get_clients", lambda: {1: page})
+    clock = {"t": 10.0}
+    monkeypatch.setattr(pacer_module.time, "monotonic", lambda: clock["t"])
+    p.probe()
+    clock["t"] = 10.5
+    p.probe()  # its probe is outstanding: no second one
+    assert len(page._websock_connection.sent) == 1
+    clock["t"] = 10.0 + pacer_module.STALL + 0.1
+    p.probe()  # stalled: asked again, with a new id
+    sent = page._websock_connection.sent
+    assert len(sent) == 2 and sent[0] != sent[1] and p._pending[1][0] == sent[1]
+
+
 def test_a_page_that_left_is_forgotten_and_the_others_still_get_the_figure(server, monkeypatch):
     chart = LazyPlotly(server, server.gui.add_folder("charts"), 1.0, 0.7, {})
     here, gone, closed = Handle(), Handle(removed=True), Handle()
