@@ -207,6 +207,14 @@ def test_the_newest_text_wins_when_edits_overlap() -> None:
     assert applied[-1] == 12.5 and handle.value == "12.5" and studio.notes == []
 
 
+def test_a_refusal_due_while_a_newer_text_is_on_its_way_leaves_that_text_alone() -> None:
+    field, handle, studio, applied = make(POP, 40)
+    handle.type(field, "1e9")
+    handle.arrive("12")  # typed on: its edit callback has not run yet
+    time.sleep(0.2)
+    assert handle.value == "12" and studio.notes == [] and applied == [40]
+
+
 def test_cancel_drops_a_pending_refusal() -> None:
     field, handle, studio, _ = make(POP, 40)
     handle.type(field, "abc")
