@@ -177,3 +177,30 @@ def test_a_folder_without_an_earlier_run_keeps_every_file_and_a_foreign_result_i
     assert main(["design", str(tmp_path / "dp.toml"), "--out", str(other), "--quiet", "--overwrite"]) == 2
     assert "is not a 'clm design' result; not replacing it" in capsys.readouterr().err
     assert (other / "result.json").read_text() == '{"format": "something else"}'
+
+
+def test_ctrl_c_stops_clm_design_between_generations_writes_the_partial_result_and_exits_130(tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    from ctrl_c import sigint_as_in_a_terminal
+
+    cfg = tmp_path / "long.toml"
+    cfg.write_text(TINY.replace("n_gen = 3", "n_gen = 100000"))
+    out = tmp_path / "out"
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.Popen([sys.executable, "-m", "core.cli", "design", str(cfg), "--out", str(out)], cwd=root,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=sigint_as_in_a_terminal)
+    try:
+        assert proc.stderr is not None and proc.stderr.read(1)  # the progress bar: generations are running
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr
+    assert "stopping after this generation" in stderr and "Traceback" not in stderr
+    result = json.loads((out / "result.json").read_text())
+    stages = result["pipeline"]["results"]
+    assert stages[0]["status"] == "cancelled" and stages[0]["generation"] < 100000, stages[0]["status"]
