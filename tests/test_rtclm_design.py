@@ -27,6 +27,9 @@ def test_metrics_are_the_modes_crossing_heights_and_the_paper_constraints() -> N
     np.testing.assert_allclose(m["eq31_height_4"], aux.h_m / 4.0 - aux.h_bar)
     np.testing.assert_allclose(m["eq31_psi2_4"], 0.2 - aux.psi2)
     np.testing.assert_allclose(m["theta1_6"], np.deg2rad(15.0) - prim.theta1)
+    np.testing.assert_allclose(m["theta2_6"], np.deg2rad(15.0) - prim.theta2)
+    np.testing.assert_allclose(m["theta2_4"], np.deg2rad(15.0) - aux.theta2)
+    assert not np.allclose(prim.theta1, prim.theta2)  # (so the two margins are told apart)
 
 
 def test_batch_equals_per_design_loop() -> None:
