@@ -23,6 +23,14 @@ def test_a_packed_array_is_exact_with_non_finite_values():
     assert np.array_equal(back, a, equal_nan=True) and math.copysign(1.0, back[0, 1]) == -1.0
 
 
+@pytest.mark.parametrize(("shape", "message"), [([2, 3, 1], "bad shape"), ([-1], "bad shape"), ([True], "bad shape"),
+                                              ([4], "48 bytes for shape")])
+def test_a_packed_array_of_another_shape_is_refused(shape, message):
+    packed = pack_array(encode(np.zeros((2, 3))))
+    with pytest.raises(ValueError, match=message):
+        unpack_array({**packed, "shape": shape}, "x")
+
+
 def run_stage(session: Session, name: str, pop: int = 12, gens: int = 3) -> None:
     """Run one stage from the editor's design, as the studio's runner does."""
     session.study.settings[name] = RunSettings(name, pop_size=pop, n_gen=gens, seed=5)
@@ -76,3 +84,14 @@ def test_packing_is_a_pure_function_of_the_study(session):
     assert pack_study(d) == pack_study(json.loads(json.dumps(d)))
     assert unpack_study(json.loads(json.dumps(pack_study(d))))["pipeline"]["results"][0]["picked"] == \
         session.study.result("subtask1").picked
+
+
+@pytest.mark.parametrize("extra", [-1, 1])
+def test_picks_that_do_not_match_the_results_are_dropped_not_misassigned(session, extra):
+    packed = json.loads(json.dumps(pack_study(session.study.to_dict())))
+    pipe = packed["pipeline"]
+    n = len(pipe["results"])
+    pipe["picks"] = ([3] * (n + extra)) if n + extra > 0 else []
+    out = unpack_study(packed)
+    assert [r["picked"] if r is not None else None for r in out["pipeline"]["results"]] == [None] * n
+
