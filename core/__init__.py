@@ -2,3 +2,7 @@
 cli -> study -> formats -> optimize -> analysis -> kinematics. Never imports viser, plotly or ``studio``.
 See docs/architecture.md.
 """
+
+from core._kernel_cache import configure as _configure_kernel_cache
+
+_configure_kernel_cache()

@@ -1,0 +1,55 @@
+"""One numba cache directory per version of the compiled sources.
+
+numba reuses a cached kernel while the file that defines it is unchanged, but it does not look at the kernels it
+calls from other modules: after an edit of ``evolve/ahead.py`` alone, CMOEMT's and MOEA/D-CMT's compiled loops
+kept the old ``ahead.stale`` inlined (a mutation audit ran against stale machine code). So the cache lives in a
+subdirectory named by a hash of every ``core`` module that mentions numba: any change to one of them starts a
+fresh cache (the next runs compile again, about a minute on 2 cores for the studio's warm-up).
+
+The base is ``NUMBA_CACHE_DIR`` (the scripts set ``.venv/numba-cache``), else ``numba-cache`` in a writable
+virtual environment; with neither, numba's default (``__pycache__``) is left alone.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+
+
+def kernel_fingerprint(root: Path = ROOT) -> str:
+    """16 hex digits of sha256 over the path and bytes of every ``.py`` file under ``root`` that mentions numba."""
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py")):
+        data = p.read_bytes()
+        if b"numba" in data:
+            h.update(p.relative_to(root).as_posix().encode() + b"\0" + data + b"\0")
+    return h.hexdigest()[:16]
+
+
+def cache_dir(fingerprint: str) -> str | None:
+    """The numba cache directory for these sources, or None to leave numba's default."""
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if not base:
+        venv = sys.prefix != sys.base_prefix and os.access(sys.prefix, os.W_OK)
+        if not venv:
+            return None
+        base = os.path.join(sys.prefix, "numba-cache")
+    if os.path.basename(os.path.normpath(base)) == fingerprint:  # a child process: set by its parent already
+        return base
+    return os.path.join(base, fingerprint)
+
+
+def configure() -> None:
+    """Point numba at this version's cache before any kernel is defined (and tell child processes)."""
+    where = cache_dir(kernel_fingerprint())
+    if where is None:
+        return
+    os.environ["NUMBA_CACHE_DIR"] = where
+    if "numba" in sys.modules:  # imported before core: its configuration was read already
+        from numba.core import config
+
+        config.CACHE_DIR = where
