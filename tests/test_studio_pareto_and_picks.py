@@ -128,6 +128,9 @@ def test_candidates_list_knees_then_best_then_the_front_once_each(n: int, seed: 
     assert set(members) == set(sl.knees) | set(sl.best) | set(sl.front)
     kinds = [c.kind for c in cands]
     assert kinds == sorted(kinds, key=["knee", "best", "front"].index)
+    # the tags the chart and the Pick panel show: K1, K2, ... (1-based, as the inset labels them)
+    assert [c.tag for c in cands[: len(sl.knees)]] == [f"K{j + 1}" for j in range(len(sl.knees))]
+    assert all(c.label.startswith(f"{c.tag} · #{c.member} · ") for c in cands)
     order = front_order(r)  # type: ignore[arg-type]
     assert np.all(np.diff(F[list(order), 0]) >= 0)
 
@@ -275,3 +278,14 @@ def test_the_candidate_dropdown_lists_at_most_60_front_members_and_always_the_sh
     assert kept[0] == front[0] and kept[-1] == front[-1] and any(c.member == 100 for c in kept)
     assert [c.member for c in kept] == sorted(c.member for c in kept)  # the front's order
     assert listed(cands[:50], shown=None) == cands[:50]
+
+
+def test_the_pick_panel_compares_objectives_then_constrained_then_report_metrics_then_the_violation() -> None:
+    from studio.candidates import compared_metrics
+
+    class R:
+        objectives = ("f1", "f2")
+        metrics = {k: np.zeros(1) for k in ("f1", "f2", "h_s", "I", "mse", "violation", "width")}
+
+    assert compared_metrics(R(), ("h_s", "violation")) == ("f1", "f2", "h_s", "mse", "I", "width", "violation")  # type: ignore[arg-type]
+
