@@ -3,6 +3,6 @@ cli -> study -> formats -> optimize -> analysis -> kinematics. Never imports vis
 See docs/architecture.md.
 """
 
-from core._kernel_cache import configure as _configure_kernel_cache
+from core.kinematics.kernel_cache import configure as _configure_kernel_cache
 
 _configure_kernel_cache()

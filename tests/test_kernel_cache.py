@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from core._kernel_cache import cache_dir, kernel_fingerprint
+from core.kinematics.kernel_cache import cache_dir, kernel_fingerprint
 
 
 def test_the_fingerprint_follows_the_modules_that_mention_numba_only(tmp_path: Path) -> None:
