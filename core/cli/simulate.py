@@ -130,8 +130,7 @@ def why_not(sol: Solution) -> list[str]:
 def summary(design: Design, sol: Solution, label: str) -> str:
     m = design.mechanism
     o = design.output
-    out = ("identity output" if o == IDENTITY else
-           f"output k={o.k:g}{', mirrored' if o.mirror else ''} about ({o.ox:g}, {o.oy:g})")
+    out = "identity output" if o == IDENTITY else f"output {o.describe()}"
     lines = [f"{label}: {m.title} ({m.name}, {m.n_params} parameters), {out}"]
     n = sol.theta.shape[0]
     if sol.feasible[0]:

@@ -121,6 +121,10 @@ class OutputStage:
         out += np.array([(1.0 - kx) * self.ox, (1.0 - ky) * self.oy])
         return out
 
+    def describe(self) -> str:
+        """The map in words: ``k = -1 about (150, 0) mm`` (``, mirrored`` when it is)."""
+        return f"k = {self.k:g} about ({self.ox:g}, {self.oy:g}) mm" + (", mirrored" if self.mirror else "")
+
     def invert(self, p: NDArray[np.float64]) -> NDArray[np.float64]:
         """Points ``(*, 2)`` in the leg frame -> design frame (the inverse of :meth:`apply`)."""
         kx, ky = self.ratios

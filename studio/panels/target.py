@@ -117,4 +117,4 @@ def output_text(o: OutputStage) -> str:
     """The output stage in words: "identity", or its ratio, centre and mirror."""
     if o.k == 1.0 and not o.mirror:
         return "identity: the frames are the same"
-    return f"k = {o.k:g} about ({o.ox:g}, {o.oy:g}) mm" + (", mirrored" if o.mirror else "")
+    return o.describe()
