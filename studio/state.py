@@ -74,12 +74,11 @@ def opening_preset(mechanism: str) -> str:
     assembles = None
     for name in names:
         design = presets.get(name).design()
-        if solve(design.mechanism, design.params, N_SAMPLES, output=design.output, joints=False,
-                 derivatives=False, backend=BACKEND).violation[0] > 0:
-            continue
         if evaluate(design, N_SAMPLES, backend=BACKEND).violation[0] == 0:
             return name
-        assembles = assembles or name
+        if assembles is None and solve(design.mechanism, design.params, N_SAMPLES, output=design.output,
+                                       joints=False, derivatives=False, backend=BACKEND).violation[0] == 0:
+            assembles = name  # only needed while no feasible one has come: one solve, not one per preset
     return assembles or names[0]
 
 
