@@ -37,3 +37,40 @@ def test_this_process_compiles_into_this_versions_cache() -> None:
     if where is None:
         pytest.skip("neither NUMBA_CACHE_DIR nor a writable virtual environment: numba's default cache")
     assert config.CACHE_DIR == where and Path(where).name == kernel_fingerprint()
+
+
+def test_a_start_keeps_its_own_and_the_most_recent_versions_and_removes_idle_old_ones(tmp_path: Path) -> None:
+    import os
+    import time
+
+    from core.kinematics.kernel_cache import prune
+
+    now = time.time()
+    ages_h = {"0000000000000001": 1000.0, "0000000000000002": 50.0, "0000000000000003": 3.0,
+              "0000000000000004": 2.0, "0000000000000005": 0.1, "00000000000000ff": 2000.0}
+    for name, age in ages_h.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "kernel.nbi").write_bytes(b"x")
+        os.utime(tmp_path / name, (now - age * 3600, now - age * 3600))
+    (tmp_path / "analysis_05f3a0").mkdir()  # numba's own layout and other files are not ours to remove
+    os.utime(tmp_path / "analysis_05f3a0", (now - 9e6, now - 9e6))
+    here = tmp_path / "00000000000000ff"  # this start's version: old, but used now
+    removed = prune(str(here), keep=2, idle_s=3600.0)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    # the two most recent others (0.1 h, 2 h) stay; beyond them, 3 h and older go unless used within the hour
+    assert sorted(Path(p).name for p in removed) == ["0000000000000001", "0000000000000002", "0000000000000003"]
+    assert left == ["0000000000000004", "0000000000000005", "00000000000000ff", "analysis_05f3a0"]
+    assert time.time() - here.stat().st_mtime < 60
+    os.utime(tmp_path / "0000000000000004", (now - 600, now - 600))  # beyond keep, but used 10 min ago
+    (tmp_path / "0000000000000006").mkdir()
+    assert prune(str(here), keep=1, idle_s=3600.0) == []  # 6 is the newest other; 4 and 5 used within the hour
+    assert prune(str(here), keep=0, idle_s=0.0) != [] and sorted(p.name for p in tmp_path.iterdir()) == [
+        "00000000000000ff", "analysis_05f3a0"]
+
+
+def test_a_cache_that_cannot_be_tidied_still_works(tmp_path: Path) -> None:
+    from core.kinematics.kernel_cache import prune
+
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    assert prune(str(blocker / "0000000000000001")) == []

@@ -7,17 +7,24 @@ subdirectory named by a hash of every ``core`` module that mentions numba: any c
 fresh cache (the next runs compile again, about a minute on 2 cores for the studio's warm-up).
 
 The base is ``NUMBA_CACHE_DIR`` (the scripts set ``.venv/numba-cache``), else ``numba-cache`` in a writable
-virtual environment; with neither, numba's default (``__pycache__``) is left alone.
+virtual environment; with neither, numba's default (``__pycache__``) is left alone. Each start marks its own
+directory as used and removes the other versions' directories beyond the ``KEEP`` most recently used, once they
+have been idle for ``IDLE_S`` (a process of an older version that is still running keeps compiling into its own).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
+import shutil
 import sys
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]  # core
+KEEP, IDLE_S = 3, 3600.0
+_FINGERPRINT = re.compile(r"[0-9a-f]{16}")
 
 
 def kernel_fingerprint(root: Path = ROOT) -> str:
@@ -43,12 +50,38 @@ def cache_dir(fingerprint: str) -> str | None:
     return os.path.join(base, fingerprint)
 
 
+def prune(where: str, keep: int = KEEP, idle_s: float = IDLE_S) -> list[str]:
+    """Mark ``where`` as used now and remove its sibling version directories beyond the ``keep`` most recently
+    used that have been idle ``idle_s`` seconds; returns the removed paths. Errors are ignored: a cache that
+    cannot be tidied still works."""
+    here = Path(where)
+    try:
+        here.mkdir(parents=True, exist_ok=True)
+        os.utime(here)
+        others = [p for p in here.parent.iterdir()
+                  if p != here and p.is_dir() and _FINGERPRINT.fullmatch(p.name)]
+        others.sort(key=lambda p: p.stat().st_mtime, reverse=True)
+    except OSError:
+        return []
+    removed, now = [], time.time()
+    for p in others[keep:]:
+        try:
+            if now - p.stat().st_mtime < idle_s:
+                continue
+        except OSError:
+            continue
+        shutil.rmtree(p, ignore_errors=True)
+        removed.append(str(p))
+    return removed
+
+
 def configure() -> None:
     """Point numba at this version's cache before any kernel is defined (and tell child processes)."""
     where = cache_dir(kernel_fingerprint())
     if where is None:
         return
     os.environ["NUMBA_CACHE_DIR"] = where
+    prune(where)
     if "numba" in sys.modules:  # imported before core: its configuration was read already
         from numba.core import config
 
