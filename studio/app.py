@@ -23,8 +23,8 @@ from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, takes_target
 from studio.charts import png
 from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
-from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE, inset_caption
-from studio.geometry import frame_index, inset_positions
+from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE, SceneFrames, inset_caption
+from studio.geometry import SCENE_SCALE, frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
 from studio.pacer import Pacer
 from studio.panels.bench import BenchPanel
@@ -115,6 +115,7 @@ class Studio:
         self._study_key: object = None
         self._inset_key: object = None
         self._inset_drawn: object = None
+        self._inset_box: np.ndarray | None = None  # where the inset's square was placed (mm)
         self._last_push = 0.0
         self._study_dirty = False
         self._fitted: np.ndarray | None = None  # the views' bounds the camera last framed (mm)
@@ -184,13 +185,16 @@ class Studio:
             self.playback.show(pb, self.held())
             sv = self.study_view()
             study_changed = sv.key != self._study_key
+            if changed and not fit_camera:
+                fit_camera = self._outgrown()
+            if fit_camera:
+                self._inset_box = None  # the camera moves: the inset goes where the new layout puts it
             if changed or study_changed:
                 self._show_study(sv)
                 self.metrics.show_stage(sv, view)
                 self._last_push = time.monotonic()
-            if changed and not fit_camera:
-                fit_camera = self._outgrown()
             if fit_camera:
+                self._show_inset(sv)  # nothing to do if the study was just shown
                 frames = self.scene.frames
                 self._fitted = None if frames is None else frames.composition.bounds.copy()
                 self.scene.fit_camera()
@@ -229,11 +233,24 @@ class Studio:
         self._show_inset(sv)
         self._study_key = sv.key
 
+    def _steady_inset(self, frames: SceneFrames) -> np.ndarray:
+        """The inset's square (mm). A pick lays the views out again, which moved the square, and the sphere under
+        the pointer, by 1-2 % of its side: while the camera stays, the square stays where it was if the new one is
+        within 3 % of its side and the leg view keeps a text height of room to it (the layout leaves two)."""
+        new, old = frames.composition.inset, self._inset_box
+        if old is not None:
+            side = old[2] - old[0]
+            near = bool(np.abs(new - old).max() <= 0.03 * side)
+            if near and new[0] - old[0] <= frames.text_height / SCENE_SCALE:
+                return old
+        self._inset_box = new.copy()
+        return new
+
     def _show_inset(self, sv: StudyView) -> None:
         frames = self.scene.frames
         if frames is None:
             return
-        box = frames.composition.inset
+        box = self._steady_inset(frames)
         r = sv.result(sv.viewing)
         key = (tuple(np.round(box, 6)), frames.text_height, sv.shown)
         if r is self._inset_drawn and key == self._inset_key:  # by identity: a freed result's id can be reused

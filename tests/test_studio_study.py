@@ -566,9 +566,17 @@ def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
         class Click:
             client = None
 
+        where = {m: tuple(h.position) for m, h in studio.inset._spheres.items()}
         studio.inset._clicked(member)(Click())  # type: ignore[arg-type]
         assert studio.session.study.shown_member("subtask2") == member
         np.testing.assert_array_equal(studio.session.view.design.params[0], r.X[member])
+        # The picked design lays the views out again (its leg view is a little larger or smaller): the spheres
+        # stay put, so the next click lands on what the designer aimed at (they moved 1-2 % of the inset).
+        assert {m: tuple(h.position) for m, h in studio.inset._spheres.items()} == where
+        assert not np.array_equal(studio.scene.frames.composition.inset, studio._inset_box)
+        studio.refresh(fit_camera=True)  # the camera frames the views again: the inset follows the layout
+        np.testing.assert_array_equal(studio._inset_box, studio.scene.frames.composition.inset)
+        assert {m: tuple(h.position) for m, h in studio.inset._spheres.items()} != where
         # A plain front member picked with the slider or the dropdown gets a red sphere of its own (it stayed a grey
         # dot: nothing in the scene said which member was shown).
         plain = next(m for m in r.front if m not in shown)
@@ -579,6 +587,24 @@ def test_clicking_a_candidate_sphere_in_the_scene_picks_it() -> None:
         assert set(studio.inset._spheres) == shown
     finally:
         studio.close()
+
+
+def test_the_inset_stays_put_for_a_small_relayout_that_leaves_the_leg_view_room() -> None:
+    from types import SimpleNamespace
+
+    import studio.app as app
+
+    def placed(old: list[float], new: list[float], text_mm: float) -> list[float]:
+        me = SimpleNamespace(_inset_box=np.array(old))
+        frames = SimpleNamespace(composition=SimpleNamespace(inset=np.array(new)), text_height=text_mm * 1e-3)
+        return list(app.Studio._steady_inset(me, frames))  # type: ignore[arg-type]
+
+    old = [100.0, 0.0, 200.0, 100.0]  # a 100 mm square; 3 % of it is 3 mm
+    assert placed(old, [98.0, -2.5, 197.5, 97.0], 2.0) == old  # a pick's 1-3 % move: kept
+    assert placed(old, [101.5, 0.0, 201.5, 100.0], 2.0) == old  # the leg view grew by less than a text height
+    assert placed(old, [102.5, 0.0, 202.5, 100.0], 2.0) == [102.5, 0.0, 202.5, 100.0]  # more: it must move
+    assert placed(old, [100.0, 3.5, 200.0, 103.5], 2.0) == [100.0, 3.5, 200.0, 103.5]  # beyond 3 %
+    assert placed(old, [96.5, 0.0, 196.5, 100.0], 9.0) == [96.5, 0.0, 196.5, 100.0]
 
 
 def test_a_short_run_reads_in_hundredths_of_a_second_not_as_zero() -> None:
