@@ -1,0 +1,114 @@
+"""The Pareto chart's title, markers and the `clm-charts` loop, on hand-built results (a mutation audit of
+studio/charts.py found the feasible count, the target suffix, the knee / best / passed-on roles and the
+stage loop unchecked)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import plotly.graph_objects as go
+import pytest
+
+import studio.charts as charts
+from core.cli import main as clm
+from core.optimize.problem import make_problem
+
+CONFIG = """
+name = "charts"
+mechanism = "stephenson1"
+seed = 1
+n_samples = 36
+preset = "stephenson1/X2"
+[algorithm]
+name = "nsga2"
+pop_size = 8
+[[stages]]
+name = "subtask2"
+n_gen = 1
+[[stages]]
+name = "subtask3"
+n_gen = 1
+"""
+
+
+def result(**kw: object) -> SimpleNamespace:
+    """Enough of a StageResult for the chart: 5 members, members 0, 2 and 3 feasible, a front of 0 and 2."""
+    feasible = np.array([True, False, True, True, False])
+    r = SimpleNamespace(
+        mechanism=SimpleNamespace(title="Six-bar"), name="subtask2", status="complete", generation=3, n_gen=3,
+        pop=5, feasible=feasible, cv=np.where(feasible, 0.0, 1.0), front=(0, 2), objectives=("a", "b"),
+        F=np.array([[1.0, 4.0], [2.0, 2.0], [3.0, 1.0], [3.5, 3.5], [4.0, 0.5]]),
+        shortlist=SimpleNamespace(knees=(2,), best=(0, 2)), picked=3)
+    vars(r).update(kw)
+    return r
+
+
+def test_the_title_counts_feasible_members_and_the_front_and_names_the_target_only_when_there_is_one():
+    r = result()
+    assert charts.chart_title(r, "complete") == "Six-bar · subtask2 · complete · 3 feasible of 5 · front 2"
+    assert charts.chart_title(r, "complete", "cycloid L=1") == (
+        "Six-bar · subtask2 · complete · 3 feasible of 5 · front 2 · target cycloid L=1")
+    none = result(feasible=np.zeros(5, dtype=bool))
+    assert " 0 feasible of 5 " in charts.chart_title(none, "x")
+
+
+def traces(fig: go.Figure) -> dict[str, list[int]]:
+    return {t.name: list(t.customdata) for t in fig.data}
+
+
+def test_the_stage_chart_marks_its_knees_its_best_members_and_the_member_passed_on():
+    fig = charts.result_figure(result(), {"a": "alpha (mm)"}, "cycloid L=1")
+    got = traces(fig)
+    assert got["knee candidates"] == [2]  # K1
+    assert got["best per objective"] == [0]  # best a; best b is the knee already
+    assert got["passed on"] == [3]
+    assert got["Pareto front"] == [0, 2] and got["infeasible"] == [1, 4]
+    assert fig.layout.xaxis.title.text == "alpha (mm)" and fig.layout.yaxis.title.text == "b"
+    assert fig.layout.title.text.endswith("· 3 feasible of 5 · front 2 · target cycloid L=1")
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("charts") / "run"
+    cfg = out.parent / "c.toml"
+    cfg.write_text(CONFIG)
+    assert clm(["design", str(cfg), "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def drawn(monkeypatch: pytest.MonkeyPatch) -> list[go.Figure]:
+    """Capture the figures clm-charts would draw (no kaleido: the PNG is the figure's job, not the loop's)."""
+    figs: list[go.Figure] = []
+
+    def fake_png(fig: go.Figure, width: int = 0, height: int = 0) -> bytes:
+        figs.append(fig)
+        return b"png"
+
+    monkeypatch.setattr(charts, "png", fake_png)
+    return figs
+
+
+def test_clm_charts_titles_each_chart_with_its_stage_target_and_axis_labels(run_dir, monkeypatch, capsys):
+    figs = drawn(monkeypatch)
+    written = charts.run_charts(run_dir)
+    assert [p.name for p in written] == ["pareto-0_subtask2.png", "pareto-1_subtask3.png"]
+    for fig, stage in zip(figs, ("subtask2", "subtask3"), strict=True):
+        spec = make_problem(stage)
+        assert fig.layout.xaxis.title.text == spec.labels[spec.objectives[0]] != spec.objectives[0]
+        assert fig.layout.yaxis.title.text == spec.labels[spec.objectives[1]]
+        assert f" · {stage} · " in fig.layout.title.text
+        assert fig.layout.title.text.endswith(" · target cycloid L=300.0 H=100.0 T=2.0")
+
+
+def test_clm_charts_skips_a_stage_without_a_result_and_draws_the_ones_after_it(run_dir, monkeypatch, tmp_path):
+    data = json.loads((run_dir / "result.json").read_text())
+    data["pipeline"]["results"][0] = None  # the first stage never ran (or its result was lost)
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "result.json").write_text(json.dumps(data))
+    figs = drawn(monkeypatch)
+    assert [p.name for p in charts.run_charts(run)] == ["pareto-1_subtask3.png"]
+    assert (run / "pareto-1_subtask3.png").read_bytes() == b"png" and len(figs) == 1
