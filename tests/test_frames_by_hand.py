@@ -1,0 +1,197 @@
+"""The scene's arrays by hand: label boxes, scale bars, feature and candidate labels, colours, the leg view's
+ground line and the layout's text (a mutation audit of studio/frames.py found each of these unchecked)."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from core.kinematics.model import Ground
+from studio import palette
+from studio.frames import (
+    TEXT_SCALE,
+    SceneText,
+    _overlaps,
+    _text,
+    build_frames,
+    feature_texts,
+    marker_texts,
+    paint,
+    scale_bar,
+    text_height,
+    text_width,
+    vertex_colours,
+)
+from studio.geometry import EDGE_CRANK, EDGE_GROUND, EDGE_LINK, SCENE_SCALE, link_edges
+from studio.state import Session, build_view
+
+S = SCENE_SCALE
+
+
+@pytest.fixture(scope="module")
+def x3_view():
+    return Session.default("stephenson1/X3").view
+
+
+@pytest.fixture(scope="module")
+def x3(x3_view):
+    return build_frames(x3_view)
+
+
+def texts_by_key(f) -> dict[str, SceneText]:
+    return {t.key: t for t in f.texts}
+
+
+def test_a_labels_size_follows_its_longest_line_and_its_number_of_lines():
+    h = 10.0
+    assert text_width("ab\nabcd\nabc", h) == pytest.approx(text_width("abcd", h)) == pytest.approx(
+        2 * text_width("ab", h))
+    assert text_height("a", h) > 0
+    assert text_height("a\nbb\nccc", h) == pytest.approx(3 * text_height("a", h))
+
+
+@pytest.mark.parametrize(("vert", "horiz"), list(itertools.product(("top", "center", "bottom"),
+                                                                     ("left", "center", "right"))))
+def test_a_label_box_has_its_anchor_where_the_anchor_says(vert: str, horiz: str):
+    x, y, h, off = 40.0, -25.0, 6.0, (1000.0, 500.0)
+    t = _text("k", "two\nlines!", x, y, f"{vert}-{horiz}", h, off)
+    x0, y0, x1, y1 = t.box
+    assert x1 - x0 == pytest.approx(text_width("lines!", h)) and y1 - y0 == pytest.approx(2 * text_height("a", h))
+    gx = {"left": x0, "right": x1, "center": 0.5 * (x0 + x1)}[horiz] - off[0]
+    gy = {"bottom": y0, "top": y1, "center": 0.5 * (y0 + y1)}[vert] - off[1]
+    assert (gx, gy) == pytest.approx((x, y))
+    assert t.position == pytest.approx((x * S, y * S, 0.0)) and t.height == pytest.approx(h * S)
+
+
+def test_a_scale_bar_is_as_long_as_its_label_says_and_round():
+    seg, label = scale_bar(10.0, 20.0, 480.0, 8.0, "k")
+    (a, b), tick0, tick1 = seg
+    length = float(label.text.removesuffix(" mm"))
+    assert length == 100.0  # about a fifth of 480 mm, rounded to 1, 2 or 5 x 10^k
+    assert a[1] == b[1] == 20.0 and b[0] - a[0] == pytest.approx(length) and a[0] == 10.0
+    assert tick0[0][0] == tick0[1][0] == a[0] and tick1[0][0] == tick1[1][0] == b[0]  # end ticks, upright
+    assert tick0[0][1] < 20.0 < tick0[1][1]
+    assert label.box[0] > b[0] and label.box[1] < 20.0 < label.box[3]  # right of the bar, level with it
+
+
+def test_feature_points_closer_than_a_label_print_as_one_label_in_numeric_order():
+    h = 4.0
+    got = feature_texts((("t6", (0.0, 0.0)), ("t1=t4", (0.5 * h, 0.0)), ("t2", (1.01 * h, 0.0))), h,
+                        np.zeros(2))
+    assert [t.text for t in got] == ["t1=t4=t6", "t2"]  # t2 is just over a label's height from t6
+
+
+def test_a_feature_label_that_would_cover_another_moves_below_its_point():
+    h = 4.0
+    got = feature_texts((("t1=t4", (0.0, 0.0)), ("t2=t5", (1.5 * h, 0.0))), h, np.zeros(2))
+    assert [t.anchor for t in got] == ["bottom-center", "top-center"]
+    assert not _overlaps(got[0].box, got[1].box)
+    assert got[1].box[3] < 0.0  # under its point
+
+
+def test_a_candidates_label_sits_above_its_own_sphere_without_covering_it():
+    r, h = 3.0, 4.0
+    (t,) = marker_texts((("K1", (10.0, 20.0)),), h, r)
+    assert t is not None and t.anchor == "bottom-center"
+    assert not _overlaps(t.box, (10.0 - r, 20.0 - r, 10.0 + r, 20.0 + r))
+    assert t.box[1] >= 20.0 + r and t.box[3] - 20.0 < r + 2 * h  # just above it, not far off
+
+
+def test_line_colours_are_srgb_decoded_as_the_standard_says():
+    # IEC 61966-2-1: c <= 0.04045 -> c / 12.92, else ((c + 0.055) / 1.055) ** 2.4. sRGB 128 is linear 0.21586
+    # (55 of 255), sRGB 188 is linear 0.50289 (128 of 255); sRGB 10 lies on the straight part (0.00304 -> 1).
+    got = vertex_colours(np.array([[0, 10, 128], [188, 255, 255]]))
+    assert got.dtype == np.uint8 and got.tolist() == [[0, 1, 55], [128, 255, 255]]
+
+
+def test_lines_get_decoded_colours_and_point_clouds_the_colour_as_given():
+    lines, points = np.zeros((4, 2, 3), dtype=np.float32), np.zeros((5, 3), dtype=np.float32)
+    assert paint(lines, (128, 188, 0)).shape == (4, 2, 3)
+    assert (paint(lines, (128, 188, 0)) == [55, 128, 0]).all()
+    assert paint(points, (128, 188, 0)).shape == (5, 3) and (paint(points, (128, 188, 0)) == [128, 188, 0]).all()
+
+
+def test_ground_crank_and_links_are_drawn_in_their_own_colours(x3_view, x3):
+    kinds = link_edges(x3_view.design.mechanism).kinds
+    for kind, rgb in ((EDGE_GROUND, palette.GROUND), (EDGE_CRANK, palette.CRANK), (EDGE_LINK, palette.LINK)):
+        assert (kinds == kind).any()
+        assert (x3.link_colors[kinds == kind] == vertex_colours(np.array(rgb))).all(), kind
+
+
+def test_the_leg_view_draws_its_ground_line_at_t1s_height_and_none_outside_the_view(x3_view, x3):
+    t1 = x3_view.features[0]
+    assert t1[0].split("=")[0] == "t1"
+    assert len(x3.leg_axes) == 5  # the border's four sides and the ground line
+    (a, b) = x3.leg_axes[4]
+    assert a[1] == b[1] == pytest.approx(t1[1][1] * S) and b[0] - a[0] > 0.3  # across the ~300 mm view
+    # A t1 off the view (a hand-moved feature point): no ground line outside the border.
+    far = replace(x3_view, features=(("t1", (0.0, 1e4)),) + x3_view.features[1:])
+    assert len(build_frames(far).leg_axes) == 4
+
+
+def test_stance_and_swing_segments_have_their_colours(x3_view, x3):
+    stance = x3_view.stance
+    assert stance is not None and 0 < stance.sum() < len(stance)
+    want = np.where(stance[:, None], vertex_colours(np.array(palette.STANCE)), vertex_colours(np.array(palette.SWING)))
+    assert (x3.leg_path_colors[:, 0] == want).all() and (x3.leg_path_colors[:, 1] == want).all()
+
+
+def test_the_bench_path_leaves_out_every_segment_with_an_end_where_the_mechanism_does_not_assemble(x3_view):
+    broken = build_view(x3_view.design.replace(r4=131.8), "stephenson1/X3", x3_view.target)
+    leg = broken.solution.leg[0]
+    ok = np.isfinite(leg).all(axis=1)
+    assert 0 < ok.sum() < len(ok)
+    f = build_frames(broken)
+    assert np.isfinite(f.leg_path).all()
+    assert len(f.leg_path) == int((ok & np.roll(ok, -1)).sum()) == len(f.leg_path_colors)
+
+
+def test_a_design_that_never_assembles_collapses_onto_its_first_ground_pivot(x3_view):
+    never = build_view(x3_view.design.replace(r4=1000.0), "stephenson1/X3", x3_view.target)
+    assert not never.solution.valid[0].any()
+    f = build_frames(never)
+    steps = never.design.mechanism.steps
+    first = next(i for i, s in enumerate(steps) if isinstance(s, Ground))
+    a = never.solution.joints[0][0, first] * S  # pivot A, (150.57, 66.12) mm
+    assert np.isfinite(a).all()
+    np.testing.assert_allclose(f.joints[..., :2], np.broadcast_to(a, f.joints[..., :2].shape), rtol=1e-6)
+    np.testing.assert_allclose(f.foot[:, 0, :2], np.broadcast_to(a, (len(f.foot), 2)), rtol=1e-6)
+
+
+def test_the_walking_metrics_print_as_two_lines_heights_then_obstacle_crossing(x3):
+    lines = texts_by_key(x3)["walk_text"].text.split("\n")
+    assert len(lines) == 2
+    assert "hₘ" in lines[0] and "h̄" in lines[0] and "ψ" not in lines[0]
+    assert lines[1].startswith("ψ₂(") and "ψ₄(" in lines[1]
+
+
+def test_the_walking_legs_each_have_their_own_colour(x3):
+    assert x3.walk is not None
+    feet = [tuple(c) for c in x3.walk.feet_colors]
+    assert len(feet) >= 2 and len(set(feet)) == len(feet)
+    assert feet == list(palette.LEGS[: len(feet)])
+
+
+def test_titles_sit_above_their_views_and_scale_bars_below(x3):
+    t = texts_by_key(x3)
+    lay, comp = x3.layout, x3.composition
+    leg_top = (x3.leg_axes[:4, :, 1].max() / S) + lay.leg_offset[1]
+    leg_bottom = (x3.leg_axes[:4, :, 1].min() / S) + lay.leg_offset[1]
+    assert t["design_title"].box[1] >= lay.design[3]
+    assert t["leg_title"].box[1] >= leg_top - 1e-9
+    assert t["inset_title"].box[1] >= comp.inset[3]
+    assert t["inset_note"].box[3] <= comp.inset[1]
+    assert t["walk_title"].box[1] >= t["walk_text"].box[3] - 1e-9
+    bars = x3.scale_bars[..., :2] / S
+    assert bars[:3, :, 1].max() < lay.design[1]  # the design view's bar under its lowest point
+    assert bars[3:6, :, 1].max() < leg_bottom
+    assert bars[:3, :, 0].min() == pytest.approx(lay.design[0])  # starting at its left edge
+
+
+def test_the_text_height_follows_the_larger_side_of_the_whole_composition(x3):
+    b = x3.composition.bounds
+    size = max(b[2] - b[0], b[3] - b[1])
+    assert x3.text_height / S == pytest.approx(size / TEXT_SCALE, rel=0.03)  # the fixed point stops within 2 %
