@@ -237,7 +237,6 @@ class WalkScene:
         ground: ``(1, 2, 3)`` the ground line; obstacle ``(4, 2, 3)`` the obstacle's outline.
         hit: a foot path enters the obstacle where it stands.
         text: h_m, h_bar, psi2, psi4 of the design.
-        title_at, text_at: label positions (walk-local, m).
     """
 
     body: F32
@@ -250,8 +249,6 @@ class WalkScene:
     obstacle: F32
     hit: bool
     text: str
-    title_at: tuple[float, float, float]
-    text_at: tuple[float, float, float]
 
 
 def walk_text(view: DesignView) -> str:
@@ -285,8 +282,6 @@ def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
         obstacle=_lift(to_scene(outline), Z_LINES),
         hit=wf.hit,
         text=walk_text(view),
-        title_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.08 * (y1 - y0)) * SCENE_SCALE, 0.0),
-        text_at=((x0 - pad) * SCENE_SCALE, (y1 + 0.02 * (y1 - y0)) * SCENE_SCALE, 0.0),
     )
 
 
