@@ -43,6 +43,7 @@ SESSION_VERSION = 4  # 3: stage results stored once by hash, arrays packed (stud
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0
+UNDO_DEPTH = 50  # editor changes kept for Undo (each a design view of a few hundred kB)
 
 
 def _backend() -> Backend:
@@ -241,6 +242,27 @@ def check_value(param: Param, value: object) -> float:
     return v
 
 
+def change_summary(a: DesignView, b: DesignView) -> str:
+    """What differs from view ``a`` to view ``b``, in a few words: the topology, the preset, up to three
+    parameter names, the target, the walking view."""
+    if a.design.mechanism != b.design.mechanism:
+        return f"topology {b.design.mechanism.title}"
+    parts = []
+    if a.preset != b.preset:
+        parts.append(f"preset {preset_label(b.preset)}" if b.preset is not None else "preset (none)")
+    names = [n for n, x, y in zip(a.design.mechanism.param_names, a.design.params[0], b.design.params[0],
+                                  strict=True) if x != y]
+    if names and not parts:
+        parts.append(", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else ""))
+    if a.design.output != b.design.output:
+        parts.append("output stage")
+    if a.target != b.target:
+        parts.append("target")
+    if a.walk != b.walk:
+        parts.append("walking view")
+    return " · ".join(parts)
+
+
 @dataclass(frozen=True)
 class Playback:
     """Animation state: playing, speed (x real time, one revolution per target period T), crank angle (rad)."""
@@ -264,6 +286,8 @@ class Session:
     lock: threading.RLock = field(default_factory=threading.RLock, repr=False, compare=False)
     version: int = 0
     study: Study = field(default_factory=Study)
+    undone: list[DesignView] = field(default_factory=list, repr=False, compare=False)  # what Undo brings back
+    redone: list[DesignView] = field(default_factory=list, repr=False, compare=False)  # what Redo brings back
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
@@ -280,8 +304,9 @@ class Session:
         with self.lock:
             return self.view, self.playback, self.version
 
-    def _commit(self, view: DesignView, keep_assembly: bool = False) -> DesignView:
-        """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design."""
+    def _commit(self, view: DesignView, keep_assembly: bool = False, record: bool = True) -> DesignView:
+        """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design.
+        ``record``: the replaced view can be brought back by :meth:`undo` (and what was undone is forgotten)."""
         if keep_assembly and self.view.assembles and not view.assembles:
             raise ValueError(assembly_reason(view))
         old, new = self.view.design.mechanism, view.design.mechanism
@@ -293,9 +318,41 @@ class Session:
         pipe = self.study.pipeline
         if new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name:
             self.study.start_over(f"before switching to {new.title}")
+        if record and view is not self.view:
+            self.undone = [*self.undone[-(UNDO_DEPTH - 1):], self.view]
+            self.redone = []
         self.view = view
         self.version += 1
         return view
+
+    # Undo ---------------------------------------------------------------------------------
+
+    def undo(self) -> DesignView:
+        """Bring back the editor as it was before its last change (design, preset, target, walking view: a
+        parameter, a preset, a topology, a pick, a run's end); ValueError if there is none or a stage runs.
+        The study is not rewound: a topology switch kept the stages as a branch, and they stay there."""
+        with self.lock:
+            return self._step(self.undone, self.redone, "undo")
+
+    def redo(self) -> DesignView:
+        """Make again the change the last :meth:`undo` took back; ValueError if there is none or a stage runs."""
+        with self.lock:
+            return self._step(self.redone, self.undone, "redo")
+
+    def _step(self, source: list[DesignView], sink: list[DesignView], what: str) -> DesignView:
+        if not source:
+            raise ValueError(f"nothing to {what}")
+        current = self.view
+        view = self._commit(source[-1], record=False)  # refused while a stage runs: nothing moves
+        source.pop()
+        sink.append(current)
+        return view
+
+    def change_names(self, which: str) -> str:
+        """What :meth:`undo` (``which="undo"``) or :meth:`redo` would change, in a few words ("" if nothing)."""
+        with self.lock:
+            stack = self.undone if which == "undo" else self.redone
+            return (change_summary(self.view, stack[-1]) or "the same design") if stack else ""
 
     # Design -------------------------------------------------------------------------------
 
@@ -492,6 +549,7 @@ class Session:
         with self.lock:
             if self.study.status.running:
                 raise ValueError("a stage is running; stop it before loading a session")
+            self.undone, self.redone = [], []  # a loaded session is another piece of work
             self.view = other.view
             self.playback = other.playback
             self.study = other.study

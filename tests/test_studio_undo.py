@@ -1,0 +1,152 @@
+"""Undo and Redo of the editor: a designer who typed a wrong value, chose the wrong preset or topology, or lost a
+hand-edited design to a pick or a run's end gets it back exactly; the study is not rewound."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from core.kinematics.presets import get
+from studio.state import UNDO_DEPTH, Session, change_summary
+
+
+def nudge(s: Session, name: str, factor: float) -> float:
+    value = s.view.values[name] * factor
+    s.set_param(name, value)
+    return value
+
+
+def test_undo_takes_edits_back_in_reverse_order_and_redo_makes_them_again() -> None:
+    s = Session.default()
+    first = s.view
+    a = nudge(s, "r4", 1.002)
+    second = s.view
+    nudge(s, "r5", 0.998)
+    assert s.change_names("undo") == "r5" and s.change_names("redo") == ""
+    assert s.undo() is second and s.view.values["r4"] == a and s.view.values["r5"] == first.values["r5"]
+    assert s.change_names("redo") == "r5" and s.change_names("undo") == "r4"
+    assert s.undo() is first
+    np.testing.assert_array_equal(s.view.design.params, first.design.params)
+    with pytest.raises(ValueError, match="^nothing to undo$"):
+        s.undo()
+    assert s.view is first
+    assert s.redo() is second and s.redo().values["r5"] != first.values["r5"]
+    with pytest.raises(ValueError, match="^nothing to redo$"):
+        s.redo()
+
+
+def test_a_new_edit_after_an_undo_forgets_what_was_undone() -> None:
+    s = Session.default()
+    nudge(s, "r4", 1.002)
+    s.undo()
+    nudge(s, "r6", 1.001)
+    assert s.redone == [] and s.change_names("undo") == "r6"
+    with pytest.raises(ValueError, match="nothing to redo"):
+        s.redo()
+
+
+def test_refused_and_empty_edits_leave_nothing_to_undo() -> None:
+    s = Session.default()
+    with pytest.raises(ValueError):
+        s.set_param("r4", -1.0)
+    s.set_param("r4", s.view.values["r4"])  # the same value: no change
+    s.set_walk(a=s.view.walk.a)
+    assert s.undone == []
+    with pytest.raises(ValueError, match="nothing to undo"):
+        s.undo()
+
+
+def test_a_topology_switch_a_preset_a_target_and_the_walking_view_are_undone_too() -> None:
+    s = Session.default()
+    start = s.view
+    s.load_preset("stephenson1/X1")
+    assert s.change_names("undo") == "preset X3"  # what Undo brings back
+    s.set_target(length=310.0)
+    s.set_walk(a=30.0)
+    s.select_mechanism("jansen")
+    assert s.view.design.mechanism.name == "jansen"
+    assert s.change_names("undo") == "topology Stephenson-I six-bar"
+    s.undo()
+    assert s.view.design.mechanism.name == "stephenson1" and s.view.walk.a == 30.0 and s.view.target.length == 310.0
+    assert s.undo().walk.a == start.walk.a
+    assert s.undo().target.length == start.target.length
+    assert s.undo() is start and s.view.preset == start.preset
+    assert [v.design.mechanism.name for v in s.redone] == ["jansen", "stephenson1", "stephenson1", "stephenson1"]
+
+
+def test_a_pick_that_replaced_a_hand_edited_design_is_undone() -> None:
+    s = Session.default()
+    edited = s.view.values["r4"] * 1.002
+    s.set_param("r4", edited)
+    s.set_design(get("stephenson1/X1").design())  # a candidate from the Pick panel, or a run's end
+    assert s.undo().values["r4"] == edited
+
+
+def test_undo_is_refused_while_a_stage_runs_and_nothing_moves() -> None:
+    s = Session.default()
+    nudge(s, "r4", 1.002)
+    s.study.status = replace(s.study.status, state="running", stage="subtask2")
+    view, undone = s.view, list(s.undone)
+    with pytest.raises(ValueError, match="^a stage is running"):
+        s.undo()
+    assert s.view is view and s.undone == undone and s.redone == []
+    s.set_target(length=305.0)  # the target may change during a run, and that change can be undone then
+    assert s.undo() is view
+
+
+def test_undo_keeps_the_last_fifty_changes() -> None:
+    s = Session.default()
+    views = [s.view]
+    for k in range(UNDO_DEPTH + 10):
+        s.set_target(length=300.0 + k + 1)
+        views.append(s.view)
+    assert len(s.undone) == UNDO_DEPTH
+    for _ in range(UNDO_DEPTH):
+        s.undo()
+    assert s.view is views[10] and s.view.target.length == 310.0
+    with pytest.raises(ValueError, match="nothing to undo"):
+        s.undo()
+
+
+def test_loading_a_session_starts_a_fresh_undo_history() -> None:
+    s = Session.default()
+    nudge(s, "r4", 1.002)
+    s.undo()
+    s.restore(Session.from_dict(Session.default().to_dict()))
+    assert s.undone == [] and s.redone == []
+
+
+def test_the_change_summary_names_what_differs() -> None:
+    s = Session.default()
+    a = s.view
+    for name in ("r4", "r5", "r6", "r7", "r8"):
+        nudge(s, name, 1.001)
+    assert change_summary(a, s.view) == "r4, r5, r6 and 2 more"
+    assert change_summary(a, a) == ""
+    s.set_target(height=95.0)
+    assert change_summary(a, s.view) == "r4, r5, r6 and 2 more · target"
+    s.load_preset("stephenson1/X1")
+    assert change_summary(a, s.view) == "preset X1 · target"
+
+
+def test_the_mechanism_panels_undo_and_redo_follow_the_history_and_rest_during_a_run() -> None:
+    import studio.app as app
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        panel = studio.mechanism
+        assert panel.undo.disabled and panel.redo.disabled
+        nudge(studio.session, "r4", 1.002)
+        studio.refresh()
+        assert not panel.undo.disabled and panel.redo.disabled and panel.undo.hint == "take back: r4"
+        panel.hold(True)  # a stage runs: its end replaces the design
+        assert panel.undo.disabled
+        panel.hold(False)
+        assert not panel.undo.disabled
+        studio.session.undo()
+        studio.refresh()
+        assert panel.undo.disabled and not panel.redo.disabled and panel.redo.hint == "make again: r4"
+    finally:
+        studio.close()
