@@ -22,6 +22,8 @@ if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
 NO_PRESET = "(none)"
+UNDO_HINT = "take back the last change of the design, target or walking view (a parameter, preset, topology, pick)"
+REDO_HINT = "make again the change Undo took back"
 
 
 def param_label(name: str, unit: str) -> str:
@@ -57,11 +59,15 @@ class MechanismPanel:
                                            initial_value=self._preset_value(view),
                                            hint="named designs of this topology (paper appendices)")
             self.reset = gui.add_button("Reset to preset", hint="discard parameter edits")
+            self.undo = gui.add_button("Undo", icon=viser.Icon.ARROW_BACK_UP, disabled=True, hint=UNDO_HINT)
+            self.redo = gui.add_button("Redo", icon=viser.Icon.ARROW_FORWARD_UP, disabled=True, hint=REDO_HINT)
             self.status = gui.add_markdown("")
             self.params_folder = gui.add_folder("Parameters")
         self.topology.on_update(self._on_topology)
         self.preset.on_update(self._on_preset)
         self.reset.on_click(self._on_reset)
+        self.undo.on_click(lambda event: self._step(event, "undo"))
+        self.redo.on_click(lambda event: self._step(event, "redo"))
         self.show(view)
 
     # Mirrors ------------------------------------------------------------------------------
@@ -120,6 +126,17 @@ class MechanismPanel:
         for name, field in self._inputs.items():
             field.show(float(values[name]))
         self.status.content = self._status(view)
+        self._show_steps()
+
+    def _show_steps(self) -> None:
+        """Undo and Redo: enabled when there is something to take back or make again (not during a run), with
+        what that is in their hints."""
+        session = self.studio.session
+        for button, which, hint, done in ((self.undo, "undo", UNDO_HINT, "take back"),
+                                          (self.redo, "redo", REDO_HINT, "make again")):
+            what = session.change_names(which)
+            button.disabled = self._running or not what
+            button.hint = f"{done}: {what}" if what else hint
 
     def hold(self, running: bool) -> None:
         """Disable the design's controls while a stage runs: its pick replaces the design when it ends, so an edit
@@ -132,6 +149,7 @@ class MechanismPanel:
             field.disabled = running
         view = self.studio.session.view
         self.reset.disabled = running or view.preset is None or not view.edited
+        self._show_steps()
 
     @staticmethod
     def _status(view: DesignView) -> str:
@@ -186,6 +204,17 @@ class MechanismPanel:
             self.studio.notify(client, "This design does not assemble",
                                f"{reason}; it is drawn where it does. Edit its parameters to repair it.",
                                color="yellow")
+
+    def _step(self, event: viser.GuiEvent[Any], which: str) -> None:
+        session = self.studio.session
+        before = session.view.design.mechanism
+        try:
+            view = session.undo() if which == "undo" else session.redo()
+        except ValueError as exc:
+            if event.client is not None:
+                self.studio.notify(event.client, f"Not {'undone' if which == 'undo' else 'redone'}", str(exc))
+            return
+        self.studio.refresh(fit_camera=view.design.mechanism != before)
 
     def _on_reset(self, event: viser.GuiEvent[Any]) -> None:
         try:

@@ -149,4 +149,6 @@ def fresh_session(request: pytest.FixtureRequest) -> None:
     studio.session.set_playing(False)
     with studio.session.lock:
         studio.session.study = Study()
+        studio.session.undone, studio.session.redone = [], []  # the reset above is not the user's to undo
     studio.refresh()
+    studio.mechanism.show(studio.session.view)  # the Undo button follows (the view may not have changed)

@@ -175,3 +175,30 @@ def test_clm_studio_serves_on_loopback_opens_animating_and_stops_on_ctrl_c(brows
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_undo_and_redo_take_back_an_edit_and_a_topology_switch(page: Any, studio: Any) -> None:
+    x3 = studio.session.view
+    undo = page.get_by_role("button", name="Undo", exact=True)
+    redo = page.get_by_role("button", name="Redo", exact=True)
+    undo.scroll_into_view_if_needed()
+    expect(undo).to_be_disabled()
+    expect(redo).to_be_disabled()
+    param_input(page, "r4").fill("130")
+    expect(undo).to_be_enabled()
+    choose(page, "Topology", "Theo Jansen leg")
+    expect(param_input(page, "a")).to_be_visible()
+    undo.click()  # back to the Stephenson-I with r4 = 130
+    expect(param_input(page, "r4")).to_have_value("130")
+    expect(page.get_by_label("Topology", exact=True)).to_have_value("Stephenson-I six-bar")
+    undo.click()  # back to X3 as it opened
+    expect(param_input(page, "r4")).to_have_value(format_number(x3.values["r4"]))
+    expect(undo).to_be_disabled()
+    expect_design_of(page, studio.session.view)
+    assert studio.session.view is x3
+    redo.click()
+    expect(param_input(page, "r4")).to_have_value("130")
+    expect(page.get_by_text("Edited: r4")).to_be_visible()
+    expect(redo).to_be_enabled()  # the topology switch can still be made again
+    param_input(page, "r4").fill("131")  # a new edit: what was undone is gone
+    expect(redo).to_be_disabled()
