@@ -244,12 +244,12 @@ def check_value(param: Param, value: object) -> float:
 
 def change_summary(a: DesignView, b: DesignView) -> str:
     """What differs from view ``a`` to view ``b``, in a few words: the topology, the preset, up to three
-    parameter names, the target, the walking view."""
+    parameter names, the target, the walking view ("topology → Theo Jansen leg", "r4, r5", "preset → X3 · target")."""
     if a.design.mechanism != b.design.mechanism:
-        return f"topology {b.design.mechanism.title}"
+        return f"topology → {b.design.mechanism.title}"
     parts = []
     if a.preset != b.preset:
-        parts.append(f"preset {preset_label(b.preset)}" if b.preset is not None else "preset (none)")
+        parts.append(f"preset → {preset_label(b.preset) if b.preset is not None else '(none)'}")
     names = [n for n, x, y in zip(a.design.mechanism.param_names, a.design.params[0], b.design.params[0],
                                   strict=True) if x != y]
     if names and not parts:

@@ -62,12 +62,12 @@ def test_a_topology_switch_a_preset_a_target_and_the_walking_view_are_undone_too
     s = Session.default()
     start = s.view
     s.load_preset("stephenson1/X1")
-    assert s.change_names("undo") == "preset X3"  # what Undo brings back
+    assert s.change_names("undo") == "preset → X3"  # what Undo brings back
     s.set_target(length=310.0)
     s.set_walk(a=30.0)
     s.select_mechanism("jansen")
     assert s.view.design.mechanism.name == "jansen"
-    assert s.change_names("undo") == "topology Stephenson-I six-bar"
+    assert s.change_names("undo") == "topology → Stephenson-I six-bar"
     s.undo()
     assert s.view.design.mechanism.name == "stephenson1" and s.view.walk.a == 30.0 and s.view.target.length == 310.0
     assert s.undo().walk.a == start.walk.a
@@ -128,7 +128,7 @@ def test_the_change_summary_names_what_differs() -> None:
     s.set_target(height=95.0)
     assert change_summary(a, s.view) == "r4, r5, r6 and 2 more · target"
     s.load_preset("stephenson1/X1")
-    assert change_summary(a, s.view) == "preset X1 · target"
+    assert change_summary(a, s.view) == "preset → X1 · target"
 
 
 def test_the_mechanism_panels_undo_and_redo_follow_the_history_and_rest_during_a_run() -> None:
