@@ -1,0 +1,615 @@
+"""The side panels' callbacks on a browserless studio: what a click, an upload or a slider does, and what the
+panel then says (a mutation audit of studio/panels/ found most of this untested).
+
+A stand-in client records notifications and downloads; a control's callbacks are called as viser would, with
+the value the page sent already set on the handle.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from core.kinematics.model import OutputStage
+from studio.state import Session
+
+
+class Client:
+    """What the panels use of a viser client: notifications and file downloads."""
+
+    client_id = 10_001
+
+    def __init__(self) -> None:
+        self.notes: list[tuple[str, str, str]] = []
+        self.downloads: list[tuple[str, bytes]] = []
+
+    def add_notification(self, title: str, body: str, color: str = "", **_: Any) -> None:
+        self.notes.append((title, body, color))
+
+    def send_file_download(self, name: str, content: bytes, save_immediately: bool = False) -> None:
+        self.downloads.append((name, content))
+
+
+def press(handle: Any, client: Client | None, value: Any = None) -> None:
+    """The page changed (or clicked) ``handle``: set what it sent, then run its callbacks as viser does."""
+    if value is not None:
+        handle._impl.value = value
+    for cb in list(handle._impl.update_cb):
+        cb(SimpleNamespace(client=client, target=handle))
+
+
+@pytest.fixture(scope="module")
+def server():
+    from studio.app import Studio
+
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    s.animator.stop()  # the crank angle moves only when a test moves it
+    yield s
+    s.close()
+
+
+@pytest.fixture
+def studio(server):
+    """The module's studio, back at the opening session (paused at 0 deg)."""
+    server.session.restore(Session.default())
+    server.session.set_playing(False)
+    server.session.scrub(0.0)
+    server.refresh()
+    return server
+
+
+def upload(content: bytes, name: str):
+    from viser._gui_handles import UploadedFile
+
+    return UploadedFile(name, content)
+
+
+# Target ---------------------------------------------------------------------------------------------------
+
+CURVE = b"x,y\n-100,-80\n0,-120\n100,-80\n0,-60\n"
+
+
+def test_an_uploaded_curve_becomes_the_target_and_back_to_the_cycloid_is_enabled(studio):
+    c = Client()
+    panel = studio.target
+    assert panel.cycloid.disabled  # the cycloid is the target: nothing to go back to
+    press(panel.upload, c, upload(CURVE, "four.csv"))
+    t = studio.session.view.target
+    assert t.is_curve and t.curve.name == "four.csv" and not c.notes
+    assert not panel.cycloid.disabled
+    # x,y rows only: no time law, so the status says how it is compared.
+    assert "(no times: compared at the best cyclic shift)" in panel.status.content
+    press(panel.cycloid, c)
+    assert not studio.session.view.target.is_curve and panel.cycloid.disabled
+    assert "no times" not in panel.status.content
+
+
+def test_a_malformed_curve_upload_is_one_red_notification_and_the_target_stays(studio):
+    c = Client()
+    before = studio.session.view.target.label()
+    press(studio.target.upload, c, upload(b"x,y\n1,abc\n", "bad.csv"))
+    assert studio.session.view.target.label() == before
+    assert len(c.notes) == 1
+    title, body, colour = c.notes[0]
+    assert title == "Target curve not loaded" and colour == "red"
+    assert body.startswith("bad.csv was uploaded but is not a target curve") and before in body
+
+
+def test_a_curve_uploaded_in_the_leg_frame_is_drawn_as_uploaded_in_the_bench_view(studio):
+    from studio.panels.target import FRAMES
+
+    c = Client()
+    press(studio.target.frame, None, FRAMES[1])
+    try:
+        press(studio.target.upload, c, upload(CURVE, "leg.csv"))
+    finally:
+        studio.target.frame._impl.value = FRAMES[0]
+    assert [n[0] for n in c.notes] == ["Target curve read in the leg frame"] and c.notes[0][2] == "green"
+    view = studio.session.view
+    up = np.array([[-100, -80], [0, -120], [100, -80], [0, -60]], dtype=float)
+    # The leg view's target passes through every uploaded point; the design frame's (the paper's pantograph,
+    # k = -1) does not.
+    assert max(np.hypot(*(view.target_leg - p).T).min() for p in up) < 2.0
+    assert max(np.hypot(*(view.target_design - p).T).min() for p in up) > 20.0
+
+
+def test_the_output_stage_in_words_is_identity_only_without_ratio_or_mirror():
+    from studio.panels.target import output_text
+
+    assert output_text(OutputStage()) == "identity: the frames are the same"
+    assert output_text(OutputStage(mirror=True)) != "identity: the frames are the same"
+    assert output_text(OutputStage(k=-1.0)) != "identity: the frames are the same"
+
+
+def test_the_target_status_names_the_stages_that_optimize_it_or_says_none_does(studio):
+    view = studio.session.view
+    studio.target.show(view, ("subtask1", "subtask2"))
+    assert studio.target.status.content.endswith("Optimized by subtask1, subtask2.")
+    studio.target.show(view, ())
+    assert "Not shown: no stage of the" in studio.target.status.content
+    studio.target.show(view, None)
+    assert "Optimized" not in studio.target.status.content and "Not shown" not in studio.target.status.content
+
+
+# Mechanism ------------------------------------------------------------------------------------------------
+
+
+def test_a_length_fields_rule_names_its_bounds_low_then_high():
+    from core.kinematics.params import Param
+    from studio.panels.mechanism import param_form
+
+    text = param_form(Param("r4", "length", 5.0, 400.0)).text
+    assert "[5, 400]" in text and "a length in mm" in text
+
+
+def test_reset_is_offered_only_for_an_edited_preset_and_the_status_lists_the_edits(studio):
+    panel = studio.mechanism
+    assert panel.reset.disabled and "Edited" not in panel.status.content
+    assert "(none)" not in panel.preset.options  # a preset is shown: no "(none)" to choose
+    name = studio.session.view.design.mechanism.params[0].name
+    studio.session.set_param(name, float(studio.session.view.values[name]) * 1.001)
+    studio.refresh()
+    assert not panel.reset.disabled
+    assert panel.status.content.endswith(f"Edited: {name}")
+    press(panel.reset, Client())
+    assert panel.reset.disabled and studio.session.view.edited == ()
+
+
+def test_a_design_without_a_preset_offers_none_first(studio):
+    studio.session.set_design(studio.session.view.design, preset=None)
+    studio.refresh()
+    assert studio.mechanism.preset.options[0] == "(none)" and studio.mechanism.preset.value == "(none)"
+    assert studio.mechanism.status.content.endswith("no preset.")
+
+
+def test_an_unknown_preset_is_refused_and_the_dropdown_goes_back(studio):
+    c = Client()
+    press(studio.mechanism.preset, c, "no-such-preset")
+    assert [n[0] for n in c.notes] == ["Preset not loaded"]
+    assert studio.mechanism.preset.value == "X3" and studio.session.view.preset == "stephenson1/X3"
+
+
+def test_only_a_design_that_does_not_assemble_gets_the_yellow_warning(studio):
+    from studio.state import build_view
+    from studio.target import TargetSpec
+
+    c = Client()
+    studio.mechanism._warn_if_broken(c, studio.session.view)
+    assert c.notes == []
+    view = studio.session.view
+    broken = build_view(view.design.replace(r4=500.0), None, TargetSpec())
+    studio.mechanism._warn_if_broken(c, broken)
+    assert [(n[0], n[2]) for n in c.notes] == [("This design does not assemble", "yellow")]
+
+
+def test_a_running_stage_holds_every_parameter_field(studio):
+    panel = studio.mechanism
+    try:
+        panel.hold(True)
+        assert panel.topology.disabled and panel.preset.disabled
+        assert all(f.disabled for f in panel._inputs.values())
+    finally:
+        panel.hold(False)
+    assert not any(f.disabled for f in panel._inputs.values())
+
+
+# Walking --------------------------------------------------------------------------------------------------
+
+
+def test_the_obstacle_place_slider_is_a_percentage_of_the_stride(studio):
+    press(studio.walking.place, Client(), 40.0)
+    assert studio.session.view.walk.place == pytest.approx(0.4)
+    studio.session.set_walk(place=0.25)
+    studio.refresh()
+    assert studio.walking.place.value == 25
+
+
+def test_the_walking_status_says_blocked_only_when_a_foot_enters_the_obstacle(studio):
+    studio.session.set_walk(a=10.0, b=0.0)  # flat: every foot passes over it
+    studio.refresh()
+    assert not studio.session.view.walking.hit
+    assert studio.walking.status.content.endswith("Obstacle at this place: crossed.")
+    studio.session.set_walk(a=400.0, b=400.0)  # taller than the swing and longer than the stride
+    studio.refresh()
+    assert studio.session.view.walking.hit
+    assert "**blocked**" in studio.walking.status.content
+
+
+def test_choosing_the_quadruped_redraws_the_walking_view_with_four_feet(studio):
+    press(studio.walking.robot, Client(), "quadruped (ψ₄)")
+    assert studio.session.view.walk.layout == "quadruped"
+    assert studio.scene.frames.walk.feet.shape[1] == 4
+
+
+# Bench ----------------------------------------------------------------------------------------------------
+
+
+def test_the_bench_chart_draws_the_target_only_when_asked(studio):
+    view = studio.session.view
+    studio.bench.show(view, show_target=False)
+    assert 'data-name="target"' not in studio.bench.plot.content
+    studio.bench.show(view, show_target=True)
+    assert 'data-name="target"' in studio.bench.plot.content
+
+
+# Metrics panel --------------------------------------------------------------------------------------------
+
+
+def test_the_stage_verdict_is_shown_only_for_the_member_in_the_editor(studio):
+    view = studio.session.view
+    x = view.design.params[0]
+    r = SimpleNamespace(pop=2, mechanism=view.design.mechanism, X=np.stack([x, x + 1.0]), cv=np.zeros(2),
+                        unmet=lambda i: [])
+    for shown, expect in ((0, True), (1, False)):
+        sv = SimpleNamespace(result=lambda _: r, viewing="subtask1", shown=shown)
+        studio.metrics.show_stage(sv, view)
+        assert ("meets subtask1's constraints" in studio.metrics.stage.content) is expect
+
+
+# Playback -------------------------------------------------------------------------------------------------
+
+
+def test_the_crank_angle_slider_is_in_degrees_and_wraps_at_360(studio):
+    press(studio.playback.angle, Client(), 90.0)
+    assert studio.session.playback.angle == pytest.approx(math.pi / 2)
+    assert studio.playback.now.content == "θ = 90° (paused)"
+    studio.session.scrub(math.radians(359.7))  # rounds to 360, which is 0 on a 0-359 slider
+    studio.playback.show(studio.session.playback)
+    assert studio.playback.angle.value == 0.0 and studio.playback.now.content.startswith("θ = 0°")
+
+
+def test_play_toggles_its_label_and_the_slider_stays_still_while_playing(studio):
+    assert studio.playback.play.label == "Play"
+    press(studio.playback.play, Client())
+    assert studio.session.playback.playing and studio.playback.play.label == "Pause"
+    studio.session.scrub(math.radians(120.0))
+    studio.session.set_playing(True)
+    studio.playback.show(studio.session.playback)
+    assert studio.playback.angle.value != 120.0  # the slider is not pushed while playing
+    studio.session.set_playing(False)
+    studio.playback.show(studio.session.playback)
+    assert studio.playback.angle.value == 120.0
+
+
+def test_held_is_said_only_while_playing(studio):
+    from studio.panels.playback import PlaybackPanel
+
+    pb = studio.session.playback
+    assert not pb.playing
+    assert PlaybackPanel._readout(pb, held=True).endswith("(paused)")
+    assert PlaybackPanel._readout(studio.session.set_playing(True), held=True).endswith("(held while the stage runs)")
+
+
+def test_a_refused_speed_puts_the_slider_back_and_says_why(studio):
+    c = Client()
+    before = studio.session.playback.speed
+    press(studio.playback.speed, c, 0.0)
+    assert studio.session.playback.speed == before and studio.playback.speed.value == before
+    assert [n[0] for n in c.notes] == ["Speed not changed"]
+
+
+# Session and export ---------------------------------------------------------------------------------------
+
+
+def test_each_export_button_sends_its_own_file(studio):
+    c = Client()
+    files = studio.files
+    for button in (files.design, files.csv, files.dxf, files.svg):
+        press(button, c)
+    names = [n for n, _ in c.downloads]
+    assert names == [f"stephenson1-X3-{f}" for f in ("design.json", "trajectories.csv", "drawing.dxf", "drawing.svg")]
+    _, csv = c.downloads[1]
+    assert csv.startswith(b"sample,theta_rad,t_s,")
+    assert c.downloads[3][1].lstrip().startswith((b"<svg", b"<?xml"))
+    assert b"SECTION" in c.downloads[2][1]
+
+
+def test_an_export_with_nothing_to_export_is_one_notification_and_no_download(studio):
+    c = Client()
+    press(studio.files.pareto, c)  # no stage has run: no chart
+    assert c.downloads == [] and [n[0] for n in c.notes] == ["Nothing to export"]
+
+
+# Scene ----------------------------------------------------------------------------------------------------
+
+
+def test_the_grid_label_names_the_spacing_of_the_drawn_lines_in_mm(studio):
+    f = studio.scene.frames
+    g = f.grid.astype(np.float64) * 1e3  # scene metres -> mm
+    xs = np.unique(np.round(g[:, 0, 0][g[:, 0, 0] == g[:, 1, 0]], 3))  # the vertical lines' x
+    assert len(xs) > 5 and np.diff(xs) == pytest.approx(np.full(len(xs) - 1, f.grid_step), abs=1e-3)
+    assert studio.scene.grid_label.text == f"grid {f.grid_step:g} mm"
+
+
+def test_each_crank_sample_puts_the_foot_where_the_solver_placed_it_in_both_views(studio):
+    view = studio.session.view
+    for i in (0, 90, 200):
+        studio.scene.draw(i)
+        np.testing.assert_allclose(studio.scene.foot.points[0, :2], view.solution.point[0, i] * 1e-3, atol=1e-6)
+        # the leg view's node sits in the /leg frame (placed by the layout): leg-frame coordinates
+        np.testing.assert_allclose(studio.scene.leg_foot.points[0, :2], view.solution.leg[0, i] * 1e-3, atol=1e-6)
+    off = studio.scene.frames.layout.leg_offset * 1e-3
+    np.testing.assert_allclose(studio.scene.leg.position, [off[0], off[1], 0.0], atol=1e-9)
+    assert abs(off[0] - off[1]) > 1e-3  # x and y offsets differ: a swapped axis shows
+
+
+def test_the_obstacle_is_red_when_a_foot_enters_it_and_green_when_crossed(studio):
+    from studio import palette
+    from studio.frames import paint
+
+    for a, b, hit, colour in ((10.0, 0.0, False, palette.OBSTACLE_CLEAR), (400.0, 400.0, True, palette.OBSTACLE_HIT)):
+        studio.session.set_walk(a=a, b=b)
+        studio.refresh()
+        w = studio.scene.frames.walk
+        assert w.hit is hit
+        np.testing.assert_array_equal(studio.scene.walk_obstacle.colors, paint(w.obstacle, colour))
+
+
+def test_the_initial_camera_looks_down_with_y_up_at_the_views(studio):
+    studio.scene.fit_camera()
+    cam = studio.server.initial_camera
+    np.testing.assert_allclose(cam.up, [0.0, 1.0, 0.0])
+    b = studio.scene.frames.composition.bounds * 1e-3
+    np.testing.assert_allclose(cam.look_at, [(b[0] + b[2]) / 2, (b[1] + b[3]) / 2, 0.0], atol=1e-9)
+    assert cam.position[2] > 0.0
+
+
+def test_a_design_without_a_walking_view_hides_its_nodes_labels_and_feature_points(studio):
+    from studio.state import build_view
+    from studio.target import TargetSpec
+
+    view = studio.session.view
+    studio.scene.show(view)
+    shown = {k for k, n in studio.scene._texts.items() if n.visible}
+    broken = build_view(view.design.replace(r4=500.0), None, TargetSpec())
+    assert broken.walking is None
+    frames = studio.scene.show(broken, show_target=False)
+    keys = {t.key for t in frames.texts}
+    gone = shown - keys
+    assert gone  # the walking view's title and metrics, at least
+    assert not any(studio.scene._texts[k].visible for k in gone)
+    assert not studio.scene.walk_feet.visible and not studio.scene.walk_obstacle.visible
+    assert len(frames.features) == 0 and not studio.scene.leg_features.visible
+    assert len(frames.target) == 0 and not studio.scene.target.visible  # the target not asked for
+    studio.scene.show(view)
+    assert studio.scene.target.visible and studio.scene.leg_features.visible
+
+
+def test_the_scene_recording_lasts_one_period_and_leaves_the_pose_as_it_was(studio, monkeypatch):
+    server = studio.server
+    real = server.get_scene_serializer
+    slept: list[float] = []
+
+    def recording():
+        ser = real()
+        sleep = ser.insert_sleep
+
+        def insert_sleep(d: float) -> None:
+            slept.append(d)
+            sleep(d)
+
+        ser.insert_sleep = insert_sleep
+        return ser
+
+    monkeypatch.setattr(server, "get_scene_serializer", recording)
+    studio.scene.draw(37)
+    before = np.array(studio.scene.links.points)
+    studio.scene.record_html(2.0, fps=30.0)
+    assert len(slept) == 60 and sum(slept) == pytest.approx(2.0)  # 2 s at 30 frames a second
+    assert studio.scene._index == 37
+    np.testing.assert_array_equal(studio.scene.links.points, before)
+
+
+# Pick and Pareto ------------------------------------------------------------------------------------------
+
+
+def run_stage(session: Session, name: str, pop: int = 16, gens: int = 2):
+    """Run one stage of ``session`` to its end as the studio's runner does; the chain."""
+    import threading
+
+    from studio.chains import RunSettings, chain_for, find
+    from studio.runner import Runner
+
+    session.study.settings[name] = RunSettings(name, pop_size=pop, n_gen=gens, seed=3)
+    done = threading.Event()
+    runner = Runner(session.lock, lambda: session.study, lambda p: None, done.set)
+    chain = chain_for(session.view.design.mechanism)
+    stage, view = find(chain, name), session.view
+    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
+    assert done.wait(60)
+    runner.join(10)
+    return chain
+
+
+@pytest.fixture(scope="module")
+def front():
+    """Subtask 1 run (16 members), its objectives replaced by a hand-made front: members 0-11 feasible with
+    f1 = i, f2 = 16 - i (so all twelve are non-dominated, in member order along f1), 12-15 infeasible."""
+    import dataclasses
+
+    from core.optimize import decision
+    from studio.study_view import study_view
+
+    s = Session.default()
+    chain = run_stage(s, "subtask1")
+    sv = study_view(s.study, s.view.design, chain, s.view.target)
+    r = sv.result("subtask1")
+    n = r.pop
+    assert n == 16 and len({x.tobytes() for x in r.X}) == n
+    F = np.stack([np.arange(n, dtype=float), n - np.arange(n, dtype=float), np.ones(n)], 1)
+    cv = np.where(np.arange(n) < 12, 0.0, 1.0)
+    G = np.zeros_like(r.G)
+    G[12:, 0] = 1.0
+    hand = dataclasses.replace(r, F=F, cv=cv, G=G, shortlist=decision.shortlist(F, cv))
+
+    def view(shown: int, stage: str = "subtask1", result=hand, **kw):
+        k = sv.names.index(stage)
+        results = tuple(result if j == k else None for j in range(len(sv.names)))
+        return dataclasses.replace(sv, results=results, viewing=stage, shown=shown, **kw)
+
+    return SimpleNamespace(view=view, result=hand, real=r)
+
+
+def test_the_front_slider_shows_the_members_place_along_the_front_and_picks_by_it(studio, front, monkeypatch):
+    picks: list[tuple[str, int]] = []
+    monkeypatch.setattr(studio, "pick", lambda stage, member, client: picks.append((stage, member)))
+    panel = studio.pick_panel
+    panel._key = None
+    panel.show(front.view(3))
+    assert panel.slider.max == 12 and panel.slider.visible and not panel.slider.disabled
+    assert panel.slider.value == 4  # member 3 is the 4th along f1 (members 0..11 in order)
+    press(panel.slider, Client(), 7)
+    assert picks == [("subtask1", 6)]
+    press(panel.candidate, Client(), next(o for o in panel.candidate.options if "· #9 ·" in o))
+    assert picks[-1] == ("subtask1", 9)
+
+
+def test_a_one_member_front_has_no_slider(studio, front):
+    import dataclasses
+
+    from core.optimize import decision
+
+    F = front.result.F.copy()
+    F[1:12] += 20.0  # member 0 dominates every other feasible one
+    one = dataclasses.replace(front.result, F=F, shortlist=decision.shortlist(F, front.result.cv))
+    studio.pick_panel._key = None
+    studio.pick_panel.show(front.view(0, result=one))
+    assert not studio.pick_panel.slider.visible and studio.pick_panel.slider.max == 2
+
+
+def test_use_for_next_stage_is_offered_except_on_the_last_stage(studio, front):
+    panel = studio.pick_panel
+    for stage, disabled in (("subtask1", False), ("subtask2", False), ("subtask3", True)):
+        panel._key = None
+        panel.show(front.view(3, stage=stage))
+        assert panel.use.disabled is disabled, stage
+
+
+def test_passing_on_an_infeasible_member_asks_first_and_a_feasible_one_does_not(studio, monkeypatch):
+    import studio.panels.pick as pick
+
+    asked: list[str] = []
+    used: list[str] = []
+    monkeypatch.setattr(pick, "confirm", lambda client, title, *a: asked.append(title))
+    monkeypatch.setattr(studio, "use_for_next", lambda stage, client: used.append(stage))
+    run_stage(studio.session, "subtask1")
+    r = studio.session.study.result("subtask1")
+    bad, good = int(np.argmax(r.cv)), int(np.argmin(r.cv))
+    assert r.cv[bad] > 0 and r.cv[good] == 0
+    panel = studio.pick_panel
+    panel._stage = "subtask1"
+    studio.session.study.shown["subtask1"] = bad
+    press(panel.use, Client())
+    assert asked == ["Pass on an infeasible member of subtask1?"] and used == []
+    studio.session.study.shown["subtask1"] = good
+    press(panel.use, Client())
+    assert asked == ["Pass on an infeasible member of subtask1?"] and used == ["subtask1"]
+
+
+def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760():
+    from studio.panels.pareto import large_size
+
+    def client(w: float, h: float):
+        return SimpleNamespace(camera=SimpleNamespace(image_width=w, image_height=h))
+
+    assert large_size(client(1920, 1080)) == {"width": 960.0, "height": 760.0}
+    assert large_size(client(636, 600)) == {"width": 588.0, "height": 552.0}
+    assert large_size(client(300, 200)) == {"width": 480.0, "height": 400.0}
+    assert large_size(SimpleNamespace()) == {"width": 960.0, "height": 760.0}  # no camera report yet
+
+
+def test_three_objectives_offer_the_3d_cloud_and_each_pair_of_the_first_three():
+    from studio.panels.pareto import THREE_D, projections
+
+    assert projections(("a", "b", "c", "d")) == {THREE_D: None, "a vs b": (0, 1), "a vs c": (0, 2), "b vs c": (1, 2)}
+
+
+def test_the_pareto_caption_says_what_is_drawn(studio, front):
+    import dataclasses
+
+    panel = studio.pareto
+    sv = front.view(3)
+    panel._key = None
+    panel.show(sv)
+    assert panel.caption.content.startswith("**subtask1** (3-D: f1 = MSE (mm) · ")
+    F2 = front.result.F[:, :2]
+    two = dataclasses.replace(front.result, objectives=("f1", "f2"), F=F2)
+    panel._key = None
+    panel.show(front.view(3, result=two))
+    assert panel.caption.content == "**subtask1** (2-D). Camera icon: save as PNG."
+    panel._key = None
+    panel.show(dataclasses.replace(sv, results=(None,) * len(sv.names)))
+    assert panel.caption.content == "subtask1 has no result yet: run it."
+    panel._key = None
+    panel.show(dataclasses.replace(sv, names=(), results=(), viewing=None))
+    assert panel.caption.content == "No stage has run yet."
+
+
+def test_a_stage_in_view_while_another_runs_is_titled_with_its_own_state(front):
+    import dataclasses
+
+    from studio.panels.pareto import pareto_figure
+
+    sv = front.view(3)
+    other = dataclasses.replace(sv, status=dataclasses.replace(sv.status, state="running", stage="subtask2"))
+    title = pareto_figure(other).layout.title.text
+    assert "generation" not in title
+    this = dataclasses.replace(sv, status=dataclasses.replace(sv.status, state="running", stage="subtask1"))
+    assert f"generation {front.result.generation}/{front.result.n_gen}" in pareto_figure(this).layout.title.text
+
+
+def compare_cells(table: str) -> dict[str, tuple[float, float, str]]:
+    """The comparison table's rows: label -> (start, candidate, the candidate cell's style)."""
+    import re
+
+    rows = re.findall(r'<tr data-metric="([^"]*)">.*?data-start="([^"]*)".*?'
+                      r'<td style="([^"]*)" data-candidate="([^"]*)"', table)
+
+    def num(t: str) -> float:
+        try:
+            return float(t)
+        except ValueError:
+            return math.nan
+
+    return {html.unescape(m): (num(a), num(b), style) for m, a, style, b in rows}
+
+
+def tone(start: float, cand: float) -> str:
+    from studio.tables import BETTER, WORSE
+
+    return "" if start == cand else BETTER if cand < start else WORSE
+
+
+def test_the_comparison_colours_objectives_capped_metrics_and_the_shape_error_lower_is_better(studio):
+    import dataclasses
+
+    from studio.study_view import study_view
+
+    s = Session.default()
+    chain = run_stage(s, "subtask2")
+    sv = study_view(s.study, s.view.design, chain, s.view.target)
+    r = sv.result("subtask2")
+    labels = dict(sv.specs["subtask2"].problem.labels)
+    metrics = ("f1", "mse", "h_s")
+    panel = studio.pick_panel
+    for shown in range(r.pop):  # a member that differs from the start design in each row checked below
+        panel._key = None
+        panel.show(dataclasses.replace(sv, shown=shown))
+        cells = compare_cells(panel.table.content)
+        pairs = [cells[labels.get(m, m)][:2] for m in metrics]
+        if all(math.isfinite(a) and math.isfinite(b) and a != b for a, b in pairs):
+            break
+    else:
+        raise AssertionError("no member differs from the start in every row")
+    # f1 is no objective of subtask 2 but is capped (f1 <= 6): lower is better; so is the shape error (mse).
+    for metric in metrics:
+        start, cand, style = cells[labels.get(metric, metric)]
+        assert style.endswith(tone(start, cand)) and tone(start, cand) in style, metric
+    start, cand, style = cells[labels.get("width", "width")]
+    assert "color:" not in style  # neither better nor worse
+    assert r.objectives == ("h_s", "I")
