@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from core.kinematics import presets
@@ -160,6 +160,7 @@ def test_history_rows_cover_every_stage_run_or_not() -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(st.floats(50, 500), st.floats(20, 300), st.floats(100, 1500), st.floats(50, 300))
+@example(200.0, 30.0, 500.0, 100.0)  # a short design view: the inset reaches below both top views
 def test_walking_view_sits_below_and_the_inset_right_of_the_leg_view(dw: float, dh: float, ww: float,
                                                                       wh: float) -> None:
     lay = layout(np.array([[0.0, 0.0], [dw, dh]]), np.array([[0.0, 0.0], [300.0, 100.0]]))
@@ -167,6 +168,8 @@ def test_walking_view_sits_below_and_the_inset_right_of_the_leg_view(dw: float, 
     comp = compose(lay, walk)
     placed = walk + np.concatenate([comp.walk_offset, comp.walk_offset])
     assert placed[3] < lay.scene[1]  # below the top views
+    # ... and 1.5 gaps below the inset too, which can reach lower (its side is 0.6 x a flat leg view's width)
+    assert placed[3] <= min(lay.scene[1], comp.inset[1]) - 1.5 * 60.0 + 1e-9
     assert comp.inset[0] > lay.leg[2] + lay.leg_offset[0]  # right of the leg view
     assert np.isclose(comp.inset[2] - comp.inset[0], comp.inset[3] - comp.inset[1])
     for b in (lay.scene, placed, comp.inset):
