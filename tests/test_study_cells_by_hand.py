@@ -1,0 +1,91 @@
+"""A study cell's config, its measurements and the store's rows, checked on hand-made inputs (no Dask)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from core.study.cell import case_config, measure
+from core.study.store import Store
+
+CONFIG = """
+name = "hand"
+preset = "stephenson1/X0"
+seed = 5
+workers = 4
+[algorithm]
+name = "nsga2"
+pop_size = 30
+[[stages]]
+name = "a"
+n_gen = 3
+starts = { n = 3, until = "b", select = "best:S" }
+[[stages]]
+name = "b"
+n_gen = 4
+[stages.algorithm]
+name = "spea2"
+[[stages]]
+name = "c"
+n_gen = 5
+"""
+
+
+def test_a_cell_narrows_the_case_to_its_stages_budget_seed_start_and_algorithm(tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text(CONFIG)
+    case = {"name": "k", "config": str(path), "stages": ["c", "a"], "budget": 300, "start": "stephenson1/X1"}
+    data = case_config(case, {"name": "cmoemt", "pop_size": 12, "options": {"x": 1}}, 7)
+    # The case's stages, in the case's order, each with the budget in evaluations and no multi-start or own algorithm.
+    assert [s["name"] for s in data["stages"]] == ["c", "a"]
+    for s in data["stages"]:
+        assert s["max_evals"] == 300 and s["n_gen"] == 300
+        assert "starts" not in s and "algorithm" not in s
+    assert data["preset"] == "stephenson1/X1" and data["seed"] == 7 and data["workers"] == 1
+    assert data["algorithm"] == {"name": "cmoemt", "pop_size": 12, "options": {"x": 1}}
+    # Without a population size of its own, the cell keeps the config's.
+    data = case_config({**case, "start": None, "stages": None}, {"name": "nsga2"}, 2)
+    assert data["algorithm"]["pop_size"] == 30 and data["preset"] == "stephenson1/X0" and data["seed"] == 2
+    assert [s["name"] for s in data["stages"]] == ["a", "b", "c"]
+
+
+def _result(name: str, n_evals: int, F: np.ndarray, feasible: np.ndarray) -> SimpleNamespace:
+    return SimpleNamespace(name=name, n_evals=n_evals, objectives=("f1", "f2"), F=F, feasible=feasible)
+
+
+def test_measure_counts_every_stage_s_evaluations_and_keeps_the_last_stage_s_feasible_front() -> None:
+    F = np.array([[1.0, 4.0], [0.0, 0.0], [2.0, 2.0], [3.0, 3.0], [4.0, 1.0]])
+    feasible = np.array([True, False, True, True, True])  # (0, 0) dominates all but violates
+    run = SimpleNamespace(results=[_result("a", 100, F, feasible), _result("b", 40, F, feasible)], wall_time=2.5,
+                          status="complete", final=lambda: None)
+    m = measure(run)
+    assert m["n_eval"] == 140 and m["stage"] == "b" and m["run_status"] == "complete"
+    assert m["feasible_ratio"] == 0.8
+    assert sorted(map(tuple, m["front"])) == [(1.0, 4.0), (2.0, 2.0), (4.0, 1.0)]
+
+
+def _record(key: str, case: str, alg: str, seed: int, status: str) -> dict:
+    return {"key": key, "case": case, "algorithm": alg, "seed": seed, "status": status, "result": "{}",
+            "metrics": {"n_eval": 1}, "task_time": 0.1, **({"error": "boom"} if status == "failed" else {})}
+
+
+def test_the_store_keeps_done_cells_counts_attempts_and_orders_by_case_algorithm_seed(tmp_path: Path) -> None:
+    store = Store(tmp_path)
+    try:
+        store.save(_record("z", "c1", "nsga2", 1, "failed"))
+        assert store.done() == set()  # a failed cell runs again
+        store.save(_record("z", "c1", "nsga2", 1, "done"))
+        store.save(_record("a", "c1", "nsga2", 10, "done"))
+        store.save(_record("m", "c1", "nsga2", 9, "done"))
+        store.save(_record("b", "c0", "spea2", 3, "failed"))
+        assert store.done() == {"z", "a", "m"}
+        rows = store.rows()
+        assert [r["key"] for r in rows] == ["b", "z", "m", "a"]  # c0 first; then seeds 1, 9, 10 (numbers)
+        assert {r["key"]: r["attempts"] for r in rows} == {"b": 1, "z": 2, "m": 1, "a": 1}
+        assert rows[1]["result_path"] == str(Path("runs") / "c1" / "nsga2" / "1.json")
+        assert (tmp_path / rows[1]["result_path"]).read_text() == "{}"
+        assert rows[0]["result_path"] is None and rows[0]["error"] == "boom"
+    finally:
+        store.close()
