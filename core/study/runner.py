@@ -105,10 +105,10 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
                                  "best": {c.name: c.best for c in study.cases}})
         cells = study.cells()
         finished = store.done()
-        todo = [dict(c, threads=1) for c in cells if c["key"] not in finished]
-        if limit is not None:
-            todo = todo[:limit]
-        progress = Progress(len(cells), len(cells) - len([c for c in cells if c["key"] not in finished]), stream)
+        waiting = [dict(c, threads=1) for c in cells if c["key"] not in finished]
+        skipped = len(cells) - len(waiting)  # finished before this invocation (not those ``limit`` leaves waiting)
+        todo = waiting if limit is None else waiting[:limit]
+        progress = Progress(len(cells), skipped, stream)
         failed = 0
         if todo:
             with client_for(scheduler, workers) as client:
@@ -127,6 +127,6 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
                     failed += record["status"] != "done"
                     progress.step(record["status"] != "done")
                     fut.release()
-        return Summary(len(cells), len(cells) - len(todo), len(todo), failed, time.perf_counter() - t0)
+        return Summary(len(cells), skipped, len(todo), failed, time.perf_counter() - t0)
     finally:
         store.close()

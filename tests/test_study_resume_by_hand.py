@@ -1,0 +1,106 @@
+"""Resuming a study: which cells an invocation sends out, what it counts, with a stand-in for the Dask client
+(the real cluster is in tests/test_study.py)."""
+
+from __future__ import annotations
+
+import io
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import distributed
+import pytest
+
+from core.formats.study import load_study
+from core.study import runner
+from core.study.store import Store
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDY = f"""
+name = "resume"
+seeds = "1..3"
+[[algorithms]]
+name = "nsga2"
+pop_size = 20
+[[algorithms]]
+name = "spea2"
+pop_size = 20
+[[cases]]
+name = "subtask2"
+config = "{ROOT / "assets" / "configs" / "stephenson1_cycloid.toml"}"
+stages = ["subtask2"]
+start = "stephenson1/X1"
+budget = 100
+"""
+
+
+class _Future:
+    def __init__(self, key: str, value: dict[str, Any]) -> None:
+        self.key, self.value, self.status = key, value, "finished"
+
+    def result(self) -> dict[str, Any]:
+        return self.value
+
+    def release(self) -> None:
+        pass
+
+
+class _Client:
+    """Runs each task at once, in the calling process, and remembers which cells it was given."""
+
+    def __init__(self) -> None:
+        self.sent: list[str] = []
+
+    def map(self, fn: Any, cells: list[dict[str, Any]], pure: bool, key: list[str]) -> list[_Future]:
+        self.sent += [c["key"] for c in cells]
+        return [_Future(k, fn(c)) for k, c in zip(key, cells, strict=True)]
+
+
+def fake_task(cell: dict[str, Any]) -> dict[str, Any]:
+    # spea2 with seed 2 fails, every other cell succeeds.
+    failed = cell["algorithm"]["name"] == "spea2" and cell["seed"] == 2
+    return {"key": cell["key"], "case": cell["case"]["name"], "algorithm": cell["algorithm"]["name"],
+            "seed": cell["seed"], "status": "failed" if failed else "done", "result": "{}", "metrics": {},
+            "task_time": 0.0, **({"error": "boom"} if failed else {})}
+
+
+@pytest.fixture
+def client(monkeypatch: pytest.MonkeyPatch) -> _Client:
+    c = _Client()
+
+    @contextmanager
+    def client_for(scheduler: str | None, workers: int | None) -> Any:
+        yield c
+
+    monkeypatch.setattr(runner, "client_for", client_for)
+    monkeypatch.setattr(distributed, "as_completed", iter)
+    return c
+
+
+def test_a_resumed_study_runs_only_what_is_not_done_and_counts_it(tmp_path: Path, client: _Client) -> None:
+    (tmp_path / "s.toml").write_text(STUDY)
+    study = load_study(tmp_path / "s.toml")
+    out = str(tmp_path / "out")
+    # First invocation, capped at 4 cells: the first 4 in the study's order run, one of them fails.
+    s = runner.run_study(study, out, stream=None, task=fake_task, limit=4)
+    assert client.sent == ["subtask2/nsga2/1", "subtask2/nsga2/2", "subtask2/nsga2/3", "subtask2/spea2/1"]
+    assert (s.total, s.skipped, s.ran, s.failed) == (6, 0, 4, 0)
+    # Second: the two cells not yet run; spea2/2 fails.
+    client.sent.clear()
+    progress = io.StringIO()
+    s = runner.run_study(study, out, stream=progress, task=fake_task)
+    assert client.sent == ["subtask2/spea2/2", "subtask2/spea2/3"]
+    assert (s.total, s.skipped, s.ran, s.failed) == (6, 4, 2, 1)
+    # The progress line counts the finished cells too.
+    assert [ln.split(", ETA")[0] for ln in progress.getvalue().splitlines()] == ["cells 5/6, 1 failed",
+                                                                                 "cells 6/6, 1 failed"]
+    # Third: only the failed cell runs again (and fails again, its attempts counted).
+    client.sent.clear()
+    s = runner.run_study(study, out, stream=None, task=fake_task)
+    assert client.sent == ["subtask2/spea2/2"]
+    assert (s.total, s.skipped, s.ran, s.failed) == (6, 5, 1, 1)
+    store = Store(out)
+    try:
+        assert {r["key"]: r["attempts"] for r in store.rows()}["subtask2/spea2/2"] == 2
+    finally:
+        store.close()
