@@ -89,3 +89,14 @@ def test_the_store_keeps_done_cells_counts_attempts_and_orders_by_case_algorithm
         assert rows[0]["result_path"] is None and rows[0]["error"] == "boom"
     finally:
         store.close()
+
+
+def test_measure_keeps_the_final_pick_its_feasibility_and_parameters() -> None:
+    F = np.array([[1.0, 4.0], [2.0, 2.0]])
+    last = SimpleNamespace(name="b", n_evals=10, objectives=("f1", "f2"), F=F, feasible=np.array([True, False]),
+                           metrics={"S": np.array([40.0, 55.0]), "I": np.array([3.0, 9.0]), "f1": F[:, 0]},
+                           named=lambda i: {"r1": 10.0 + i})
+    run = SimpleNamespace(results=[last], wall_time=1.0, status="complete", final=lambda: (last, 1))
+    m = measure(run)
+    assert m["pick"] == {"S": 55.0, "I": 9.0}  # the study's pick metrics only
+    assert m["pick_feasible"] is False and m["params"] == {"r1": 11.0}
