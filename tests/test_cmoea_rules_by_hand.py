@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from pymoo.core.problem import Problem
 from pymoo.optimize import minimize
 from pymoo.termination.collection import TerminationCollection
 from pymoo.termination.max_eval import MaximumFunctionCallTermination
@@ -295,6 +296,33 @@ def test_neighbour_pairing_never_takes_the_parent_as_its_own_neighbour():
     a = Arrays(np.eye(N), rng.random((N, 2)) + 0.1, np.zeros((N, 0)), np.zeros(N))
     child = imtcmo.neighbour_de(a, np.zeros(2), N, np.zeros(N), np.ones(N), np.random.default_rng(10))
     assert (child.max(axis=1) < 0.99).mean() < 0.01  # ~0.1 % from the mutation; ~4 % with self allowed
+
+
+class HalfUndefined(Problem):
+    """Two objectives, the second undefined (NaN) where x3 > 0.7; records every batch it evaluates."""
+
+    def __init__(self) -> None:
+        super().__init__(n_var=3, n_obj=2, xl=0.0, xu=1.0)
+        self.batches: list[np.ndarray] = []
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        F = np.column_stack([X[:, 0], 1.0 - X[:, 0] + X[:, 1]])
+        F[X[:, 2] > 0.7, 1] = np.nan
+        self.batches.append(F)
+        out["F"] = F
+
+
+def test_imtcmo_ideal_points_skip_undefined_objectives():
+    # z = min over the population and its own children so far, as MATLAB's min (NaN skipped): batch 0 is P1,
+    # batch 1 P2, then each generation's O1 (first N rows) and O2
+    p, n = HalfUndefined(), 20
+    alg = IMTCMO(pop_size=n)
+    minimize(p, alg, ("n_gen", 4), seed=1, copy_algorithm=False)
+    own1 = np.vstack([p.batches[0]] + [b[:n] for b in p.batches[2:]])
+    own2 = np.vstack([p.batches[1]] + [b[n:] for b in p.batches[2:]])
+    assert np.isnan(own1[:, 1]).any() and np.isnan(own2[:, 1]).any()
+    assert alg.z1.tolist() == np.nanmin(own1, axis=0).tolist()
+    assert alg.z2.tolist() == np.nanmin(own2, axis=0).tolist()
 
 
 # MOEA/D-CMT -----------------------------------------------------------------------------------------------------

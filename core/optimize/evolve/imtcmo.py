@@ -154,7 +154,7 @@ class IMTCMO(ArrayAlgorithm):
         self.x = 0.0
         self.fit1 = spea2.fitness(p1.F, p1.cv)
         self.fit2 = spea2.fitness(p2.F, p2.cv)
-        self.z1, self.z2 = p1.F.min(axis=0), p2.F.min(axis=0)
+        self.z1, self.z2 = np.fmin.reduce(p1.F, axis=0), np.fmin.reduce(p2.F, axis=0)  # MATLAB's min skips NaN
         self.p2 = p2
         self.arrays = p1
         self.log(eps=self.var0, X=0.0, feasible_ratio_P1=float((p1.cv <= 0).mean()),
@@ -175,8 +175,11 @@ class IMTCMO(ArrayAlgorithm):
                         pbest_de(p2, self.fit2, n - h, self.xl, self.xu, rng)])
         off = self.evaluate(self.repaired(np.vstack([x1, x2])))
         o1, o2 = off.take(np.arange(n)), off.take(np.arange(n, 2 * n))
-        self.z1 = np.minimum(self.z1, o1.F.min(axis=0))
-        self.z2 = np.minimum(self.z2, o2.F.min(axis=0))
+        # MATLAB's min skips NaN: a child with an undefined objective (pymoo's MW11 at x1 = sqrt(2), where DE's
+        # clipping puts children) must not make the ideal point NaN, which left every direction undefined and
+        # the neighbour pairing with no neighbours by direction for the rest of the run
+        self.z1 = np.fmin(self.z1, np.fmin.reduce(o1.F, axis=0))
+        self.z2 = np.fmin(self.z2, np.fmin.reduce(o2.F, axis=0))
         pool1 = Arrays.concat(p1, o1, o2)
         cuts: spea2.Cuts = {}  # all feasible: P1's and P2's pools cut the same members
         order, self.fit1, _ = spea2.select(pool1.F, n, pool1.cv, cuts=cuts)
