@@ -19,6 +19,7 @@ from core.optimize.evolve import cmoemt, imtcmo, moead_cmt, spea2
 from core.optimize.evolve.base import Arrays
 from core.optimize.evolve.cmoemt import CMOEMT
 from core.optimize.evolve.imtcmo import IMTCMO, aux_select
+from core.optimize.evolve.moead import fmin_into
 from core.optimize.evolve.moead_cmt import MOEADCMT
 from core.optimize.evolve.weights import das_dennis
 from core.optimize.moea import problem_by_name
@@ -115,7 +116,7 @@ def test_task_two_replaces_the_first_two_in_pool_order_and_moves_the_ideal_point
 
 
 def started(cls, problem="mw3", seed=1, **kw):
-    p = problem_by_name(problem)
+    p = problem_by_name(problem) if isinstance(problem, str) else problem
     alg = cls(**kw)
     alg.setup(p, termination=("n_eval", 10**6), seed=seed)
     alg.next()
@@ -323,6 +324,26 @@ def test_imtcmo_ideal_points_skip_undefined_objectives():
     assert np.isnan(own1[:, 1]).any() and np.isnan(own2[:, 1]).any()
     assert alg.z1.tolist() == np.nanmin(own1, axis=0).tolist()
     assert alg.z2.tolist() == np.nanmin(own2, axis=0).tolist()
+
+
+@pytest.mark.parametrize("cls", [CMOEMT, MOEADCMT])
+def test_initial_ideal_points_skip_undefined_objectives(cls):
+    # a third of the random initial members have an undefined f2: z is the min over the others (MATLAB's min);
+    # a NaN z would be taken over by the first child's f2 alone, whatever the population holds
+    p = HalfUndefined()
+    alg = started(cls, pop_size=20, problem=p)
+    assert np.isnan(p.batches[1][:, 1]).any()
+    if cls is CMOEMT:  # P1, P2, P3 evaluated in that order; z is task 2's
+        assert alg.z.tolist() == np.nanmin(p.batches[1], axis=0).tolist()
+    else:
+        assert alg.z1.tolist() == np.nanmin(p.batches[0], axis=0).tolist()
+        assert alg.z2.tolist() == np.nanmin(p.batches[1], axis=0).tolist()
+
+
+def test_fmin_into_takes_the_defined_side():
+    z = np.array([np.nan, 1.0, 2.0])
+    fmin_into(z, np.array([0.5, np.nan, 1.5]))
+    assert z.tolist() == [0.5, 1.0, 1.5]
 
 
 # MOEA/D-CMT -----------------------------------------------------------------------------------------------------

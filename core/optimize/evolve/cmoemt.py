@@ -102,7 +102,7 @@ class CMOEMT(OnePerWeight, ArrayAlgorithm):
         p2 = self.evaluate(self.repaired(rng.uniform(self.xl, self.xu, size=(n, p.n_var))))
         p3 = self.evaluate(self.repaired(rng.uniform(self.xl, self.xu, size=(n, p.n_var))))
         self.P2 = Arrays(*(np.array(v) for v in (p2.X, p2.F, p2.G, p2.cv)))  # updated in place
-        self.z = self.P2.F.min(axis=0)
+        self.z = np.fmin.reduce(self.P2.F, axis=0)  # MATLAB's min skips NaN (fmin_into too, later)
         self.fit1, self.fit3 = spea2.fitness(p1.F, p1.cv), spea2.fitness(p3.F)
         self.p3 = p3
         self.arrays = p1

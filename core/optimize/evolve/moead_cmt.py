@@ -94,7 +94,7 @@ class MOEADCMT(OnePerWeight, ArrayAlgorithm):
         self.P2 = self.evaluate(self.repaired(self.random_state.uniform(self.xl, self.xu, size=(n, p.n_var))))
         self.P1 = Arrays(*(np.array(v) for v in (self.P1.X, self.P1.F, self.P1.G, self.P1.cv)))
         self.P2 = Arrays(*(np.array(v) for v in (self.P2.X, self.P2.F, self.P2.G, self.P2.cv)))
-        self.z1, self.z2 = self.P1.F.min(axis=0), self.P2.F.min(axis=0)
+        self.z1, self.z2 = np.fmin.reduce(self.P1.F, axis=0), np.fmin.reduce(self.P2.F, axis=0)  # NaN skipped
         self.cmin = float(self.P1.cv.min())
         self.rwd = np.zeros(2)
         self.max_fe = self.budget(n, 2 * n)
