@@ -17,6 +17,7 @@ import pytest
 
 from core.kinematics.model import OutputStage
 from studio.state import Session
+from tests import stage_runs
 
 
 class Client:
@@ -408,22 +409,8 @@ def test_the_scene_recording_lasts_one_period_and_leaves_the_pose_as_it_was(stud
 # Pick and Pareto ------------------------------------------------------------------------------------------
 
 
-def run_stage(session: Session, name: str, pop: int = 16, gens: int = 2):
-    """Run one stage of ``session`` to its end as the studio's runner does; the chain."""
-    import threading
-
-    from studio.chains import RunSettings, chain_for, find
-    from studio.runner import Runner
-
-    session.study.settings[name] = RunSettings(name, pop_size=pop, n_gen=gens, seed=3)
-    done = threading.Event()
-    runner = Runner(session.lock, lambda: session.study, lambda p: None, done.set)
-    chain = chain_for(session.view.design.mechanism)
-    stage, view = find(chain, name), session.view
-    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
-    assert done.wait(60)
-    runner.join(10)
-    return chain
+def run_stage(session: Session, name: str) -> tuple[Any, ...]:
+    return stage_runs.run_stage(session, name, pop=16, gens=2, seed=3)
 
 
 @pytest.fixture(scope="module")

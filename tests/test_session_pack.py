@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import json
 import math
-import threading
 
 import numpy as np
 import pytest
 
 from core.optimize.result import decode_array, encode
-from studio.chains import RunSettings, chain_for, find
-from studio.runner import Runner
 from studio.session_pack import pack_array, pack_study, unpack_array, unpack_study
 from studio.state import Session
+from tests.stage_runs import run_stage
 
 
 def test_a_packed_array_is_exact_with_non_finite_values():
@@ -29,18 +27,6 @@ def test_a_packed_array_of_another_shape_is_refused(shape, message):
     packed = pack_array(encode(np.zeros((2, 3))))
     with pytest.raises(ValueError, match=message):
         unpack_array({**packed, "shape": shape}, "x")
-
-
-def run_stage(session: Session, name: str, pop: int = 12, gens: int = 3) -> None:
-    """Run one stage from the editor's design, as the studio's runner does."""
-    session.study.settings[name] = RunSettings(name, pop_size=pop, n_gen=gens, seed=5)
-    done = threading.Event()
-    runner = Runner(session.lock, lambda: session.study, lambda p: None, done.set)
-    chain = chain_for(session.view.design.mechanism)
-    stage, view = find(chain, name), session.view
-    runner.start(lambda st: st.plan(stage, st.settings_for(stage), view.design, view.target, False, chain))
-    assert done.wait(60)
-    runner.join(10)
 
 
 @pytest.fixture(scope="module")

@@ -14,24 +14,10 @@ import pytest
 from core.formats.study import load_study
 from core.study import runner
 from core.study.store import Store
+from tests.test_study import TINY
 
 ROOT = Path(__file__).resolve().parents[1]
-STUDY = f"""
-name = "resume"
-seeds = "1..3"
-[[algorithms]]
-name = "nsga2"
-pop_size = 20
-[[algorithms]]
-name = "spea2"
-pop_size = 20
-[[cases]]
-name = "subtask2"
-config = "{ROOT / "assets" / "configs" / "stephenson1_cycloid.toml"}"
-stages = ["subtask2"]
-start = "stephenson1/X1"
-budget = 100
-"""
+STUDY = TINY.replace('name = "tiny"', 'name = "resume"', 1)
 
 
 class _Future:
