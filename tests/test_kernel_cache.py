@@ -74,3 +74,28 @@ def test_a_cache_that_cannot_be_tidied_still_works(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     assert prune(str(blocker / "0000000000000001")) == []
+
+
+def test_a_process_whose_cache_directory_was_pruned_compiles_and_saves_again(tmp_path: Path) -> None:
+    # What prune relies on: numba loads nothing from a missing directory and makes it anew when it saves.
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    (tmp_path / "kern.py").write_text("import numba\n\n@numba.njit(cache=True)\ndef twice(x):\n    return 2 * x\n")
+    script = textwrap.dedent("""
+        import shutil, sys
+        sys.path.insert(0, sys.argv[1])
+        import kern
+        assert kern.twice(2) == 4
+        shutil.rmtree(sys.argv[2])          # pruned by a newer version's start
+        assert kern.twice(2.5) == 5.0       # a new signature: compiled, and saved into a new directory
+        print("ok")
+    """)
+    cache = tmp_path / "cache" / "0000000000000001"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    out = subprocess.run([sys.executable, "-c", script, str(tmp_path), str(cache)], env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+    assert any(p.suffix == ".nbi" for p in cache.rglob("*"))

@@ -9,7 +9,8 @@ fresh cache (the next runs compile again, about a minute on 2 cores for the stud
 The base is ``NUMBA_CACHE_DIR`` (the scripts set ``.venv/numba-cache``), else ``numba-cache`` in a writable
 virtual environment; with neither, numba's default (``__pycache__``) is left alone. Each start marks its own
 directory as used and removes the other versions' directories beyond the ``KEEP`` most recently used, once they
-have been idle for ``IDLE_S`` (a process of an older version that is still running keeps compiling into its own).
+have been idle for ``IDLE_S``. A process of an older version still running when its directory goes only compiles
+again: numba loads nothing from a missing directory and makes it anew when it saves a kernel.
 """
 
 from __future__ import annotations
