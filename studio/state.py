@@ -32,7 +32,7 @@ from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
 from studio.session_pack import pack_study, unpack_study
-from studio.study import Study
+from studio.study import Branch, Study
 from studio.target import Curve, TargetSpec
 from studio.walking import WalkFrames, WalkSpec, build_walk
 
@@ -264,6 +264,15 @@ def change_summary(a: DesignView, b: DesignView) -> str:
 
 
 @dataclass(frozen=True)
+class Step:
+    """An editor state Undo or Redo brings back, and the branch a topology switch kept when it was left (its
+    stages are restored with it)."""
+
+    view: DesignView
+    branch: Branch | None = None
+
+
+@dataclass(frozen=True)
 class Playback:
     """Animation state: playing, speed (x real time, one revolution per target period T), crank angle (rad)."""
 
@@ -286,8 +295,9 @@ class Session:
     lock: threading.RLock = field(default_factory=threading.RLock, repr=False, compare=False)
     version: int = 0
     study: Study = field(default_factory=Study)
-    undone: list[DesignView] = field(default_factory=list, repr=False, compare=False)  # what Undo brings back
-    redone: list[DesignView] = field(default_factory=list, repr=False, compare=False)  # what Redo brings back
+    undone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Undo brings back
+    redone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Redo brings back
+    _kept: Branch | None = field(default=None, repr=False, compare=False)  # the branch the last commit kept
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
@@ -316,11 +326,15 @@ class Session:
             raise ValueError(f"a stage is running, and its pick replaces the design when it ends; stop it or wait "
                              f"before {what}")
         pipe = self.study.pipeline
+        kept = None
         if new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name:
+            before = len(self.study.branches)
             self.study.start_over(f"before switching to {new.title}")
+            kept = self.study.branches[-1] if len(self.study.branches) > before else None
         if record and view is not self.view:
-            self.undone = [*self.undone[-(UNDO_DEPTH - 1):], self.view]
+            self.undone = [*self.undone[-(UNDO_DEPTH - 1):], Step(self.view, kept)]
             self.redone = []
+        self._kept = kept
         self.view = view
         self.version += 1
         return view
@@ -330,7 +344,8 @@ class Session:
     def undo(self) -> DesignView:
         """Bring back the editor as it was before its last change (design, preset, target, walking view: a
         parameter, a preset, a topology, a pick, a run's end); ValueError if there is none or a stage runs.
-        The study is not rewound: a topology switch kept the stages as a branch, and they stay there."""
+        The study is not rewound, except that undoing a topology switch restores the branch the switch kept
+        (whatever ran on the other topology since is kept as a branch in turn)."""
         with self.lock:
             return self._step(self.undone, self.redone, "undo")
 
@@ -339,20 +354,23 @@ class Session:
         with self.lock:
             return self._step(self.redone, self.undone, "redo")
 
-    def _step(self, source: list[DesignView], sink: list[DesignView], what: str) -> DesignView:
+    def _step(self, source: list[Step], sink: list[Step], what: str) -> DesignView:
         if not source:
             raise ValueError(f"nothing to {what}")
-        current = self.view
-        view = self._commit(source[-1], record=False)  # refused while a stage runs: nothing moves
+        step, current, study = source[-1], self.view, self.study
+        kept = [j for j, b in enumerate(study.branches) if b is step.branch]
+        if kept:  # the branch a topology switch kept (not deleted since): its stages come back with the design
+            study.restore_branch(kept[0])  # refused while a stage runs, as the commit is: nothing moves
+        view = self._commit(step.view, record=False)
         source.pop()
-        sink.append(current)
+        sink.append(Step(current, self._kept))
         return view
 
     def change_names(self, which: str) -> str:
         """What :meth:`undo` (``which="undo"``) or :meth:`redo` would change, in a few words ("" if nothing)."""
         with self.lock:
             stack = self.undone if which == "undo" else self.redone
-            return (change_summary(self.view, stack[-1]) or "the same design") if stack else ""
+            return (change_summary(self.view, stack[-1].view) or "the same design") if stack else ""
 
     # Design -------------------------------------------------------------------------------
 

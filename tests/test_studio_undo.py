@@ -3,6 +3,7 @@ hand-edited design to a pick or a run's end gets it back exactly; the study is n
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -73,7 +74,7 @@ def test_a_topology_switch_a_preset_a_target_and_the_walking_view_are_undone_too
     assert s.undo().walk.a == start.walk.a
     assert s.undo().target.length == start.target.length
     assert s.undo() is start and s.view.preset == start.preset
-    assert [v.design.mechanism.name for v in s.redone] == ["jansen", "stephenson1", "stephenson1", "stephenson1"]
+    assert [st.view.design.mechanism.name for st in s.redone] == ["jansen", "stephenson1", "stephenson1", "stephenson1"]
 
 
 def test_a_pick_that_replaced_a_hand_edited_design_is_undone() -> None:
@@ -150,3 +151,38 @@ def test_the_mechanism_panels_undo_and_redo_follow_the_history_and_rest_during_a
         assert panel.undo.disabled and not panel.redo.disabled and panel.redo.hint == "make again: r4"
     finally:
         studio.close()
+
+
+def test_undoing_a_topology_switch_brings_the_stages_it_kept_as_a_branch_back() -> None:
+    from tests.stage_runs import run_stage
+
+    s = Session.default()
+    run_stage(s, "subtask1")
+    pipe, shown = s.study.pipeline, dict(s.study.shown)
+    assert pipe is not None and pipe.lineage
+    s.select_mechanism("jansen")  # the pipeline is kept as a branch and the study starts afresh
+    assert s.study.pipeline is None and len(s.study.branches) == 1
+    s.undo()
+    assert s.view.design.mechanism.name == "stephenson1" and s.study.branches == []
+    assert s.study.pipeline is not None and s.study.pipeline.to_json() == pipe.to_json()
+    assert s.study.shown == shown and s.study.next_stage == "subtask1"
+    s.redo()  # the switch again: kept again
+    assert s.view.design.mechanism.name == "jansen" and s.study.pipeline is None and len(s.study.branches) == 1
+    run_stage(s, "predesign", pop=8, gens=1)  # work on the other topology, then back
+    jansen_work = s.study.pipeline
+    assert jansen_work is not None
+    while s.view.design.mechanism.name == "jansen":
+        s.undo()
+    assert s.study.pipeline is not None and s.study.pipeline.to_json() == pipe.to_json()
+    assert [b.pipeline == json.loads(jansen_work.to_json(indent=None)) for b in s.study.branches] == [True]
+
+
+def test_a_deleted_branch_is_not_brought_back_and_the_design_still_is() -> None:
+    from tests.stage_runs import run_stage
+
+    s = Session.default()
+    run_stage(s, "subtask1")
+    s.select_mechanism("jansen")
+    s.study.delete_branch(s.study.branches[0].label)
+    s.undo()
+    assert s.view.design.mechanism.name == "stephenson1" and s.study.pipeline is None and s.study.branches == []
