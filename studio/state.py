@@ -297,7 +297,6 @@ class Session:
     study: Study = field(default_factory=Study)
     undone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Undo brings back
     redone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Redo brings back
-    _kept: Branch | None = field(default=None, repr=False, compare=False)  # the branch the last commit kept
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
@@ -314,9 +313,10 @@ class Session:
         with self.lock:
             return self.view, self.playback, self.version
 
-    def _commit(self, view: DesignView, keep_assembly: bool = False, record: bool = True) -> DesignView:
+    def _commit(self, view: DesignView, keep_assembly: bool = False, into: list[Step] | None = None) -> DesignView:
         """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design.
-        ``record``: the replaced view can be brought back by :meth:`undo` (and what was undone is forgotten)."""
+        The replaced view, with the branch a topology switch kept, goes onto ``into``: by default the Undo history
+        (and what was undone is forgotten); Undo and Redo pass each other's."""
         if keep_assembly and self.view.assembles and not view.assembles:
             raise ValueError(assembly_reason(view))
         old, new = self.view.design.mechanism, view.design.mechanism
@@ -331,10 +331,11 @@ class Session:
             before = len(self.study.branches)
             self.study.start_over(f"before switching to {new.title}")
             kept = self.study.branches[-1] if len(self.study.branches) > before else None
-        if record and view is not self.view:
-            self.undone = [*self.undone[-(UNDO_DEPTH - 1):], Step(self.view, kept)]
-            self.redone = []
-        self._kept = kept
+        if view is not self.view:
+            if into is None:
+                self.undone, self.redone = [*self.undone[-(UNDO_DEPTH - 1):], Step(self.view, kept)], []
+            else:
+                into.append(Step(self.view, kept))
         self.view = view
         self.version += 1
         return view
@@ -357,13 +358,12 @@ class Session:
     def _step(self, source: list[Step], sink: list[Step], what: str) -> DesignView:
         if not source:
             raise ValueError(f"nothing to {what}")
-        step, current, study = source[-1], self.view, self.study
+        step, study = source[-1], self.study
         kept = [j for j, b in enumerate(study.branches) if b is step.branch]
         if kept:  # the branch a topology switch kept (not deleted since): its stages come back with the design
             study.restore_branch(kept[0])  # refused while a stage runs, as the commit is: nothing moves
-        view = self._commit(step.view, record=False)
+        view = self._commit(step.view, into=sink)
         source.pop()
-        sink.append(Step(current, self._kept))
         return view
 
     def change_names(self, which: str) -> str:
