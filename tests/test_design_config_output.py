@@ -25,3 +25,17 @@ def test_output_mirror_is_read() -> None:
 def test_output_mirror_must_be_a_boolean() -> None:
     with pytest.raises(ValueError, match="output.mirror: must be true or false, got 'yes'"):
         parse_config(with_({"k": 1.0, "mirror": "yes"}))
+
+
+def test_an_output_stage_is_the_identity_exactly_when_k_is_1_and_not_mirrored_whatever_its_centre() -> None:
+    import numpy as np
+
+    from core.kinematics.model import OutputStage
+
+    p = np.array([[12.0, -40.0], [0.0, 3.5]])
+    for stage, identity in ((OutputStage(), True), (OutputStage(1.0, 150.0, -20.0), True),
+                            (OutputStage(-1.0, 150.0, 0.0), False), (OutputStage(1.0, 0.0, 0.0, True), False),
+                            (OutputStage(2.0), False)):
+        assert stage.is_identity == identity
+        assert np.allclose(stage.apply(p), p) == identity  # the map itself agrees
+    assert OutputStage(-1.0, 150.0, 0.0).describe() == "k = -1 about (150, 0) mm"

@@ -17,7 +17,6 @@ from core.formats.typed import unique_keys
 from core.kinematics import presets
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.design import Design
-from core.kinematics.model import IDENTITY
 from core.kinematics.solver import Solution
 
 # Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
@@ -130,7 +129,7 @@ def why_not(sol: Solution) -> list[str]:
 def summary(design: Design, sol: Solution, label: str) -> str:
     m = design.mechanism
     o = design.output
-    out = "identity output" if o == IDENTITY else f"output {o.describe()}"
+    out = "identity output" if o.is_identity else f"output {o.describe()}"
     lines = [f"{label}: {m.title} ({m.name}, {m.n_params} parameters), {out}"]
     n = sol.theta.shape[0]
     if sol.feasible[0]:

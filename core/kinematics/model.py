@@ -121,6 +121,11 @@ class OutputStage:
         out += np.array([(1.0 - kx) * self.ox, (1.0 - ky) * self.oy])
         return out
 
+    @property
+    def is_identity(self) -> bool:
+        """True when the map changes nothing (k = 1, not mirrored: its centre then does not matter)."""
+        return self.k == 1.0 and not self.mirror
+
     def describe(self) -> str:
         """The map in words: ``k = -1 about (150, 0) mm`` (``, mirrored`` when it is)."""
         return f"k = {self.k:g} about ({self.ox:g}, {self.oy:g}) mm" + (", mirrored" if self.mirror else "")

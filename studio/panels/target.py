@@ -115,6 +115,6 @@ class TargetPanel:
 
 def output_text(o: OutputStage) -> str:
     """The output stage in words: "identity", or its ratio, centre and mirror."""
-    if o.k == 1.0 and not o.mirror:
+    if o.is_identity:
         return "identity: the frames are the same"
     return o.describe()
