@@ -115,6 +115,13 @@ BAD = [
     ("stages.1.pick", 10**6, "stages[1].pick: member 1000000 does not exist: the stage keeps"),
     ("stages.0.stop_below", [1.0], "stages[0].stop_below: expected 2 numbers"),
     ("stages.0.fixed", ["x_z"], "stages[0].fixed[0]: stephenson1 has no parameter 'x_z'"),
+    # Nothing left to search: mutation divided by zero free variables after the earlier stages had run.
+    ("stages.1.fixed", list(MECHANISMS["stephenson1"].param_names),
+     "stages[1].fixed: every parameter of stephenson1 is fixed: leave at least one free"),
+    # A population of 10**8 filled the machine's memory before any message.
+    ("algorithm.pop_size", 10**8, "algorithm.pop_size: must be <= 100000"),
+    ("stages.0.algorithm.pop_size", 100_001, "stages[0].algorithm.pop_size: must be <= 100000"),
+    ("stages.0.n_gen", 10**23, "stages[0].n_gen: must be <= 1000000"),
     ("stages.0.speed", 3, "stages[0].speed: unknown key"),
     ("stages.1.name", "predesign", "stages[1].name: duplicate stage name"),
     ("stages.2.options.f1_max", "start-1", "stages[2].options.f1_max: 'start-1' is not a relative limit"),

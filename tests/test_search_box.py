@@ -117,3 +117,13 @@ def test_bad_box_rule_is_refused(s: float, d: float) -> None:
 def test_unknown_fixed_parameter_is_named() -> None:
     with pytest.raises(ValueError, match="'r99'"):
         search_box(STEPHENSON1, np.array(PRESETS["stephenson1/X2"].values), 0.1, 10.0, fixed=("r99",))
+
+
+def test_a_box_with_every_parameter_fixed_is_refused() -> None:
+    everything = STEPHENSON1.param_names
+    x = np.array(PRESETS["stephenson1/X2"].values)
+    with pytest.raises(ValueError, match="every parameter of stephenson1 is fixed"):
+        global_box(STEPHENSON1, x, everything)
+    with pytest.raises(ValueError, match="every parameter of stephenson1 is fixed"):
+        search_box(STEPHENSON1, x, 0.1, 10.0, everything)
+    assert global_box(STEPHENSON1, x, everything[1:]).n_var == 1

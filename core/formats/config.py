@@ -297,6 +297,8 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
     for j, n in enumerate(t.fixed):
         if n not in mech.param_names:
             raise _fail(f"{key}.fixed[{j}]", f"{mech.name} has no parameter {n!r}")
+    if set(t.fixed) >= set(mech.param_names):
+        raise _fail(f"{key}.fixed", f"every parameter of {mech.name} is fixed: leave at least one free to search")
     alg = _algorithm(t.algorithm, f"{key}.algorithm", algorithm) if t.algorithm is not None else algorithm
     try:  # what only the algorithm itself refuses (a population below CMOEMT's 10, a bad variant): before any run
         built = make_algorithm(alg, spec.n_obj, 0)

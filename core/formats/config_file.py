@@ -10,12 +10,13 @@ from typing import Annotated, Any, Literal
 
 from msgspec import Meta, Struct
 
-from core.formats.typed import MAX_SAMPLES, MAX_SEED
+from core.formats.typed import MAX_GEN, MAX_POP, MAX_SAMPLES, MAX_SEED
 from core.optimize.design_config import BACKENDS, METHODS
 
 Pos = Annotated[float, Meta(gt=0)]
 NonNeg = Annotated[float, Meta(ge=0)]
 PosInt = Annotated[int, Meta(ge=1)]
+Gens = Annotated[int, Meta(ge=1, le=MAX_GEN)]
 
 
 class Output(Struct, forbid_unknown_fields=True, frozen=True):
@@ -39,7 +40,7 @@ class Rtclm(Struct, forbid_unknown_fields=True, frozen=True):
 
 class Algorithm(Struct, forbid_unknown_fields=True, frozen=True):
     name: str | None = None
-    pop_size: Annotated[int, Meta(ge=2)] | None = None
+    pop_size: Annotated[int, Meta(ge=2, le=MAX_POP)] | None = None
     options: dict[str, Any] = {}
 
 
@@ -66,7 +67,7 @@ class Stage(Struct, forbid_unknown_fields=True, frozen=True):
     name: str
     problem: str | None = None
     box: Literal["global", "subtask1", "subtask2", "subtask3"] | Box = "global"
-    n_gen: PosInt = 100
+    n_gen: Gens = 100
     max_evals: PosInt | None = None
     pick: str | Annotated[int, Meta(ge=0)] = "knee"
     pick_where: dict[str, Any] | None = None
@@ -80,8 +81,8 @@ class Stage(Struct, forbid_unknown_fields=True, frozen=True):
 
 class Baseline(Struct, forbid_unknown_fields=True, frozen=True):
     n_points: PosInt | None = None
-    pop_size: PosInt | None = None
-    n_gen: PosInt | None = None
+    pop_size: Annotated[int, Meta(ge=1, le=MAX_POP)] | None = None
+    n_gen: Gens | None = None
     maxiter: PosInt | None = None
 
 

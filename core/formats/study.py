@@ -32,7 +32,7 @@ from typing import Annotated, Any
 
 import msgspec
 
-from core.formats.typed import MAX_SEED, decode
+from core.formats.typed import MAX_POP, MAX_SEED, decode
 from core.kinematics import presets
 from core.optimize.algorithms import ALGORITHMS
 
@@ -40,7 +40,7 @@ MAX_RUNS = 100_000
 
 Name = Annotated[str, msgspec.Meta(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\-]+$")]
 Budget = Annotated[int, msgspec.Meta(ge=1, le=10**9)]
-PopSize = Annotated[int, msgspec.Meta(ge=4, le=100_000)]
+PopSize = Annotated[int, msgspec.Meta(ge=4, le=MAX_POP)]
 
 
 class AlgorithmEntry(msgspec.Struct, forbid_unknown_fields=True, frozen=True):

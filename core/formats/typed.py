@@ -19,6 +19,8 @@ from core.kinematics.checks import MAX_SAMPLES  # noqa: F401  (the formats' cap 
 T = TypeVar("T")
 MAX_DEPTH = 32
 MAX_SEED = 2**32 - 1
+MAX_POP = 100_000  # members per generation (~50 kB each in a design stage: ~5 GB at the cap)
+MAX_GEN = 1_000_000  # generations of a stage
 
 _KINDS = {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false", "array": "an array",
           "object": "a table", "null": "nothing"}

@@ -148,7 +148,10 @@ def _fixed_mask(mechanism: Mechanism, fixed: Iterable[str]) -> NDArray[np.bool_]
     unknown = [f for f in fixed if f not in names]
     if unknown:
         raise ValueError(f"{mechanism.name} has no parameter {unknown[0]!r}; known: {', '.join(names)}")
-    return np.array([n in fixed for n in names])
+    mask = np.array([n in fixed for n in names])
+    if mask.all():
+        raise ValueError(f"every parameter of {mechanism.name} is fixed: a search needs at least one free parameter")
+    return mask
 
 
 def _center(mechanism: Mechanism, center: F64 | None) -> F64:
