@@ -204,3 +204,37 @@ def test_ctrl_c_stops_clm_design_between_generations_writes_the_partial_result_a
     result = json.loads((out / "result.json").read_text())
     stages = result["pipeline"]["results"]
     assert stages[0]["status"] == "cancelled" and stages[0]["generation"] < 100000, stages[0]["status"]
+
+
+def test_a_stage_that_fails_keeps_the_stages_finished_before_it(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    # A stage that raised (a ZeroDivisionError in mutation once, after an hour of earlier stages) lost every
+    # finished stage: the result was written only after the whole run returned.
+    import core.optimize.run as run_module
+
+    real = run_module.run_stage
+
+    def second_fails(config, pipe, k, *args):  # type: ignore[no-untyped-def]
+        if k == 1:
+            raise ZeroDivisionError("float division by zero")
+        return real(config, pipe, k, *args)
+
+    monkeypatch.setattr(run_module, "run_stage", second_fails)
+    (tmp_path / "t.toml").write_text(TINY)
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "clm: error: stage 'subtask2' failed: ZeroDivisionError: float division by zero; the 1 stage(s) finished "
+        f"before it are in {tmp_path / 'o' / 'result.json'}")
+    assert "Traceback" not in cap.err
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["0_subtask1.csv", "result.json"]
+    data = json.loads((tmp_path / "o" / "result.json").read_text())
+    assert data["status"] == "failed" and data["error"].startswith("stage 'subtask2': ZeroDivisionError")
+    assert "Traceback" in data["error"] and "second_fails" in data["error"]
+    lineage = Pipeline.from_dict(data["pipeline"]).lineage
+    assert [r.name for r in lineage] == ["subtask1"] and lineage[0].picked is not None
+    assert data["rows"][0]["label"] == "tiny: subtask1 pick" and data["rows"][0]["status"] == "failed"
+    # clm compare reads it and marks it.
+    assert main(["compare", str(tmp_path / "o")]) == 0
+    assert "tiny: subtask1 pick [failed]" in capsys.readouterr().out

@@ -252,3 +252,20 @@ def test_every_algorithm_gets_the_budget_in_evaluations(tmp_path: Path, algorith
     record = run_cell(dict(cell, threads=1))
     assert record["status"] == "done", record.get("error")
     assert 400 <= record["metrics"]["n_eval"] < 400 + 3 * 20
+
+
+def test_a_failing_stage_names_where_it_failed_not_where_the_failure_was_passed_on(tmp_path: Path,
+                                                                                  monkeypatch: pytest.MonkeyPatch):
+    import core.optimize.run as run_module
+    from core.study.cell import run_cell
+
+    def fails(*args):  # type: ignore[no-untyped-def]
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(run_module, "run_stage", fails)
+    study = load_study(write(tmp_path, TINY))
+    record = run_cell(dict(study.cells()[0], threads=1))
+    assert record["status"] == "failed"
+    assert record["error"].startswith("StageFailed: stage ")
+    assert record["error"].endswith("failed: ZeroDivisionError: float division by zero (test_study.py:"
+                                    f"{fails.__code__.co_firstlineno + 1})")

@@ -5,7 +5,8 @@ the summary table to stdout. DIR receives ``result.json`` (configuration, every 
 population, fronts, shortlist, picks, settings, seeds, timings, versions; lossless floats) and
 one CSV per stage (``<k>_<stage>.csv``: every member's parameters, objectives, constraint
 values and metrics, with its feasibility, front membership, knee rank and pick). Ctrl-C stops
-between generations and still writes the partial result (exit code 130).
+between generations and still writes the partial result (exit code 130); a stage that fails writes the stages
+finished before it, with the error, and exits with code 1.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from core.optimize.baselines import DP_METHODS
 from core.optimize.design_config import DesignConfig
 from core.optimize.multistart import MultiStart, where_name
 from core.optimize.result import StageResult, dumps
-from core.optimize.run import DesignRun, run_design
+from core.optimize.run import DesignRun, StageFailed, run_design
 from core.optimize.stage import Progress
 
 BAR = 24
@@ -267,8 +268,11 @@ def run(args: argparse.Namespace) -> int:
 
     if threading.current_thread() is threading.main_thread():
         old = signal.signal(signal.SIGINT, on_sigint)
+    failure: StageFailed | None = None
     try:
         result = run_design(config, bar, cancel)
+    except StageFailed as e:  # keep the stages that finished before it
+        result, failure = e.run, e
     finally:
         if old is not None:
             signal.signal(signal.SIGINT, old)
@@ -284,4 +288,9 @@ def run(args: argparse.Namespace) -> int:
     if stale:
         print(f"removed {len(stale)} file(s) of the earlier run: {', '.join(p.name for p in stale)}")
     print(f"wrote {args.out / 'result.json'}")
+    if failure is not None:
+        done = len(result.results)
+        print(f"clm: error: {failure}; the {done} stage(s) finished before it are in {args.out / 'result.json'} "
+              "(its 'error' holds the traceback)", file=sys.stderr)
+        return 1
     return 0 if result.status == "complete" else 130

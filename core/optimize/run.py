@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import threading
 import time
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -44,11 +45,12 @@ class DesignRun:
         config: the configuration.
         pipeline: the stages' lineage (hierarchical / single_level), else None.
         baseline: the DP baseline result, else None.
-        status: ``complete`` or ``cancelled``.
+        status: ``complete``, ``cancelled`` or ``failed`` (a stage raised: see :class:`StageFailed`).
         wall_time: seconds from start to end (setup and between-stage work included).
         multistart: the record of each multi-start block (every chain's picks; the pipeline
             holds the winning chain's results).
         workers: processes the chains ran in (1 without a multi-start block).
+        error: what failed (``failed``): the stage, the exception and its traceback.
     """
 
     config: DesignConfig
@@ -58,6 +60,7 @@ class DesignRun:
     wall_time: float = 0.0
     multistart: tuple[MultiStart, ...] = ()
     workers: int = 1
+    error: str = ""
 
     @property
     def compute_time(self) -> float:
@@ -114,7 +117,27 @@ class DesignRun:
             "baseline": None if self.baseline is None else self.baseline.to_dict(),
             "multistart": [m.to_dict() for m in self.multistart],
             "workers": self.workers,
+            **({"error": self.error} if self.error else {}),
         }
+
+
+class StageFailed(RuntimeError):
+    """A stage raised. ``run`` holds what was done before it (status ``failed``), so that a caller can keep the
+    finished stages; the stage's exception is the ``__cause__``."""
+
+    def __init__(self, run: DesignRun, stage: str, cause: Exception) -> None:
+        super().__init__(f"stage {stage!r} failed: {type(cause).__name__}: {cause}")
+        self.run, self.stage = run, stage
+
+
+def _failed(config: DesignConfig, pipe: Pipeline, blocks: list[MultiStart], used: int, t0: float, k: int,
+            e: Exception) -> StageFailed:
+    """StageFailed for stage k's exception, carrying the stages finished before it."""
+    name = config.stages[k].name
+    trace = "".join(traceback.format_exception(e))
+    run = DesignRun(config, pipe, status="failed", wall_time=time.perf_counter() - t0, multistart=tuple(blocks),
+                    workers=used, error=f"stage {name!r}: {type(e).__name__}: {e}\n{trace}")
+    return StageFailed(run, name, e)
 
 
 ROW_METRICS = ("mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4")
@@ -152,13 +175,19 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
     while k < len(config.stages):
         starts = config.stages[k].starts
         if starts is None:
-            res = run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
+            try:
+                res = run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
+            except Exception as e:
+                raise _failed(config, pipe, blocks, used, t0, k, e) from e
             if res.picked is None:
                 return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
                                  multistart=tuple(blocks), workers=used)
             pick, k = res.picked, k + 1
             continue
-        block, pipe, done = run_block(config, pipe, k, pick, starts, callback, cancel)
+        try:
+            block, pipe, done = run_block(config, pipe, k, pick, starts, callback, cancel)
+        except Exception as e:
+            raise _failed(config, pipe, blocks, used, t0, k, e) from e
         blocks.append(block)
         if not done:
             return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,

@@ -104,7 +104,8 @@ def run_cell(cell: dict[str, Any]) -> dict[str, Any]:
         run = run_design(config)
         record.update(status="done", metrics=measure(run), result=dumps(run.to_dict(), indent=None))
     except Exception as e:  # a cell's failure is data for the study, not a crash of it
-        last = traceback.extract_tb(e.__traceback__)[-1] if e.__traceback__ else None
+        origin = e.__cause__ or e  # a stage's own exception (StageFailed wraps it)
+        last = traceback.extract_tb(origin.__traceback__)[-1] if origin.__traceback__ else None
         where = f" ({Path(last.filename).name}:{last.lineno})" if last else ""
         record.update(status="failed", error=f"{type(e).__name__}: {e}{where}")
     record["task_time"] = time.perf_counter() - t0
