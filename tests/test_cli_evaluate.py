@@ -103,3 +103,29 @@ def test_an_unassemblable_design_is_a_result(tmp_path: Path, capsys: pytest.Capt
     assert code == 0 and data["feasible"] is False and data["violation"] > 0
     assert data["S"] is None and data["mse"] is None  # NaN -> null
     assert not any(isinstance(v, float) and math.isnan(v) for v in data.values())
+
+
+def test_the_period_is_the_time_law_s_unless_given(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # cycloid:T=4 was printed in the header but the crank period stayed 2 s: the optimizer, which takes the
+    # target's T as the crank period, had reported another impact I for the same design.
+    from core.optimize.objectives import shape_metrics
+
+    design = get("stephenson1/X3").design()
+    code, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X3", "--target", "cycloid:T=4", "--json")
+    slow = json.loads(out)
+    assert code == 0 and slow["period"] == 4.0
+    assert slow["I"] == pytest.approx(float(shape_metrics(design, "cycloid:L=300,H=100,T=4")["I"][0]), rel=1e-6)
+    _, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X3", "--json")
+    assert slow["I"] == pytest.approx(json.loads(out)["I"] / 2, rel=1e-9)  # velocities at half the crank speed
+    _, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X3", "--target", "cycloid:T=4", "--period", "2",
+                    "--json")
+    assert json.loads(out)["period"] == 2.0  # given: it wins
+    # A curve's own times set its period: the same points over 4 s move at half the speed.
+    p, _ = compound_cycloid(360)
+    for span in (2.0, 4.0):
+        t = np.arange(360) * (span / 360)
+        (tmp_path / f"c{span:g}.csv").write_text(
+            "x,y,t\n" + "\n".join(f"{a:.17g},{b:.17g},{c:.17g}" for (a, b), c in zip(p, t, strict=True)))
+    _, out2, _ = run(capsys, "evaluate", "--curve", str(tmp_path / "c2.csv"), "--json")
+    _, out4, _ = run(capsys, "evaluate", "--curve", str(tmp_path / "c4.csv"), "--json")
+    assert json.loads(out4)["period"] == 4.0 and json.loads(out2)["period"] == 2.0

@@ -47,7 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="obstacle length and height for psi (mm, default 25 25)")
     p.add_argument("--trunk", type=float, default=DEFAULT_TRUNK,
                    help=f"quadruped hip distance (mm, default {DEFAULT_TRUNK:g})")
-    p.add_argument("--period", type=float, default=DEFAULT_PERIOD, help="crank period T (s, default 2)")
+    p.add_argument("--period", type=float, default=None,
+                   help=f"crank period T (s); default the time law's: a --curve's own times, else the target's T "
+                   f"(cycloid T, a CSV target's times), as the optimizer takes it; else {DEFAULT_PERIOD:g}")
     p.add_argument("--samples", type=int, default=360, metavar="N", help="samples per revolution, even (default 360)")
     p.add_argument("--phase-optimal", action="store_true", help="also report the shape error at the best cyclic shift")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -60,7 +62,7 @@ def _check(args: argparse.Namespace) -> None:
     if not MIN_SAMPLES <= args.samples <= MAX_SAMPLES or args.samples % 2:
         raise CLIError(f"--samples must be an even number between {MIN_SAMPLES} and {MAX_SAMPLES} (take-off is "
                        f"landing + T/2, which must fall on a sample), got {args.samples}")
-    if not (math.isfinite(args.period) and args.period > 0):
+    if args.period is not None and not (math.isfinite(args.period) and args.period > 0):
         raise CLIError(f"--period must be a positive number of seconds, got {args.period}")
     a, b = args.obstacle
     if not (math.isfinite(a) and math.isfinite(b) and a >= 0 and b >= 0):
@@ -71,10 +73,14 @@ def _check(args: argparse.Namespace) -> None:
 
 def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:
     target = parse_target(args.target)
-    kw: dict[str, Any] = dict(target=target, period=args.period, obstacle=tuple(args.obstacle), trunk=args.trunk,
+    curve = load_curve(args.curve) if args.curve is not None else None
+    period = args.period
+    if period is None:  # the time law's period: T = 4 in the target is the crank period the optimizer used
+        own = curve if curve is not None and curve.has_time else target
+        period = own.period if own.has_time else DEFAULT_PERIOD
+    kw: dict[str, Any] = dict(target=target, period=period, obstacle=tuple(args.obstacle), trunk=args.trunk,
                               phase_optimal=args.phase_optimal)
-    if args.curve is not None:
-        curve = load_curve(args.curve)
+    if curve is not None:
         pts = curve.sample(args.samples)
         leg = pts if args.leg_frame else PAPER_PANTOGRAPH.apply(pts)
         point = PAPER_PANTOGRAPH.apply(pts) if args.leg_frame else pts
