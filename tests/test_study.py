@@ -102,19 +102,98 @@ def test_a_rerun_skips_finished_cells(reference_run: Path, tmp_path: Path):
     assert len(Store(reference_run).rows()) == 6
 
 
+def spea2_fails(cell: dict) -> dict:  # type: ignore[type-arg]
+    """run_cell, with an option spea2 refuses slipped into its cells past the study's checks."""
+    from core.study.cell import run_cell
+
+    if cell["algorithm"]["name"] == "spea2":
+        cell = dict(cell, algorithm=dict(cell["algorithm"], options={"no_such_option": 1}))
+    return run_cell(cell)
+
+
 def test_a_failing_task_is_recorded_and_the_study_goes_on(tmp_path: Path):
-    bad = TINY.replace('name = "spea2"\npop_size = 20', 'name = "spea2"\npop_size = 20\noptions = {no_such_option = 1}')
-    study = load_study(write(tmp_path, bad))
-    summary = run_study(study, str(tmp_path / "out"), workers=2, stream=None)
+    study = load_study(write(tmp_path, TINY))
+    summary = run_study(study, str(tmp_path / "out"), workers=2, stream=None, task=spea2_fails)
     assert (summary.ran, summary.failed) == (6, 3)
     rows = Store(tmp_path / "out").rows()
     failed = [r for r in rows if r["status"] == "failed"]
     assert {r["algorithm"] for r in failed} == {"spea2"}
     assert all("no_such_option" in r["error"] for r in failed)
     assert sum(r["status"] == "done" for r in rows) == 3
-    # A rerun (from the command line) tries the failed cells again, counts the attempt and exits 1.
-    assert main(["study", str(write(tmp_path, bad)), "--out", str(tmp_path / "out"), "--workers", "1", "--quiet"]) == 1
+    # A rerun tries the failed cells again and counts the attempt.
+    summary = run_study(study, str(tmp_path / "out"), workers=1, stream=None, task=spea2_fails)
+    assert (summary.skipped, summary.ran, summary.failed) == (3, 3, 3)
     assert {r["attempts"] for r in Store(tmp_path / "out").rows() if r["status"] == "failed"} == {2}
+
+
+def test_cells_that_could_only_fail_are_refused_before_any_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    # An option the algorithm refuses, a start preset of another mechanism, an odd population for IMTCMO: every
+    # cell of the pair failed at run time, after the study had started (clm design refuses them at load).
+    bad = {
+        "options = {no_such_option = 1}": "cases[0] ('subtask2') with algorithm 'spea2': "
+                                          "algorithm.options.no_such_option: unknown key",
+        'start = "watt1/paper"': "cases[0] ('subtask2') with algorithm 'nsga2': preset: preset is a watt1 design",
+    }
+    for change, message in bad.items():
+        text = (TINY.replace('name = "spea2"\npop_size = 20', 'name = "spea2"\npop_size = 20\n' + change)
+                if "options" in change else TINY.replace('start = "stephenson1/X1"', change))
+        assert main(["study", str(write(tmp_path, text)), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("clm: error: " + message) and len(err.splitlines()) == 1, err
+        assert not (tmp_path / "out" / "study.sqlite").exists()
+    odd = TINY.replace('name = "spea2"\npop_size = 20', 'name = "imtcmo"\npop_size = 13')
+    assert main(["study", str(write(tmp_path, odd)), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    assert "with algorithm 'imtcmo': algorithm: imtcmo needs an even population" in capsys.readouterr().err
+    best = TINY.replace("budget = 100", 'budget = 100\nbest = "zzz"')
+    with pytest.raises(ValueError, match=r"cases\[0\].best: unknown pick metric 'zzz'; one of mse, S, I"):
+        load_study(write(tmp_path, best))
+
+
+def test_a_changed_study_is_refused_or_rerun_never_reused(reference_run: Path, tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]):
+    # Raising the budget and running into the same folder reported "6 already done" with the old runs' numbers
+    # under the new settings: a cell's key is its case, algorithm and seed only.
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(reference_run, out)
+    before = {r["key"]: r["metrics"]["n_eval"] for r in Store(out).rows()}
+    raised = TINY.replace("budget = 100", "budget = 160")
+    assert main(["study", str(write(tmp_path, raised)), "--out", str(out), "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"clm: error: {out} holds 6 finished cell(s) run with other settings, e.g. "
+                          "subtask2/nsga2/1: case.budget 100 -> 160; pass --rerun-changed"), err
+    assert {r["key"]: r["metrics"]["n_eval"] for r in Store(out).rows()} == before  # nothing touched
+    # A comment or a label changes no result: still resumed.
+    same = TINY.replace('name = "spea2"', 'name = "spea2"\nlabel = "SPEA2"') + "# a note\n"
+    assert main(["study", str(write(tmp_path, same)), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    assert "6 already done, 0 run now" in capsys.readouterr().out
+    # An edit of the case's config file counts (its parsed contents, not its layout).
+    config = tmp_path / "case.toml"
+    config.write_text(CONFIG.read_text().replace("n_samples = 360", "n_samples = 180"))
+    assert "n_samples = 180" in config.read_text()
+    moved = TINY.replace(str(CONFIG), str(config))
+    assert main(["study", str(write(tmp_path, moved)), "--out", str(out), "--workers", "1", "--quiet"]) == 2
+    assert "case.config.n_samples 360 -> 180" in capsys.readouterr().err
+    # --rerun-changed runs the six again with the new budget.
+    assert main(["study", str(write(tmp_path, raised)), "--out", str(out), "--workers", "1", "--quiet",
+                 "--rerun-changed"]) == 0
+    assert "0 already done, 6 run now" in capsys.readouterr().out
+    after = {r["key"]: r["metrics"]["n_eval"] for r in Store(out).rows()}
+    assert all(160 <= after[k] and before[k] < 160 for k in before), (before, after)
+
+
+def test_a_study_begun_before_cells_kept_their_settings_still_resumes(reference_run: Path, tmp_path: Path):
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(reference_run, out)
+    db = sqlite3.connect(out / "study.sqlite")
+    db.execute("ALTER TABLE runs DROP COLUMN settings")
+    db.commit()
+    db.close()
+    summary = run_study(load_study(write(tmp_path, TINY)), str(out), workers=1, stream=None)
+    assert (summary.skipped, summary.ran) == (6, 0)
 
 
 def test_resume_after_killing_the_client_loses_nothing_and_matches_an_uninterrupted_run(reference_run: Path,

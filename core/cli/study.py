@@ -19,7 +19,7 @@ MAX_WORKERS = 256
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "study",
-        usage="clm study STUDY.toml --out DIR [--scheduler ADDRESS | --workers N] [--quiet]\n"
+        usage="clm study STUDY.toml --out DIR [--scheduler ADDRESS | --workers N] [--quiet] [--rerun-changed]\n"
               "       clm study report DIR",
         help="run a study of algorithms x cases x seeds on Dask, or write its report",
         description="Run every (algorithm, case, seed) cell of a study file as a Dask task (a local cluster with one "
@@ -33,6 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
     p.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    p.add_argument("--rerun-changed", action="store_true",
+                   help="run again the finished cells whose settings changed since (budget, population, options, "
+                   "the case config); without it such a directory is refused")
     p.set_defaults(func=run)
 
 
@@ -63,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     study = load_study(args.args[0])
     out = _check_out(args.out)
     summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
-                        stream=None if args.quiet else sys.stderr)
+                        stream=None if args.quiet else sys.stderr, rerun_changed=args.rerun_changed)
     md, page = write_report(out)
     print(f"{study.name}: {summary.total} cells, {summary.skipped} already done, {summary.ran} run now "
           f"({summary.failed} failed) in {summary.wall_time:.1f} s; report: {md}, {page}")

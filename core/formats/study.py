@@ -25,6 +25,7 @@ Every error is a ``ValueError`` of one line that starts with the key path (``cas
 
 from __future__ import annotations
 
+import json
 import re
 import tomllib
 from pathlib import Path
@@ -37,6 +38,7 @@ from core.kinematics import presets
 from core.optimize.algorithms import ALGORITHMS
 
 MAX_RUNS = 100_000
+BEST = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4", "dev")  # pick metrics a case may rank its runs by
 
 Name = Annotated[str, msgspec.Meta(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\-]+$")]
 Budget = Annotated[int, msgspec.Meta(ge=1, le=10**9)]
@@ -84,12 +86,44 @@ class Study(msgspec.Struct, frozen=True):
     path: str = ""
 
     def cells(self) -> list[dict[str, Any]]:
-        """Every (algorithm, case, seed) as a self-contained task description (plain JSON data)."""
-        return [
-            {"key": cell_key(a.name, c.name, s), "algorithm": msgspec.to_builtins(a), "case": msgspec.to_builtins(c),
-             "seed": s}
-            for c in self.cases for a in self.algorithms for s in self.seeds
-        ]
+        """Every (algorithm, case, seed) as a self-contained task description (plain JSON data), with the
+        ``settings`` its result depends on (see :func:`cell_settings`)."""
+        out = []
+        for c in self.cases:
+            config = tomllib.loads(Path(c.config).read_text())
+            for a in self.algorithms:
+                settings = cell_settings(a, c, config)
+                out += [{"key": cell_key(a.name, c.name, s), "algorithm": msgspec.to_builtins(a),
+                         "case": msgspec.to_builtins(c), "seed": s, "settings": settings} for s in self.seeds]
+        return out
+
+
+def cell_settings(a: AlgorithmEntry, c: CaseEntry, config: dict[str, Any]) -> str:
+    """What a cell's result depends on besides its key, as canonical JSON: the algorithm (name, population,
+    options), the case's budget, stages and start, and its config file's contents (parsed: comments and
+    layout do not count). Labels and ``best`` only change the report."""
+    data = {"algorithm": {"name": a.name, "pop_size": a.pop_size, "options": a.options},
+            "case": {"budget": c.budget, "stages": c.stages, "start": c.start, "config": config}}
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+
+
+def settings_change(old: str, new: str) -> str:
+    """The first difference between two :func:`cell_settings`, e.g. ``case.budget 600 -> 800``."""
+
+    def first(a: Any, b: Any, path: str) -> str:
+        if isinstance(a, dict) and isinstance(b, dict):
+            for k in sorted(set(a) | set(b)):
+                if a.get(k) != b.get(k):
+                    return first(a.get(k), b.get(k), f"{path}.{k}" if path else str(k))
+        if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+            for i, (x, y) in enumerate(zip(a, b, strict=True)):
+                if x != y:
+                    return first(x, y, f"{path}[{i}]")
+        show = [json.dumps(v, sort_keys=True) if v is not None else "(none)" for v in (a, b)]
+        show = [v if len(v) <= 60 else v[:57] + "..." for v in show]
+        return f"{path} {show[0]} -> {show[1]}"
+
+    return first(json.loads(old), json.loads(new), "")
 
 
 def cell_key(algorithm: str, case: str, seed: int) -> str:
@@ -143,6 +177,8 @@ def _check_case(i: int, case: CaseEntry, config: Path) -> None:
             presets.get(case.start)
         except (KeyError, ValueError):
             raise ValueError(f"cases[{i}].start: unknown preset {case.start!r} (see 'clm presets')") from None
+    if case.best and case.best not in BEST:
+        raise ValueError(f"cases[{i}].best: unknown pick metric {case.best!r}; one of {', '.join(BEST)}")
 
 
 def parse_study(data: dict[str, Any], base: str | Path = ".", path: str = "") -> Study:

@@ -13,9 +13,11 @@ import traceback
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from core.formats.config import parse_config
+from core.formats.study import Study
 from core.optimize.decision import pareto_front
 from core.optimize.result import dumps
 from core.optimize.run import run_design
@@ -87,6 +89,19 @@ def measure(run: Any) -> dict[str, Any]:
         out["pick_feasible"] = bool(r.feasible[i])
         out["params"] = r.named(i)
     return out
+
+
+def check_cells(study: Study) -> None:
+    """ValueError (one line, naming the case and algorithm) for a pair whose cells could only fail: a start
+    preset of another mechanism, a population the algorithm refuses, ... (what ``clm design`` refuses at load)."""
+    for i, case in enumerate(study.cases):
+        c = msgspec.to_builtins(case)
+        for a in study.algorithms:
+            data = case_config(c, msgspec.to_builtins(a), study.seeds[0])
+            try:
+                parse_config(data, Path(case.config).parent, case.config)
+            except ValueError as e:
+                raise ValueError(f"cases[{i}] ({case.name!r}) with algorithm {a.name!r}: {e}") from None
 
 
 def run_cell(cell: dict[str, Any]) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """Run a study's cells on Dask distributed: a LocalCluster (one worker process per core) or a scheduler.
 
 Re-running the same command resumes: finished cells are skipped, failed ones run again (their
-attempts counted). Only this client writes the store, as each task completes.
+attempts counted); finished cells whose settings changed are refused, or run again on request. Only this
+client writes the store, as each task completes.
 """
 
 from __future__ import annotations
@@ -15,10 +16,14 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-from core.formats.study import Study
+from core.formats.study import Study, settings_change
 from core.optimize.workers import connect
-from core.study.cell import run_cell
+from core.study.cell import check_cells, run_cell
 from core.study.store import Store
+
+
+class StudyChanged(ValueError):
+    """The study directory holds finished cells run with other settings than the study file's now."""
 
 
 @dataclass
@@ -81,7 +86,7 @@ class Progress:
 
 def run_study(study: Study, out: str, scheduler: str | None = None, workers: int | None = None,
               stream: TextIO | None = sys.stderr, task: Callable[[dict[str, Any]], dict[str, Any]] = run_cell,
-              limit: int | None = None) -> Summary:
+              limit: int | None = None, rerun_changed: bool = False) -> Summary:
     """Run every unfinished cell of ``study`` and keep the results in ``out``.
 
     Args:
@@ -92,19 +97,30 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
         stream: where the progress line goes (None: silent).
         task: the function a cell runs (tests swap in one that fails).
         limit: run at most this many cells now (the rest wait for the next invocation).
+        rerun_changed: run again the finished cells whose settings changed since (budget, population, options,
+            the case config's contents); without it such a study is refused (StudyChanged), never reused.
     """
     from distributed import as_completed
 
     t0 = time.perf_counter()
+    check_cells(study)
+    cells = study.cells()
     store = Store(out)
     try:
+        kept = store.finished()
+        changed = [c for c in cells if kept.get(c["key"]) not in (None, c["settings"])]
+        if changed and not rerun_changed:
+            first = changed[0]
+            raise StudyChanged(
+                f"{out} holds {len(changed)} finished cell(s) run with other settings, e.g. {first['key']}: "
+                f"{settings_change(kept[first['key']] or '', first['settings'])}; pass --rerun-changed to run them "
+                "again, or choose another --out")
         store.set_meta("study", {"name": study.name, "path": study.path, "reference": study.reference,
                                  "algorithms": [a.name for a in study.algorithms],
                                  "labels": {a.name: a.title for a in study.algorithms},
                                  "cases": [c.name for c in study.cases], "seeds": list(study.seeds),
                                  "best": {c.name: c.best for c in study.cases}})
-        cells = study.cells()
-        finished = store.done()
+        finished = set(kept) - {c["key"] for c in changed}
         waiting = [dict(c, threads=1) for c in cells if c["key"] not in finished]
         skipped = len(cells) - len(waiting)  # finished before this invocation (not those ``limit`` leaves waiting)
         todo = waiting if limit is None else waiting[:limit]
@@ -123,7 +139,7 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
                         record = {"key": cell["key"], "algorithm": cell["algorithm"]["name"],
                                   "case": cell["case"]["name"], "seed": cell["seed"], "status": "failed",
                                   "error": f"{type(exc).__name__}: {exc}"}
-                    store.save(record)
+                    store.save(dict(record, settings=cell["settings"]))
                     failed += record["status"] != "done"
                     progress.step(record["status"] != "done")
                     fut.release()

@@ -24,7 +24,8 @@ CREATE TABLE IF NOT EXISTS runs (
     metrics TEXT,
     result_path TEXT,
     task_time REAL,
-    attempts INTEGER NOT NULL DEFAULT 1
+    attempts INTEGER NOT NULL DEFAULT 1,
+    settings TEXT
 );
 CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
@@ -38,6 +39,9 @@ class Store:
         self.dir.mkdir(parents=True, exist_ok=True)
         self.db = sqlite3.connect(self.dir / "study.sqlite", isolation_level=None)
         self.db.executescript(SCHEMA)
+        columns = {row[1] for row in self.db.execute("PRAGMA table_info(runs)")}
+        if "settings" not in columns:  # a study begun before cells kept their settings: those read as unknown
+            self.db.execute("ALTER TABLE runs ADD COLUMN settings TEXT")
 
     def close(self) -> None:
         self.db.close()
@@ -50,7 +54,11 @@ class Store:
         return default if row is None else json.loads(row[0])
 
     def done(self) -> set[str]:
-        return {k for (k,) in self.db.execute("SELECT key FROM runs WHERE status = 'done'")}
+        return set(self.finished())
+
+    def finished(self) -> dict[str, str | None]:
+        """The finished cells' keys and the settings they ran with (None: kept before settings were)."""
+        return dict(self.db.execute("SELECT key, settings FROM runs WHERE status = 'done'").fetchall())
 
     def save(self, record: dict[str, Any]) -> None:
         """Keep a finished cell: its result file first, then its row (replacing an earlier failed one)."""
@@ -62,9 +70,11 @@ class Store:
         prev = self.db.execute("SELECT attempts FROM runs WHERE key = ?", (record["key"],)).fetchone()
         attempts = 1 if prev is None else prev[0] + 1
         self.db.execute(
-            "INSERT OR REPLACE INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            "INSERT OR REPLACE INTO runs (key, case_name, algorithm, seed, status, error, metrics, result_path, "
+            "task_time, attempts, settings) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (record["key"], record["case"], record["algorithm"], record["seed"], record["status"],
-             record.get("error"), json.dumps(record.get("metrics")), path, record.get("task_time"), attempts),
+             record.get("error"), json.dumps(record.get("metrics")), path, record.get("task_time"), attempts,
+             record.get("settings")),
         )
 
     def rows(self) -> list[dict[str, Any]]:
