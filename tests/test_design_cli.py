@@ -179,8 +179,12 @@ def test_a_folder_without_an_earlier_run_keeps_every_file_and_a_foreign_result_i
     assert (other / "result.json").read_text() == '{"format": "something else"}'
 
 
-def test_ctrl_c_stops_clm_design_between_generations_writes_the_partial_result_and_exits_130(tmp_path: Path) -> None:
-    import signal
+@pytest.mark.parametrize(("signum", "code", "said"), [(2, 130, "stopping after this generation"),
+                                                     (15, 143, "terminated; stopping after this generation")],
+                         ids=["ctrl-c", "sigterm"])
+def test_ctrl_c_or_sigterm_stop_clm_design_between_generations_and_write_the_partial_result(
+        tmp_path: Path, signum: int, code: int, said: str) -> None:
+    # SIGTERM (kill, timeout, a batch scheduler's end of job) used to end the run with nothing written.
     import subprocess
     import sys
 
@@ -195,12 +199,12 @@ def test_ctrl_c_stops_clm_design_between_generations_writes_the_partial_result_a
                             preexec_fn=sigint_as_in_a_terminal)
     try:
         assert proc.stderr is not None and proc.stderr.read(1)  # the progress bar: generations are running
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(signum)
         stdout, stderr = proc.communicate(timeout=120)
     finally:
         proc.kill()
-    assert proc.returncode == 130, stderr
-    assert "stopping after this generation" in stderr and "Traceback" not in stderr
+    assert proc.returncode == code, stderr
+    assert said in stderr and "Traceback" not in stderr
     result = json.loads((out / "result.json").read_text())
     stages = result["pipeline"]["results"]
     assert stages[0]["status"] == "cancelled" and stages[0]["generation"] < 100000, stages[0]["status"]

@@ -5,7 +5,7 @@ the summary table to stdout. DIR receives ``result.json`` (configuration, every 
 population, fronts, shortlist, picks, settings, seeds, timings, versions; lossless floats) and
 one CSV per stage (``<k>_<stage>.csv``: every member's parameters, objectives, constraint
 values and metrics, with its feasibility, front membership, knee rank and pick). Ctrl-C stops
-between generations and still writes the partial result (exit code 130); a stage that fails writes the stages
+between generations and still writes the partial result (exit code 130; SIGTERM the same, 143); a stage that fails writes the stages
 finished before it, with the error, and exits with code 1.
 """
 
@@ -257,7 +257,8 @@ def run(args: argparse.Namespace) -> int:
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)
     cancel = threading.Event()
-    old = None
+    old: dict[int, Any] = {}
+    terminated = False
 
     def on_sigint(signum: int, frame: Any) -> None:
         # First Ctrl-C: stop between generations and keep the partial result; a second one aborts.
@@ -266,16 +267,26 @@ def run(args: argparse.Namespace) -> int:
         cancel.set()
         print("\nclm: stopping after this generation (Ctrl-C again to abort)", file=sys.stderr)
 
+    def on_sigterm(signum: int, frame: Any) -> None:
+        # kill, timeout, a batch scheduler's end of job: the same graceful stop (a generation takes well under
+        # the seconds they wait before SIGKILL), exit code 143.
+        nonlocal terminated
+        terminated = True
+        if not cancel.is_set():
+            cancel.set()
+            print("\nclm: terminated; stopping after this generation", file=sys.stderr)
+
     if threading.current_thread() is threading.main_thread():
-        old = signal.signal(signal.SIGINT, on_sigint)
+        old = {signal.SIGINT: signal.signal(signal.SIGINT, on_sigint),
+               signal.SIGTERM: signal.signal(signal.SIGTERM, on_sigterm)}
     failure: StageFailed | None = None
     try:
         result = run_design(config, bar, cancel)
     except StageFailed as e:  # keep the stages that finished before it
         result, failure = e.run, e
     finally:
-        if old is not None:
-            signal.signal(signal.SIGINT, old)
+        for signum, handler in old.items():
+            signal.signal(signum, handler)
         if bar is not None:
             bar.close()
     written = write_outputs(args.out, result)
@@ -293,4 +304,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"clm: error: {failure}; the {done} stage(s) finished before it are in {args.out / 'result.json'} "
               "(its 'error' holds the traceback)", file=sys.stderr)
         return 1
-    return 0 if result.status == "complete" else 130
+    if result.status == "complete":
+        return 0
+    return 143 if terminated else 130
