@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.analysis.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths
+from core.analysis.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths, why_infeasible
 from core.analysis.features import FEATURE_NAMES
 from core.analysis.targets import Target
 from core.kinematics.solver import Solution
@@ -92,17 +92,6 @@ def min_transmission_angle(solution: Solution, i: int = 0) -> float:
     worst = np.minimum(lo, np.pi - hi)
     worst = worst[np.isfinite(worst)]
     return float(worst.min()) if len(worst) else math.nan
-
-
-def why_infeasible(ev: Evaluation, i: int = 0) -> str:
-    """Why member i has no well-defined bench trajectory, or ``""`` if it has one."""
-    if ev.feasible[i]:
-        return ""
-    if ev.kinematic_violation[i] > 0.0:
-        return f"does not assemble over the whole cycle (shortfall {ev.kinematic_violation[i]:.2f} mm)"
-    if not np.isfinite(ev.path_violation[i]):
-        return "the foot path is not finite"
-    return "no single landing/take-off pair, or the foot path crosses itself"
 
 
 def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:

@@ -103,6 +103,10 @@ def test_an_unassemblable_design_is_a_result(tmp_path: Path, capsys: pytest.Capt
     assert code == 0 and data["feasible"] is False and data["violation"] > 0
     assert data["S"] is None and data["mse"] is None  # NaN -> null
     assert not any(isinstance(v, float) and math.isnan(v) for v in data.values())
+    # The table says why (it said "INFEASIBLE (violation 1)" and the reason was only in the JSON's components).
+    _, out, _ = run(capsys, "evaluate", "--design", str(f))
+    assert out.startswith(f"{f}: INFEASIBLE (violation {data['violation']:.4g}: does not assemble over the whole "
+                          f"cycle (shortfall {data['kinematic_violation']:.2f} mm))")
 
 
 def test_the_period_is_the_time_law_s_unless_given(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

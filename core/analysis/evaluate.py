@@ -414,3 +414,14 @@ def _assemble(
         n_samples=n,
         target=tgt.name,
     )
+
+
+def why_infeasible(ev: Evaluation, i: int = 0) -> str:
+    """Why member i has no well-defined bench trajectory, or ``""`` if it has one."""
+    if ev.feasible[i]:
+        return ""
+    if ev.kinematic_violation[i] > 0.0:
+        return f"does not assemble over the whole cycle (shortfall {ev.kinematic_violation[i]:.2f} mm)"
+    if not np.isfinite(ev.path_violation[i]):
+        return "the foot path is not finite"
+    return "no single landing/take-off pair, or the foot path crosses itself"

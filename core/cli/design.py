@@ -5,8 +5,8 @@ the summary table to stdout. DIR receives ``result.json`` (configuration, every 
 population, fronts, shortlist, picks, settings, seeds, timings, versions; lossless floats) and
 one CSV per stage (``<k>_<stage>.csv``: every member's parameters, objectives, constraint
 values and metrics, with its feasibility, front membership, knee rank and pick). Ctrl-C stops
-between generations and still writes the partial result (exit code 130; SIGTERM the same, 143); a stage that fails writes the stages
-finished before it, with the error, and exits with code 1.
+between generations and still writes the partial result (exit code 130; SIGTERM the same, 143); a
+stage that fails writes the stages finished before it, with the error, and exits with code 1.
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@ from core.analysis.evaluate import (
     Evaluation,
     evaluate,
     evaluate_paths,
+    why_infeasible,
 )
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
@@ -105,7 +106,7 @@ def table(ev: Evaluation, label: str) -> str:
     """A readable summary of member 0."""
     r = ev.record(0)
     deg = math.degrees
-    status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g})"
+    status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g}: {why_infeasible(ev)})"
     a, b = ev.obstacle
     rows = [
         ("stance length l_s", _fmt(r["l_s"]), "mm"),
