@@ -318,3 +318,16 @@ def test_a_design_file_with_a_key_twice_is_refused_not_read_as_its_last_value(ca
     (tmp_path / "d.json").write_text(text)
     code, _, err = run_in_process(capsys, "simulate", "--design", str(tmp_path / "d.json"))
     assert code == 2 and err.strip().endswith("key 'r1' appears twice in one object")
+
+
+def test_simulate_says_a_dyad_that_never_closes_has_no_transmission_angle(tmp_path: Path, capsys):
+    d = presets.get("stephenson1/X3").design()
+    f = tmp_path / "d.json"
+    f.write_text(json.dumps({"mechanism": "stephenson1", "params": d.named(0) | {"r4": 400.0},
+                             "output": d.output.to_dict()}))
+    assert main(["simulate", "--design", str(f)]) == 0
+    out = capsys.readouterr().out
+    line = next(ln for ln in out.splitlines() if ln.startswith("dyad C:"))
+    assert line.endswith("never closes (no transmission angle)") and "deg" not in line
+    assert main(["simulate", "--preset", "stephenson1/X3"]) == 0
+    assert "dyad C: margin 3.24 mm, transmission angle 44.7..158.6 deg" in capsys.readouterr().out

@@ -239,3 +239,16 @@ def test_only_a_dyad_from_a_crank_point_closes_a_crank_loop():
     loops = _crank_dyads(ops.tobytes(), ops.shape[0])
     names = [mech.joint_names[j] for j, _, _ in loops]
     assert names == ["C"]
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_a_dyad_that_closes_at_no_sample_has_no_transmission_angle(backend: str):
+    # r4 = 400 mm: dyad C is short by 268 mm everywhere. Its angle read 0..0 or 180..180 (the law of cosines
+    # clipped to [-1, 1]), which clm simulate printed as if it were the mechanism's.
+    x = X3.copy()
+    x[STEPHENSON1.param_names.index("r4")] = 400.0
+    sol = solve(STEPHENSON1, x, 90, backend=backend)
+    assert sol.dyad_margin[0, 0] < -200
+    assert np.isnan(sol.mu_min[0, 0]) and np.isnan(sol.mu_max[0, 0])
+    good = solve(STEPHENSON1, X3, 90, backend=backend)
+    assert np.isfinite(good.mu_min).all() and np.isfinite(good.mu_max).all()

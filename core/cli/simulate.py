@@ -151,6 +151,8 @@ def summary(design: Design, sol: Solution, label: str) -> str:
         if np.isfinite(margin) and np.isfinite(lo) and np.isfinite(hi):
             mu = f"{np.degrees(lo):.1f}..{np.degrees(hi):.1f} deg"
             lines.append(f"dyad {name}: margin {margin:.2f} mm, transmission angle {mu}")
+        elif np.isfinite(margin):
+            lines.append(f"dyad {name}: margin {margin:.2f} mm, never closes (no transmission angle)")
     return "\n".join(lines)
 
 

@@ -47,7 +47,9 @@ class Solution:
             any coupling violation of the mechanism (RTCLM).
         dyad_margin: ``(pop, n_dyads)`` min over the cycle of each dyad's distance from its
             singular (fully stretched or folded) configuration, ``min(d - |l1-l2|, l1+l2-d)`` (mm).
-        mu_min, mu_max: ``(pop, n_dyads)`` range of each dyad's transmission angle (rad).
+        mu_min, mu_max: ``(pop, n_dyads)`` range of each dyad's transmission angle (rad) over the
+            samples where it closes (a dyad that opens part of the cycle reaches 0 or pi at the edge);
+            NaN where it closes at no sample.
         crank_margin: ``(pop,)`` exact full-rotation margin of the loops closed by the crank
             (mm, > 0: the crank turns fully; Grashof for a four-bar); +inf if none.
         joint_names, dyad_names: names along the joint and dyad axes.
@@ -248,6 +250,8 @@ def solve(
         mu_max = np.arccos(np.clip(cmin[:, dyads], -1.0, 1.0))
     mu_min[~np.isfinite(cmax[:, dyads])] = np.nan
     mu_max[~np.isfinite(cmin[:, dyads])] = np.nan
+    never = (cmax[:, dyads] < -1.0) | (cmin[:, dyads] > 1.0)  # no sample closes: no angle (it read 180..180)
+    mu_min[never], mu_max[never] = np.nan, np.nan
     names = mechanism.joint_names
     return Solution(
         theta=theta,
