@@ -87,6 +87,12 @@ def test_bad_csv_is_one_line_and_exit_2(
     assert err.count("\n") == 1 and err.startswith("clm: error: ") and fragment in err
 
 
+def test_a_cycloid_parameter_given_twice_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # The last one won silently, though a design JSON with a key twice is refused.
+    code, _, err = run(capsys, "evaluate", "--preset", "stephenson1/X3", "--target", "cycloid:L=300,H=90,L=200")
+    assert code == 2 and err == "clm: error: cycloid parameter L is given twice in 'cycloid:L=300,H=90,L=200'\n"
+
+
 def test_bad_options_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     for argv in (["--obstacle", "-1", "5"], ["--period", "0"], ["--target", "cycloid:L=x"], ["--samples", "3"]):
         code, _, err = run(capsys, "evaluate", "--preset", "stephenson1/X3", *argv)

@@ -63,6 +63,10 @@ def test_export_refuses_what_it_cannot_draw(tmp_path, capsys):
     assert main(["export", "--design", str(design), "--svg", str(tmp_path / "x.svg")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "does not assemble" in err[1]
+    # One file for both: the SVG replaced the DXF and both were reported written.
+    same = tmp_path / "x.out"
+    assert main(["export", "--preset", "stephenson1/X3", "--dxf", str(same), "--svg", str(same)]) == 2
+    assert "--dxf and --svg name the same file" in capsys.readouterr().err and not same.exists()
 
 
 def test_the_studio_exports_the_shown_design_as_dxf_and_svg(tmp_path):

@@ -34,6 +34,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.dxf is None and args.svg is None:
         raise CLIError("nothing to write: give --dxf and/or --svg")
+    if args.dxf is not None and args.svg is not None and args.dxf.resolve() == args.svg.resolve():
+        raise CLIError(f"--dxf and --svg name the same file {str(args.dxf)!r}: the SVG would replace the DXF")
     if not math.isfinite(args.angle):
         raise CLIError(f"--angle must be a finite number of degrees, got {args.angle}")
     design, _ = load_design(args)
