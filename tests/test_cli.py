@@ -224,6 +224,8 @@ ERRORS: list[tuple[str, list[str], object | None, str]] = [
     ("no params", FILE, {"mechanism": S1}, "design has no 'params'"),
     ("unknown key", FILE, {"mechanism": S1, "params": GOOD, "parms": 1}, "unknown design key 'parms'"),
     ("wrong unit", FILE, {"mechanism": S1, "params": GOOD, "units": {"r1": "cm"}}, "r1 is given in 'cm'"),
+    ("unit of no parameter", FILE, {"mechanism": S1, "params": GOOD, "units": {"r1": "mm", "zz": "mm"}},
+     "units names 'zz', which stephenson1 does not have"),
     ("zero ratio", FILE, {"mechanism": S1, "params": GOOD, "output": {"k": 0}}, "output k (ratio) must be non-zero"),
     ("unknown output key", FILE, {"mechanism": S1, "params": GOOD, "output": {"kk": 1}}, "unknown output key 'kk'"),
     ("mirror not a bool", FILE, {"mechanism": S1, "params": GOOD, "output": {"mirror": "yes"}},

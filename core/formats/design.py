@@ -202,7 +202,10 @@ def design_from_dict(data: object) -> Design:
             raise ValueError(f"units must be an object {{name: unit}}, got {units!r}")
         expected = {p.name: p.unit for p in mech.params}
         for k, u in units.items():
-            if k in expected and u != expected[k]:
+            if k not in expected:  # a unit for a parameter this mechanism lacks: a file made for another one?
+                raise ValueError(f"units names {k!r}, which {mech.name} does not have; its parameters: "
+                                 f"{', '.join(expected)}")
+            if u != expected[k]:
                 raise ValueError(f"{k} is given in {u!r} but {mech.name} takes it in {expected[k]}")
     params = params_from(mech, data["params"])
     output = output_from(data["output"]) if "output" in data else IDENTITY
