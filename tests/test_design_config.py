@@ -123,6 +123,8 @@ BAD = [
     ("stages.0.algorithm.pop_size", 100_001, "stages[0].algorithm.pop_size: must be <= 100000"),
     ("stages.0.n_gen", 10**23, "stages[0].n_gen: must be <= 1000000"),
     ("stages.0.speed", 3, "stages[0].speed: unknown key"),
+    ("rtclm", {"h6": 90.0}, "rtclm: the h6/h4 targets are for the reconfigurable leg (mechanism rtclm), not "
+     "stephenson1"),
     ("stages.1.name", "predesign", "stages[1].name: duplicate stage name"),
     ("stages.2.options.f1_max", "start-1", "stages[2].options.f1_max: 'start-1' is not a relative limit"),
     ("stages.2.options.f1_max", -2.0, "stages[2].options.f1_max: must be >= 0"),

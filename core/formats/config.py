@@ -386,6 +386,9 @@ def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | No
     if f.target is not None or mech.derive is None:
         shared["target"] = _target(f.target or Target(), Path(base))
     if f.rtclm is not None:
+        if mech.derive is None:  # it was silently ignored: the run optimized the shape target instead
+            raise _fail("rtclm", f"the h6/h4 targets are for the reconfigurable leg (mechanism rtclm), not "
+                        f"{mech.name}")
         if f.rtclm.h6 is not None:
             shared["h6_target"] = f.rtclm.h6
         if f.rtclm.h4 is not None:
