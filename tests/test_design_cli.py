@@ -85,6 +85,15 @@ def test_design_prints_a_summary_table(tmp_path: Path, capsys: pytest.CaptureFix
     assert "[1/2 subtask1]" in cap.err and "[2/2 subtask2]" in cap.err  # progress on stderr
 
 
+def test_a_scheduler_a_config_without_a_multi_start_does_not_use_is_said(tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "t.toml").write_text(TINY.replace("n_gen = 3", "n_gen = 1").replace("n_gen = 2", "n_gen = 1"))
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(tmp_path / "o"), "--quiet", "--scheduler",
+                 "tcp://127.0.0.1:9"]) == 0
+    assert capsys.readouterr().err == (f"clm: note: --scheduler is not used: {tmp_path / 't.toml'} has no multi-start "
+                                       "block (only a block's chains run on Dask)\n")
+
+
 def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], capsys: pytest.CaptureFixture[str]) -> None:
     h, b, _ = outputs
     assert main(["compare", str(h), str(b / "result.json"), "--paper"]) == 0

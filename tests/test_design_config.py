@@ -246,3 +246,10 @@ def test_an_integer_pick_is_checked_against_the_members_a_weight_based_algorithm
         parse_config(d)
     d["stages"][1]["pick"] = 9
     parse_config(d)
+
+
+def test_a_missing_config_and_a_folder_are_told_apart(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"cannot read config '.*nope\.toml': no such file$"):
+        load_config(tmp_path / "nope.toml")
+    with pytest.raises(ValueError, match=r"cannot read config '.*': not a regular file$"):
+        load_config(tmp_path)

@@ -247,6 +247,9 @@ def run(args: argparse.Namespace) -> int:
         if not args.scheduler.strip():
             raise CLIError("--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786")
         config = replace(config, scheduler=args.scheduler)
+        if not any(st.starts for st in config.stages):  # not contacted at all: say so rather than seem to use it
+            print(f"clm: note: --scheduler is not used: {args.config} has no multi-start block "
+                  "(only a block's chains run on Dask)", file=sys.stderr)
     check_out_dir(args.out_text, output_names(config))
     previous: list[str] = []
     if (args.out / "result.json").exists():

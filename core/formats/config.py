@@ -59,7 +59,8 @@ def load_config(path: str | Path) -> DesignConfig:
     p = Path(path)
     try:
         if not p.is_file():
-            raise ValueError(f"cannot read config {str(p)!r}: not a regular file")
+            why = "not a regular file" if p.exists() else "no such file"
+            raise ValueError(f"cannot read config {str(p)!r}: {why}")
         if p.stat().st_size > 1_000_000:
             raise ValueError(f"{p}: a config file is at most 1 MB")
         text = p.read_text(encoding="utf-8")
