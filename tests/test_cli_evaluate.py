@@ -93,6 +93,12 @@ def test_a_cycloid_parameter_given_twice_is_refused(capsys: pytest.CaptureFixtur
     assert code == 2 and err == "clm: error: cycloid parameter L is given twice in 'cycloid:L=300,H=90,L=200'\n"
 
 
+def test_a_huge_value_is_printed_in_a_few_digits(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X3", "--target", "cycloid:L=1e300")
+    line = next(ln for ln in out.splitlines() if "shape error MSE" in ln)
+    assert code == 0 and line.split()[-2] == "5e+299"
+
+
 def test_bad_options_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     for argv in (["--obstacle", "-1", "5"], ["--period", "0"], ["--target", "cycloid:L=x"], ["--samples", "3"]):
         code, _, err = run(capsys, "evaluate", "--preset", "stephenson1/X3", *argv)

@@ -99,7 +99,9 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
 
 
 def _fmt(v: float, digits: int = 3) -> str:
-    return "n/a" if not np.isfinite(v) else f"{v:.{digits}f}"
+    if not np.isfinite(v):
+        return "n/a"
+    return f"{v:.{digits}f}" if abs(v) < 1e9 else f"{v:.4g}"  # a 1e300 mm target printed 300 digits
 
 
 def table(ev: Evaluation, label: str) -> str:
