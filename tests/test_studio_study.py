@@ -37,8 +37,8 @@ def tiny(study: Study, name: str, pop: int = 8, gens: int = 3, seed: int = 4) ->
 
 
 def run(session: Session, name: str, from_pick: bool, on_generation=None, live_period: float = 0.0) -> Runner:
-    """Run one stage to the end through a Runner, as the Stages panel does (every generation recorded, as with a
-    session file, unless ``live_period``)."""
+    """Run one stage to the end through a Runner, as the Stages panel does (every generation recorded unless
+    ``live_period``: the studio records one every LIVE_PERIOD s)."""
     done = threading.Event()
     runner = Runner(session.lock, lambda: session.study, on_generation or (lambda p: None), done.set, live_period)
     chain = chain_for(session.view.design.mechanism)
@@ -468,7 +468,9 @@ def test_restore_takes_over_a_loaded_session_but_not_while_a_stage_runs(session:
         session.restore(Session.default())
 
 
-def test_the_studio_saves_the_session_after_every_generation_and_every_pick(tmp_path, monkeypatch) -> None:
+def test_the_studio_saves_a_running_stage_every_few_seconds_and_every_pick(tmp_path, monkeypatch) -> None:
+    # Saved after every generation, a run with a session file took about 15 times as long (a session of a few
+    # dozen branches takes 30-45 ms to write, a generation a few ms).
     import studio.app as app
     from studio.session_file import load_session
 
@@ -492,7 +494,10 @@ def test_the_studio_saves_the_session_after_every_generation_and_every_pick(tmp_
         studies = [unpack_study(s["study"]) for s in saved]
         generations = [st["pipeline"]["results"][0]["generation"] for st in studies
                        if st["pipeline"] and st["pipeline"]["results"][0]]
-        assert set(range(1, 16)) <= set(generations)  # every generation reached the disk
+        # The first generation reaches the disk at once and the end always; in between at most one save every
+        # SAVE_PERIOD s (these 15 generations take well under 2 s).
+        assert generations[0] == 1 and generations[-1] == 15
+        assert len(saved) <= 4, generations
         r = load_session(path).study.result("subtask2")
         assert r.status == "complete" and r.generation == 15
         member = next(i for i in range(r.pop) if i != r.picked)
