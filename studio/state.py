@@ -382,7 +382,16 @@ class Session:
         """
         p = presets.get(name)
         with self.lock:
-            return self._commit(self._rebuild(p.design(), name, self._target_for(p.mechanism.name, name)))
+            view = self._commit(self._rebuild(p.design(), name, self._target_for(p.mechanism.name, name)))
+            self._from_editor()
+            return view
+
+    def _from_editor(self) -> None:
+        """The designer changed the design by hand: the next run starts from it, not from the previous stage's
+        pick (Run searched around the old pick and then replaced the preset just loaded with its result)."""
+        if self.study.from_pick:
+            self.study.from_pick = False
+            self.study.touch()
 
     def _target_for(self, mechanism: str, preset: str) -> TargetSpec | None:
         """The target a design of ``mechanism`` brings into the editor: None (the current one stays) within the
@@ -424,15 +433,21 @@ class Session:
             if v == design.named(0)[name]:
                 return self.view
             new = design.replace(**{name: v})
-            return self._commit(self._rebuild(new, self.view.preset), keep_assembly=True)
+            view = self._commit(self._rebuild(new, self.view.preset), keep_assembly=True)
+            self._from_editor()
+            return view
 
-    def set_design(self, design: Design, preset: str | None = None) -> DesignView:
-        """Replace the whole design (a loaded file, a picked candidate); ValueError if malformed."""
+    def set_design(self, design: Design, preset: str | None = None, by_hand: bool = False) -> DesignView:
+        """Replace the whole design (a loaded file, a picked candidate); ValueError if malformed. ``by_hand``:
+        the designer brought it (a study's design), so the next run starts from it."""
         if design.pop != 1:
             raise ValueError(f"the studio shows one design at a time, got a population of {design.pop}")
         check_params(design.mechanism, design.params)
         with self.lock:
-            return self._commit(self._rebuild(design, preset))
+            view = self._commit(self._rebuild(design, preset))
+            if by_hand:
+                self._from_editor()
+            return view
 
     def set_target(self, **changes: float) -> DesignView:
         """Change the compound cycloid (``length``, ``height``, ``period``); ValueError if not positive.

@@ -248,6 +248,28 @@ def test_use_for_next_stage_passes_the_pick_on_and_the_next_box_is_built_around_
     assert study.branches == []
 
 
+def test_a_design_changed_by_hand_is_where_the_next_run_starts(session: Session) -> None:
+    # After a pass-on, loading preset X3 left "Start from" on the previous stage's pick: Run searched around the
+    # old pick and then replaced the preset just loaded with its result.
+    run(session, "subtask1", from_pick=False)
+    study = session.study
+    chain = chain_for(X3.mechanism)
+    study.use_for_next("subtask1", study.result("subtask1").picked, chain)
+    assert study.from_pick
+    version = study.version
+    session.load_preset("stephenson1/X2")
+    assert not study.from_pick and study.version > version  # the Stages panel redraws
+    study.use_for_next("subtask1", study.result("subtask1").picked, chain)
+    session.set_param("r4", session.view.design.named(0)["r4"] + 0.5)
+    assert not study.from_pick
+    # The studio's own changes of the design keep it: a pick shown, a run's end.
+    study.use_for_next("subtask1", study.result("subtask1").picked, chain)
+    session.set_design(study.result("subtask1").pick(0))
+    assert study.from_pick
+    session.set_design(study.result("subtask1").pick(0), by_hand=True)  # a study's design, loaded
+    assert not study.from_pick
+
+
 def test_changing_a_pick_that_later_stages_grew_from_keeps_a_branch_and_it_can_be_restored(session: Session) -> None:
     run(session, "subtask1", from_pick=False)
     study = session.study
@@ -264,6 +286,18 @@ def test_changing_a_pick_that_later_stages_grew_from_keeps_a_branch_and_it_can_b
     np.testing.assert_array_equal(study.result("subtask2").X, old_x2.X)
     assert study.result("subtask1").picked == first
     assert len(study.branches) == 1  # the replaced pipeline became a branch in turn
+
+
+def test_branch_numbers_never_repeat_after_a_restore(session: Session) -> None:
+    # Numbered len + 1, the branch a restore left got the number of one still listed ("5: ..." twice).
+    run(session, "subtask1", from_pick=False)
+    for _ in range(2):
+        run(session, "subtask1", from_pick=False)  # each re-run keeps the previous lineage as a branch
+    study = session.study
+    assert [b.label.split(":")[0] for b in study.branches] == ["1", "2"]
+    study.restore_branch(0)  # 1 comes back; the current one is kept as 3
+    numbers = [b.label.split(":")[0] for b in study.branches]
+    assert numbers == ["2", "3"] and len(set(b.label for b in study.branches)) == 2
 
 
 def test_re_running_a_stage_keeps_the_previous_lineage_as_a_branch(session: Session) -> None:

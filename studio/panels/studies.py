@@ -127,7 +127,7 @@ class StudiesPanel:
         try:
             design = picked_design(self._dir, run)
             with self.studio.session.lock:
-                self.studio.session.set_design(design)
+                self.studio.session.set_design(design, by_hand=True)
         except ValueError as exc:
             if event.client is not None:
                 self.studio.notify(event.client, "Design not loaded", str(exc))
