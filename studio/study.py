@@ -244,7 +244,9 @@ class Study:
         if pipe is None or not pipe.lineage:
             return
         done = branch_stages(pipe.lineage, self.shown)
-        label = f"{len(self.branches) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
+        # Past every number in use: after a restore took one out, len + 1 repeated a number still listed.
+        used = [int(b.label.split(":", 1)[0]) for b in self.branches if b.label.split(":", 1)[0].isdigit()]
+        label = f"{max(used, default=0) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
                 f"{time.strftime('%H:%M:%S')})"
         target = None if self.target is None else self.target.to_dict()
         self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None)), target, dict(self.shown),
