@@ -142,6 +142,7 @@ def test_the_mechanism_panels_undo_and_redo_follow_the_history_and_rest_during_a
         nudge(studio.session, "r4", 1.002)
         studio.refresh()
         assert not panel.undo.disabled and panel.redo.disabled and panel.undo.hint == "take back: r4"
+        assert (panel.undo.label, panel.redo.label) == ("Undo r4", "Redo")  # viser draws no hint on a button
         panel.hold(True)  # a stage runs: its end replaces the design
         assert panel.undo.disabled
         panel.hold(False)
@@ -149,6 +150,7 @@ def test_the_mechanism_panels_undo_and_redo_follow_the_history_and_rest_during_a
         studio.session.undo()
         studio.refresh()
         assert panel.undo.disabled and not panel.redo.disabled and panel.redo.hint == "make again: r4"
+        assert (panel.undo.label, panel.redo.label) == ("Undo", "Redo r4")
     finally:
         studio.close()
 
@@ -186,3 +188,11 @@ def test_a_deleted_branch_is_not_brought_back_and_the_design_still_is() -> None:
     s.study.delete_branch(s.study.branches[0].label)
     s.undo()
     assert s.view.design.mechanism.name == "stephenson1" and s.study.pipeline is None and s.study.branches == []
+
+
+def test_a_long_change_is_shortened_to_fit_the_button() -> None:
+    from studio.panels.mechanism import STEP_LABEL, step_label
+
+    assert step_label("Undo", "") == "Undo" and step_label("Redo", "preset → X3") == "Redo preset → X3"
+    long = step_label("Undo", "r4, r5, r6 and 2 more · target · walking view")
+    assert len(long) == STEP_LABEL and long.endswith("…") and long.startswith("Undo r4, r5, r6 and 2 more")

@@ -24,6 +24,13 @@ if TYPE_CHECKING:
 NO_PRESET = "(none)"
 UNDO_HINT = "take back the last change of the design, target or walking view (a parameter, preset, topology, pick)"
 REDO_HINT = "make again the change Undo took back"
+STEP_LABEL = 34  # characters of "Undo r4, r5 · target": the side panel's width at 1100 px
+
+
+def step_label(verb: str, what: str) -> str:
+    """The Undo or Redo button's label: the verb and what it would change, shortened to fit."""
+    text = f"{verb} {what}" if what else verb
+    return text if len(text) <= STEP_LABEL else text[: STEP_LABEL - 1].rstrip() + "…"
 
 
 def param_label(name: str, unit: str) -> str:
@@ -130,13 +137,14 @@ class MechanismPanel:
 
     def _show_steps(self) -> None:
         """Undo and Redo: enabled when there is something to take back or make again (not during a run), with
-        what that is in their hints."""
+        what that is in their labels ("Undo r4"; viser draws no hint on a button) and hints."""
         session = self.studio.session
         for button, which, hint, done in ((self.undo, "undo", UNDO_HINT, "take back"),
                                           (self.redo, "redo", REDO_HINT, "make again")):
             what = session.change_names(which)
             button.disabled = self._running or not what
             button.hint = f"{done}: {what}" if what else hint
+            button.label = step_label(which.capitalize(), what)
 
     def hold(self, running: bool) -> None:
         """Disable the design's controls while a stage runs: its pick replaces the design when it ends, so an edit
