@@ -444,9 +444,13 @@ class Studio:
             with session.lock:
                 if session.study.status.running:
                     raise ValueError("a stage is running; pick when it has finished")
-                r = session.study.show(stage, member)
-                design = r.pick(member)
-                session.set_design(design)
+                r = session.study.result(stage)
+                if r is None:
+                    raise ValueError(f"stage {stage!r} has no result to pick from")
+                if not 0 <= member < r.pop:
+                    raise ValueError(f"member {member} out of range (population {r.pop})")
+                session.set_design(r.pick(member))  # first: its Undo step keeps the member shown before
+                session.study.show(stage, member)
         except ValueError as exc:
             if client is not None:
                 self.notify(client, "Not picked", str(exc))
@@ -468,7 +472,7 @@ class Studio:
                 member = session.study.shown_member(stage)
                 if member is None:
                     raise ValueError(f"{stage} has nothing to pass on")
-                session.study.use_for_next(stage, member, self.chain())
+                session.pass_on(stage, member, self.chain())
         except ValueError as exc:
             if client is not None:
                 self.notify(client, "Not passed on", str(exc))

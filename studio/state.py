@@ -32,7 +32,7 @@ from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
 from studio.session_pack import pack_study, unpack_study
-from studio.study import Branch, Study
+from studio.study import Branch, Selection, Study
 from studio.target import Curve, TargetSpec
 from studio.walking import WalkFrames, WalkSpec, build_walk
 
@@ -265,11 +265,13 @@ def change_summary(a: DesignView, b: DesignView) -> str:
 
 @dataclass(frozen=True)
 class Step:
-    """An editor state Undo or Redo brings back, and the branch a topology switch kept when it was left (its
-    stages are restored with it)."""
+    """An editor state Undo or Redo brings back, the branch a topology switch kept when it was left (its
+    stages are restored with it), and what the study showed, had picked and would run next then (brought back
+    while the pipeline holds the same populations: a pick or a pass-on taken back)."""
 
     view: DesignView
     branch: Branch | None = None
+    selection: Selection | None = None
 
 
 @dataclass(frozen=True)
@@ -313,7 +315,8 @@ class Session:
         with self.lock:
             return self.view, self.playback, self.version
 
-    def _commit(self, view: DesignView, keep_assembly: bool = False, into: list[Step] | None = None) -> DesignView:
+    def _commit(self, view: DesignView, keep_assembly: bool = False, into: list[Step] | None = None,
+                selection: Selection | None = None) -> DesignView:
         """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design.
         The replaced view, with the branch a topology switch kept, goes onto ``into``: by default the Undo history
         (and what was undone is forgotten); Undo and Redo pass each other's."""
@@ -332,15 +335,27 @@ class Session:
             self.study.start_over(f"before switching to {new.title}")
             kept = self.study.branches[-1] if len(self.study.branches) > before else None
         if view is not self.view:
-            if into is None:
-                self.undone, self.redone = [*self.undone[-(UNDO_DEPTH - 1):], Step(self.view, kept)], []
-            else:
-                into.append(Step(self.view, kept))
+            self._remember(Step(self.view, kept, selection or self.study.selection()), into)
         self.view = view
         self.version += 1
         return view
 
     # Undo ---------------------------------------------------------------------------------
+
+    def _remember(self, step: Step, into: list[Step] | None = None) -> None:
+        """Put ``step`` on the Undo history (what was undone is forgotten), or onto ``into``."""
+        if into is None:
+            self.undone, self.redone = [*self.undone[-(UNDO_DEPTH - 1):], step], []
+        else:
+            into.append(step)
+
+    def pass_on(self, stage: str, member: int, chain: tuple[Any, ...]) -> str:
+        """``Study.use_for_next`` as a step Undo takes back (the pick, the next stage and where it starts)."""
+        with self.lock:
+            before = self.study.selection()
+            nxt = self.study.use_for_next(stage, member, chain)
+            self._remember(Step(self.view, None, before))
+            return nxt
 
     def undo(self) -> DesignView:
         """Bring back the editor as it was before its last change (design, preset, target, walking view: a
@@ -361,16 +376,33 @@ class Session:
         step, study = source[-1], self.study
         kept = [j for j, b in enumerate(study.branches) if b is step.branch]
         if kept:  # the branch a topology switch kept (not deleted since): its stages come back with the design
-            study.restore_branch(kept[0])  # refused while a stage runs, as the commit is: nothing moves
-        view = self._commit(step.view, into=sink)
+            study.restore_branch(kept[0])
+        before = study.selection()
+        if step.view is self.view:  # a pass-on: only the study's selection moves
+            if study.status.running:
+                raise ValueError(f"a stage is running; stop it or wait before you {what} a pass-on")
+            self._remember(Step(self.view, None, before), sink)
+        else:
+            self._commit(step.view, into=sink, selection=before)
+        if step.selection is not None:
+            study.reselect(step.selection)
         source.pop()
-        return view
+        return self.view
 
     def change_names(self, which: str) -> str:
         """What :meth:`undo` (``which="undo"``) or :meth:`redo` would change, in a few words ("" if nothing)."""
         with self.lock:
             stack = self.undone if which == "undo" else self.redone
-            return (change_summary(self.view, stack[-1].view) or "the same design") if stack else ""
+            if not stack:
+                return ""
+            step, now = stack[-1], self.study.selection()
+            text = change_summary(self.view, step.view)
+            if step.selection is not None and (step.selection.picks, step.selection.next_stage) != (now.picks,
+                                                                                                   now.next_stage):
+                text = " · ".join(t for t in (text, "pass-on") if t)
+            elif not text and step.selection is not None and step.selection.shown != now.shown:
+                text = "pick"
+            return text or "the same design"
 
     # Design -------------------------------------------------------------------------------
 

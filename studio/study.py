@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -164,6 +164,29 @@ def status_text(r: StageResult) -> str:
     return text
 
 
+def _same(a: object, b: object) -> bool:
+    """The same population: equal members (a pick's copy of a result copies its arrays; a re-run with the same
+    seed is the same population, where the same selection holds as well)."""
+    if a is None or b is None:
+        return a is b
+    assert isinstance(a, np.ndarray) and isinstance(b, np.ndarray)
+    return a is b or (a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=True)))
+
+
+@dataclass(frozen=True, eq=False)
+class Selection:
+    """What the study showed, had picked and would run next at one moment (Undo brings it back with the design it
+    went with, while the pipeline still holds the same populations)."""
+
+    pipeline: Pipeline | None
+    populations: tuple[object, ...]  # each stage's result's X, or None
+    picks: tuple[int | None, ...]
+    shown: tuple[tuple[str, int], ...]
+    viewing: str | None
+    next_stage: str | None
+    from_pick: bool
+
+
 @dataclass
 class Study:
     """Pipeline, branches, picks shown and run settings of one session (guarded by the session's lock).
@@ -196,6 +219,32 @@ class Study:
 
     def touch(self) -> None:
         self.version += 1
+
+    def selection(self) -> Selection:
+        """The members shown and picked and the stage to run next, as they are now."""
+        pipe = self.pipeline
+        results = [] if pipe is None else pipe.results
+        return Selection(pipe, tuple(None if r is None else r.X for r in results),
+                         tuple(None if r is None else r.picked for r in results), tuple(self.shown.items()),
+                         self.viewing, self.next_stage, self.from_pick)
+
+    def reselect(self, sel: Selection) -> bool:
+        """Bring back what ``sel`` showed and picked, if the pipeline still holds the populations it did (a pass-on
+        or a pick taken back); False, and nothing changed, once a run or another pipeline came between."""
+        pipe = self.pipeline
+        if self.status.running or pipe is None or sel.pipeline is not pipe:
+            return False
+        now = [None if r is None else r.X for r in pipe.results]
+        if len(now) != len(sel.populations) or not all(_same(a, b) for a, b in zip(now, sel.populations,
+                                                                                  strict=True)):
+            return False
+        for k, r in enumerate(pipe.results):
+            if r is not None and r.picked != sel.picks[k]:
+                pipe.results[k] = replace(r, picked=sel.picks[k])
+        self.shown = dict(sel.shown)
+        self.viewing, self.next_stage, self.from_pick = sel.viewing, sel.next_stage, sel.from_pick
+        self.touch()
+        return True
 
     # Reading -------------------------------------------------------------------------------
 

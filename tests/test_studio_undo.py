@@ -196,3 +196,45 @@ def test_a_long_change_is_shortened_to_fit_the_button() -> None:
     assert step_label("Undo", "") == "Undo" and step_label("Redo", "preset → X3") == "Redo preset → X3"
     long = step_label("Undo", "r4, r5, r6 and 2 more · target · walking view")
     assert len(long) == STEP_LABEL and long.endswith("…") and long.startswith("Undo r4, r5, r6 and 2 more")
+
+
+def test_undo_takes_a_pass_on_back_and_then_the_pick_and_the_panels_agree() -> None:
+    # Undo right after "Use for next stage" took back the pick before it: the editor went back to the run's pick
+    # while the Candidate, Pick panel, inset and Stages (next stage from #9) still showed the member passed on.
+    import studio.app as app
+    from tests.stage_runs import run_stage
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        s = studio.session
+        run_stage(s, "subtask1", pop=12, gens=3)
+        study = s.study
+        r = study.result("subtask1")
+        first = study.shown_member("subtask1")
+        other = next(i for i in range(r.pop) if i != first and r.feasible[i])
+        before_pick = s.view
+        studio.pick("subtask1", other, None)
+        assert study.shown_member("subtask1") == other and s.change_names("undo") != ""
+        picked_view = s.view
+        studio.use_for_next("subtask1", None)
+        assert study.result("subtask1").picked == other and study.next_stage == "subtask2" and study.from_pick
+        assert s.change_names("undo") == "pass-on"
+        s.undo()  # the pass-on: the pick and the stage to run next go back; the design stays
+        assert s.view is picked_view and study.shown_member("subtask1") == other
+        assert study.result("subtask1").picked == r.picked and (study.next_stage, study.from_pick) != ("subtask2",
+                                                                                                       True)
+        s.undo()  # the pick: the editor and every panel back on the member shown before
+        assert study.shown_member("subtask1") == first and s.view is before_pick
+        s.redo()
+        s.redo()  # both made again
+        assert s.view is picked_view and np.array_equal(s.view.design.params[0], r.X[other])
+        assert study.shown_member("subtask1") == other and study.result("subtask1").picked == other
+        assert (study.next_stage, study.from_pick) == ("subtask2", True)
+        # Once a run came between, the study is not rewound (its populations changed): only the design moves.
+        run_stage(s, "subtask2", pop=12, gens=2)
+        ran, shown = study.result("subtask2"), dict(study.shown)
+        s.set_param("r4", s.view.values["r4"] + 0.25)
+        s.undo()
+        assert ran is not None and study.result("subtask2") is ran and study.shown == shown
+    finally:
+        studio.close()
