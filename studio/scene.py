@@ -22,6 +22,8 @@ from studio.geometry import (
 )
 from studio.state import DesignView
 
+FAR = 1000.0  # viser's far clipping plane (scene units, m); raised for a scene too large for it
+
 
 def _set_segments(node: viser.LineSegmentsHandle, segments: F32, colors: U8 | tuple[int, int, int]) -> None:
     """Assign segments and their colours (per vertex, or one for all: painted per vertex); hide the node when
@@ -249,16 +251,20 @@ class MechanismScene:
         if f is None:
             return
         pos, look = camera_pose(f.composition.bounds, FOV, aspect)
+        # Past viser's default far plane (1000 m) nothing is drawn: a 300 m target (a file in um) blanked the page.
+        far = max(FAR, 4.0 * float(np.linalg.norm(np.asarray(pos) - np.asarray(look))))
         if client is None:
             cam = self.server.initial_camera
             cam.fov = FOV
             cam.up = (0.0, 1.0, 0.0)
             cam.look_at = look
             cam.position = pos
+            cam.far = far
             return
         # Up direction and field of view come from the initial camera; only move the view.
         with client.atomic():
             client.camera.position = pos
             client.camera.look_at = look
+            client.camera.far = far
 
 

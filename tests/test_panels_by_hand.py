@@ -90,6 +90,22 @@ def test_an_uploaded_curve_becomes_the_target_and_back_to_the_cycloid_is_enabled
     assert "no times" not in panel.status.content
 
 
+@pytest.mark.parametrize(("scale", "spans"), [(1000.0, "200,000 mm"), (0.001, "0.2 mm")], ids=["um", "m"])
+def test_a_curve_far_from_a_leg_s_size_is_loaded_with_a_word_on_its_units_and_stays_in_view(studio, scale, spans):
+    # A file in um (300 m across) blanked the whole page, past viser's far clipping plane; one in m was a dot.
+    c = Client()
+    rows = [line.split(b",") for line in CURVE.splitlines()[1:]]
+    scaled = b"x,y\n" + b"\n".join(b"%r,%r" % (float(x) * scale, float(y) * scale) for x, y in rows) + b"\n"
+    press(studio.target.upload, c, upload(scaled, "far.csv"))
+    assert studio.session.view.target.is_curve  # loaded: nothing the designer made is lost
+    assert [(n[0], n[2]) for n in c.notes] == [("Target curve loaded: check its units", "yellow")]
+    assert c.notes[0][1].startswith(f"far.csv: it spans {spans}, where a foot path spans tens to hundreds of mm")
+    pos, look = (np.asarray(v) for v in (studio.server.initial_camera.position, studio.server.initial_camera.look_at))
+    assert studio.server.initial_camera.far >= 2 * np.linalg.norm(pos - look)  # the scene is inside it
+    press(studio.target.cycloid, c)
+    assert studio.server.initial_camera.far >= 1000.0
+
+
 def test_a_malformed_curve_upload_is_one_red_notification_and_the_target_stays(studio):
     c = Client()
     before = studio.session.view.target.label()

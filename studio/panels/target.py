@@ -102,6 +102,10 @@ class TargetPanel:
                                f"{name} was uploaded but is not a target curve: {problem}. "
                                f"The target is unchanged: {kept}.")
             return
+        note = curve.scale_note()
+        if note:  # loaded (nothing is lost), with a word on its units
+            self.studio.notify(event.client, "Target curve loaded: check its units", f"{name}: {note}.",
+                               color="yellow")
         if leg:
             self.studio.notify(event.client, "Target curve read in the leg frame",
                                f"{name}: mapped to the design frame by the design's output stage "
