@@ -105,13 +105,17 @@ def history_html(rows: list[HistoryRow]) -> str:
     return f'<table class="clm-history" style="{STYLE}">{head}{"".join(body)}</table>'
 
 
-def verdict_html(r: StageResult, i: int, stage: str) -> str:
-    """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``)."""
+def verdict_html(r: StageResult, i: int, stage: str, other_target: str = "") -> str:
+    """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``).
+    ``other_target``: the target the stage ran against, when the editor's is another (the rows below, MSE
+    among them, are measured against the editor's; the verdict against the run's)."""
     unmet = r.unmet(i) if r.cv[i] > 0 else []
     if not unmet and r.cv[i] > 0:
         unmet = [f"violation {r.cv[i]:.3g}"]
+    against = f" (against the target it ran with: {html.escape(other_target)})" if other_target else ""
     if unmet:
-        text = f"✗ #{i} does not meet {html.escape(stage)}'s constraints: {html.escape('; '.join(unmet))}"
+        text = (f"✗ #{i} does not meet {html.escape(stage)}'s constraints{against}: "
+                f"{html.escape('; '.join(unmet))}")
         return f'<div class="clm-verdict" data-feasible="false" style="{VERDICT}color:#b91c1c">{text}</div>'
     return (f'<div class="clm-verdict" data-feasible="true" style="{VERDICT}color:#15803d">'
-            f"✓ #{i} meets {html.escape(stage)}'s constraints</div>")
+            f"✓ #{i} meets {html.escape(stage)}'s constraints{against}</div>")

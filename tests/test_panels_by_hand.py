@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import html
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 from typing import Any
 
@@ -263,9 +264,17 @@ def test_the_stage_verdict_is_shown_only_for_the_member_in_the_editor(studio):
     r = SimpleNamespace(pop=2, mechanism=view.design.mechanism, X=np.stack([x, x + 1.0]), cv=np.zeros(2),
                         unmet=lambda i: [])
     for shown, expect in ((0, True), (1, False)):
-        sv = SimpleNamespace(result=lambda _: r, viewing="subtask1", shown=shown)
+        sv = SimpleNamespace(result=lambda _: r, viewing="subtask1", shown=shown, run_target=view.target)
         studio.metrics.show_stage(sv, view)
         assert ("meets subtask1's constraints" in studio.metrics.stage.content) is expect
+        assert "against the target it ran with" not in studio.metrics.stage.content
+    # The target changed since the run: the verdict (the run's) says which target it holds for, as the rows
+    # below (MSE among them) are measured against the editor's. It read "meets" above an MSE far past f1_max.
+    ran = replace(view.target, length=250.0, origin="set by hand")
+    sv = SimpleNamespace(result=lambda _: r, viewing="subtask1", shown=0, run_target=ran)
+    studio.metrics.show_stage(sv, view)
+    assert (f"meets subtask1's constraints (against the target it ran with: {ran.label()})"
+            in html.unescape(studio.metrics.stage.content))
 
 
 # Playback -------------------------------------------------------------------------------------------------
