@@ -57,6 +57,13 @@ for preset in first_presets():
             except ValueError:  # C-TAEA refuses the RTCLM's single objective by name
                 continue
             run.run()
+from core.analysis.targets import compound_cycloid
+from studio.target import Curve
+view = session.load_preset("stephenson1/X3")
+pts = compound_cycloid(40)[0] * 1.1  # an uploaded curve without times: compared at the best cyclic shift
+target = view.target.with_curve(Curve("up.csv", tuple(map(tuple, pts.tolist())), None, 2.0))
+for stage in chain_for(view.design.mechanism)[:2]:
+    Pipeline([stage_spec(stage, RunSettings(stage.name, "nsga2", 20, 3, 7), target)], view.design).stage(0).run()
 net = QNet(np.random.default_rng(5))
 rows = np.random.default_rng(6).random((30, 4))
 net.fit(rows, rows, 5)
@@ -90,5 +97,7 @@ def test_the_warm_up_runs_every_algorithm_on_the_opening_design_and_every_topolo
     expected = [(DEFAULT_PRESET, a, s.name) for a in ALGORITHMS for s in chain_for(get(DEFAULT_PRESET).mechanism)]
     for p in presets[1:]:
         expected += [(p, "nsga2", s.name) for s in chain_for(get(p).mechanism)]
+    expected += [(DEFAULT_PRESET, "nsga2", f"{s.name} (curve target)")
+                 for s in chain_for(get(DEFAULT_PRESET).mechanism)[:2]]
     assert done == expected
     assert any(p.startswith("rtclm") for p, _, _ in done)  # the RTCLM's stages have kernels of their own
