@@ -75,6 +75,7 @@ def test_a_timed_curve_csv_is_evaluated(tmp_path: Path, capsys: pytest.CaptureFi
         ("0,0\n1,x\n1,1\n0,1\n", "not a number"),
         ("0,0\n1,0\n2,0\n3,0\n40,0\n", "open curve"),
         ("0,0\n1,0\nnan,1\n0,1\n", "NaN"),
+        ("0;0\n1;0\n1;1\n0;1\n", "got 1 (the columns must be separated by commas)"),
     ],
 )
 def test_bad_csv_is_one_line_and_exit_2(

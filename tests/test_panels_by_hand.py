@@ -625,3 +625,33 @@ def test_the_comparison_colours_objectives_capped_metrics_and_the_shape_error_lo
     start, cand, style = cells[labels.get("width", "width")]
     assert "color:" not in style  # neither better nor worse
     assert r.objectives == ("h_s", "I")
+
+
+# Studies ---------------------------------------------------------------------------------------------------
+
+
+def test_the_studies_panel_names_the_folder_it_searched_and_a_missing_report(studio, tmp_path, monkeypatch):
+    # An empty folder box said "no study.sqlite in  or its folders"; a study without a report linked a
+    # report.html that did not exist.
+    import sqlite3
+
+    c = Client()
+    monkeypatch.chdir(tmp_path)
+    press(studio.studies.path, c, "")
+    press(studio.studies.scan, c)
+    assert c.notes == [("No studies", "no study.sqlite in the current folder or its folders", "yellow")]
+    d = tmp_path / "s"
+    d.mkdir()
+    db = sqlite3.connect(d / "study.sqlite")
+    db.executescript("CREATE TABLE runs (key TEXT, case_name TEXT, algorithm TEXT, seed INTEGER, status TEXT, "
+                     "error TEXT, metrics TEXT, result_path TEXT, task_time REAL, attempts INTEGER);"
+                     "CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);"
+                     "INSERT INTO meta VALUES ('study', '{\"name\": \"tiny\"}');")
+    db.commit()
+    db.close()
+    press(studio.studies.path, c, str(tmp_path))
+    press(studio.studies.scan, c)
+    assert studio.studies.summary.content.endswith(f"No report yet: `clm study report {d}` writes one.")
+    (d / "report.html").write_text("<html></html>")
+    press(studio.studies.scan, c)
+    assert studio.studies.summary.content.endswith(f"Report: `{d / 'report.html'}`.")

@@ -327,6 +327,8 @@ def test_restoring_a_loaded_session_takes_its_playback_too(session: Session, x3_
     ("change", "message"),
     [
         (lambda d: d.update(format="other"), "not a studio session"),
+        # A design file (clm presets show) chosen by mistake: it read "format None".
+        (lambda d: (d.clear(), d.update(mechanism="stephenson1", params={"r4": 1.0})), "^this is a design file"),
         (lambda d: d.update(version=99), "unsupported session version"),
         (lambda d: d.pop("design"), "no 'design'"),
         (lambda d: d["design"]["params"].update(r4=-1.0), "r4"),

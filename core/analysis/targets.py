@@ -143,7 +143,10 @@ def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
         raise ValueError(f"{name}: no data rows (expected lines 'x,y' or 'x,y,t')")
     ncol = len(body[0])
     if ncol not in (2, 3):
-        raise ValueError(f"{name}: expected 2 columns (x,y) or 3 (x,y,t), got {ncol}")
+        hint = ""
+        if ncol == 1 and any(sep in body[0][0] for sep in (";", "\t", " ")):  # 'x;y': a European spreadsheet
+            hint = " (the columns must be separated by commas)"
+        raise ValueError(f"{name}: expected 2 columns (x,y) or 3 (x,y,t), got {ncol}{hint}")
     data = np.empty((len(body), ncol))
     for i, r in enumerate(body):
         if len(r) != ncol:

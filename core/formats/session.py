@@ -88,6 +88,9 @@ def check_session(data: Any) -> SessionFile:
     if not isinstance(data, dict):
         raise ValueError(f"a session must be a JSON object, got {type(data).__name__}")
     if data.get("format") != SESSION_FORMAT:
+        if "mechanism" in data and "params" in data:  # 'clm presets show' writes these: a design, not a session
+            raise ValueError("this is a design file (mechanism and params), not a studio session; a session is "
+                             "what 'Download session' saves")
         raise ValueError(f"not a studio session (format {data.get('format')!r}, expected {SESSION_FORMAT!r})")
     if data.get("version") not in READS_VERSIONS or isinstance(data.get("version"), bool):
         raise ValueError(f"unsupported session version {data.get('version')!r} (this studio reads "

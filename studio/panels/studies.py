@@ -82,7 +82,8 @@ class StudiesPanel:
             set_value(self.study, options[0])
             self._on_study(event.client)
         elif event.client is not None:
-            self.studio.notify(event.client, "No studies", f"no study.sqlite in {self.path.value} or its folders",
+            where = str(self.path.value).strip() or "the current folder"
+            self.studio.notify(event.client, "No studies", f"no study.sqlite in {where} or its folders",
                                color="yellow")
 
     def _on_study(self, client: viser.ClientHandle | None) -> None:
@@ -97,8 +98,9 @@ class StudiesPanel:
             return
         self._dir, self._runs = d, finished_runs(rows)
         failed = sum(r["status"] == "failed" for r in rows)
-        self.summary.content = (f"**{name}**: {len(self._runs)} runs done, {failed} failed. Report: "
-                                f"`{d / 'report.html'}`.")
+        report = d / "report.html"
+        said = f"Report: `{report}`." if report.is_file() else f"No report yet: `clm study report {d}` writes one."
+        self.summary.content = f"**{name}**: {len(self._runs)} runs done, {failed} failed. {said}"
         keys = list(dict.fromkeys(k for r in self._runs for k in r.metrics))
         metrics = tuple(k for k in FIRST if k in keys) + tuple(k for k in keys if k not in FIRST)
         self.metric.options = metrics or FIRST
