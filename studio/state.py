@@ -488,6 +488,9 @@ class Session:
         """
         with self.lock:
             target = replace(self.view.target, curve=None, origin="set by hand", **changes)
+            paper = TargetSpec(origin="the paper's")
+            if replace(target, origin=paper.origin) == paper and self.view.design.mechanism.name in PAPER_TARGET:
+                target = paper  # typed back to the paper's values: it is the paper's again, not "set by hand"
             if target == self.view.target:
                 return self.view
             v = self.view

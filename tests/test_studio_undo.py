@@ -238,3 +238,11 @@ def test_undo_takes_a_pass_on_back_and_then_the_pick_and_the_panels_agree() -> N
         assert ran is not None and study.result("subtask2") is ran and study.shown == shown
     finally:
         studio.close()
+
+
+def test_a_target_typed_back_to_the_paper_s_values_is_the_paper_s_again() -> None:
+    s = Session.default()
+    s.set_target(length=250.0)
+    assert s.view.target.origin == "set by hand"
+    s.set_target(length=300.0)  # it stayed "(set by hand)" with the paper's numbers
+    assert s.view.target.origin == "the paper's" and s.view.target.label().endswith("(the paper's)")
