@@ -311,6 +311,8 @@ class Study:
         self.shown = {}
         self.next_stage = None
         self.from_pick = False
+        if not self.status.running:  # "Last run: subtask2 complete" beside "No stage has run yet" otherwise
+            self.status = RunStatus()
         self.touch()
 
     def show(self, name: str, member: int) -> StageResult:

@@ -288,6 +288,13 @@ def test_changing_a_pick_that_later_stages_grew_from_keeps_a_branch_and_it_can_b
     assert len(study.branches) == 1  # the replaced pipeline became a branch in turn
 
 
+def test_a_topology_switch_starts_the_stages_panel_afresh(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    assert session.study.status.stage == "subtask1" and session.study.status.message
+    session.select_mechanism("jansen")
+    assert session.study.status.stage is None and session.study.status.message == ""  # no "Last run: subtask1"
+
+
 def test_branch_numbers_never_repeat_after_a_restore(session: Session) -> None:
     # Numbered len + 1, the branch a restore left got the number of one still listed ("5: ..." twice).
     run(session, "subtask1", from_pick=False)
