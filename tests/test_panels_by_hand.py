@@ -317,6 +317,7 @@ def test_a_refused_speed_puts_the_slider_back_and_says_why(studio):
     press(studio.playback.speed, c, 0.0)
     assert studio.session.playback.speed == before and studio.playback.speed.value == before
     assert [n[0] for n in c.notes] == ["Speed not changed"]
+    assert c.notes[0][1].endswith("got 0.0; the slider takes 0.1 to 10 in steps of 0.1")
 
 
 # Session and export ---------------------------------------------------------------------------------------

@@ -89,7 +89,10 @@ class PlaybackPanel:
             self.studio.session.set_speed(float(self.speed.value))
         except ValueError as exc:
             set_value(self.speed, float(self.studio.session.playback.speed))
-            self.studio.notify(event.client, "Speed not changed", str(exc))
+            # The slider rounds a typed 0.05 to its 0.1 steps and sends 0.0: "got 0.0" alone puzzled.
+            self.studio.notify(event.client, "Speed not changed",
+                               f"{exc}; the slider takes {self.speed.min:g} to {self.speed.max:g} in steps of "
+                               f"{self.speed.step:g}")
 
     def _on_angle(self, event: viser.GuiEvent[Any]) -> None:
         if event.client is None:
