@@ -389,6 +389,10 @@ class Study:
             self.next_stage, self.from_pick = last.name, names.index(last.name) > 0
         else:  # a branch without results (a hand-made file): a fresh start
             self.shown, self.next_stage, self.from_pick = {}, None, False
+        # The Stages panel's "Last run" line describes the branch's last stage, not what ran before the restore.
+        self.status = RunStatus() if last is None else RunStatus(
+            "idle", last.name, last.generation, last.n_gen, status_text(last), True,
+            float(last.timings.get("total", 0.0)))
         self.touch()
 
     def branch_design(self) -> Design | None:

@@ -293,6 +293,9 @@ def test_a_topology_switch_starts_the_stages_panel_afresh(session: Session) -> N
     assert session.study.status.stage == "subtask1" and session.study.status.message
     session.select_mechanism("jansen")
     assert session.study.status.stage is None and session.study.status.message == ""  # no "Last run: subtask1"
+    session.restore_branch(0)  # the branch's last stage is the last run again
+    st = session.study.status
+    assert (st.state, st.stage, st.message, st.ok) == ("idle", "subtask1", "complete", True) and st.elapsed > 0
 
 
 def test_branch_numbers_never_repeat_after_a_restore(session: Session) -> None:
