@@ -259,7 +259,8 @@ class MechanismScene:
             cam.up = (0.0, 1.0, 0.0)
             cam.look_at = look
             cam.position = pos
-            cam.far = far
+            if cam.far != far:  # each assignment is a message to every page
+                cam.far = far
             return
         # Up direction and field of view come from the initial camera; only move the view.
         with client.atomic():
