@@ -231,6 +231,7 @@ class Studio:
 
     def _show_study(self, sv: StudyView) -> None:
         self.mechanism.hold(sv.status.running)
+        self.mechanism.show_steps()  # a pass-on, or its Undo, moves the history without a new design
         self.stages.show(sv)
         self.pareto.show(sv)
         self.pick_panel.show(sv)
@@ -449,6 +450,10 @@ class Studio:
                     raise ValueError(f"stage {stage!r} has no result to pick from")
                 if not 0 <= member < r.pop:
                     raise ValueError(f"member {member} out of range (population {r.pop})")
+                v = session.view
+                if (session.study.viewing == stage and session.study.shown_member(stage) == member
+                        and v.design.mechanism == r.mechanism and np.array_equal(v.design.params[0], r.X[member])):
+                    return  # already shown (a page echoing the dropdown): no Undo step, and Redo is not cleared
                 session.set_design(r.pick(member))  # first: its Undo step keeps the member shown before
                 session.study.show(stage, member)
         except ValueError as exc:

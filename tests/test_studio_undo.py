@@ -215,11 +215,18 @@ def test_undo_takes_a_pass_on_back_and_then_the_pick_and_the_panels_agree() -> N
         before_pick = s.view
         studio.pick("subtask1", other, None)
         assert study.shown_member("subtask1") == other and s.change_names("undo") != ""
+        depth = len(s.undone)
+        studio.pick("subtask1", other, None)  # a page echoing the dropdown: no new step (it cleared Redo)
+        assert len(s.undone) == depth
         picked_view = s.view
         studio.use_for_next("subtask1", None)
         assert study.result("subtask1").picked == other and study.next_stage == "subtask2" and study.from_pick
         assert s.change_names("undo") == "pass-on"
+        # The buttons follow though the design did not change (they were redrawn only with a new design).
+        assert studio.mechanism.undo.label == "Undo pass-on" and studio.mechanism.redo.label == "Redo"
         s.undo()  # the pass-on: the pick and the stage to run next go back; the design stays
+        studio.refresh()
+        assert studio.mechanism.redo.label == "Redo pass-on" and not studio.mechanism.redo.disabled
         assert s.view is picked_view and study.shown_member("subtask1") == other
         assert study.result("subtask1").picked == r.picked and (study.next_stage, study.from_pick) != ("subtask2",
                                                                                                        True)

@@ -133,18 +133,19 @@ class MechanismPanel:
         for name, field in self._inputs.items():
             field.show(float(values[name]))
         self.status.content = self._status(view)
-        self._show_steps()
+        self.show_steps()
 
-    def _show_steps(self) -> None:
+    def show_steps(self) -> None:
         """Undo and Redo: enabled when there is something to take back or make again (not during a run), with
         what that is in their labels ("Undo r4"; viser draws no hint on a button) and hints."""
         session = self.studio.session
         for button, which, hint, done in ((self.undo, "undo", UNDO_HINT, "take back"),
                                           (self.redo, "redo", REDO_HINT, "make again")):
             what = session.change_names(which)
-            button.disabled = self._running or not what
-            button.hint = f"{done}: {what}" if what else hint
-            button.label = step_label(which.capitalize(), what)
+            state = (self._running or not what, f"{done}: {what}" if what else hint, step_label(which.capitalize(),
+                                                                                                  what))
+            if (button.disabled, button.hint, button.label) != state:  # called on every study push of a run
+                button.disabled, button.hint, button.label = state
 
     def hold(self, running: bool) -> None:
         """Disable the design's controls while a stage runs: its pick replaces the design when it ends, so an edit
@@ -157,7 +158,7 @@ class MechanismPanel:
             field.disabled = running
         view = self.studio.session.view
         self.reset.disabled = running or view.preset is None or not view.edited
-        self._show_steps()
+        self.show_steps()
 
     @staticmethod
     def _status(view: DesignView) -> str:
