@@ -135,12 +135,21 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
             groups.append(([name], xy))
     out: list[SceneText] = []
     for k, (names, (x, y)) in enumerate(groups):
-        text = "=".join(sorted("=".join(names).split("="), key=lambda n: int(n[1:]) if n[1:].isdigit() else 0))
+        text = joined_names(sorted("=".join(names).split("="), key=lambda n: int(n[1:]) if n[1:].isdigit() else 0))
         spots = [(x, y + 0.4 * h, "bottom-center"), (x, y - 0.4 * h, "top-center"),
                  (x + 0.6 * h, y, "center-left"), (x - 0.6 * h, y, "center-right")]
         tries = [_text(f"feature_{k}", text, sx, sy, a, h, offset) for sx, sy, a in spots]
         out.append(next((t for t in tries if not any(_overlaps(t.box, o.box) for o in out)), tries[0]))
     return tuple(out)
+
+
+def joined_names(names: list[str]) -> str:
+    """``t2=t5``; a run of four or more consecutive points as ``t1=…=t8`` (eight names ran past the bench view's
+    box when every feature point fell on one spot)."""
+    nums = [int(n[1:]) for n in names if n[1:].isdigit()]
+    if len(names) >= 4 and len(nums) == len(names) and nums == list(range(nums[0], nums[0] + len(nums))):
+        return f"{names[0]}=…={names[-1]}"
+    return "=".join(names)
 
 
 def marker_texts(markers: tuple[tuple[str, tuple[float, float]], ...], h: float,

@@ -84,6 +84,16 @@ def test_feature_points_closer_than_a_label_print_as_one_label_in_numeric_order(
     assert [t.text for t in got] == ["t1=t4=t6", "t2"]  # t2 is just over a label's height from t6
 
 
+def test_every_feature_point_on_one_spot_prints_a_short_label():
+    # "t1=t2=t3=t4=t5=t6=t7=t8" ran past the bench view's box (a foot path collapsed to a point).
+    h = 4.0
+    got = feature_texts(tuple((f"t{i}", (0.0, 0.0)) for i in (8, 3, 1, 2, 7, 4, 6, 5)), h, np.zeros(2))
+    assert [t.text for t in got] == ["t1=…=t8"]
+    got = feature_texts((("t1", (0.0, 0.0)), ("t2", (0.0, 0.0)), ("t4", (0.0, 0.0)), ("t5", (0.0, 0.0))), h,
+                        np.zeros(2))
+    assert [t.text for t in got] == ["t1=t2=t4=t5"]  # not a run: every name
+
+
 def test_a_feature_label_that_would_cover_another_moves_below_its_point():
     h = 4.0
     got = feature_texts((("t1=t4", (0.0, 0.0)), ("t2=t5", (1.5 * h, 0.0))), h, np.zeros(2))
