@@ -37,6 +37,7 @@ CONFIG = {
 REDRAW_2D, REDRAW_3D = 0.5, 1.0
 ASPECT_2D, ASPECT_3D = 0.95, 1.35  # the side panel's chart: height over width
 PANEL_TITLE_CHARS = 42  # a title line the side panel's chart shows whole (13 px type, the mode bar beside it)
+PX_PER_TITLE_CHAR = 10.0  # the large chart's title: characters per line = its window's width / this
 
 
 def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figure | None:
@@ -108,7 +109,8 @@ class ParetoPanel:
         self._key: object = None
         self._drawn_at = 0.0
         self._sv: StudyView | None = None
-        self._large: dict[int, tuple[viser.PanelHandle, viser.GuiPlotlyHandle]] = {}  # per page that opened it
+        # per page that opened it: its window, chart, and title line length
+        self._large: dict[int, tuple[viser.PanelHandle, viser.GuiPlotlyHandle, int]] = {}
         self.folder = gui.add_folder("Pareto front", order=order)
         with self.folder:
             self.caption = gui.add_markdown("No stage has run yet.")
@@ -168,8 +170,8 @@ class ParetoPanel:
                                     f"{sv.viewing or 'This stage'} has no result yet: run it.")
             self._close_large()
             return
-        for cid, (_, large) in list(self._large.items()):  # the one-line title (sent now, as JSON)
-            if not write(large, "figure", fig):
+        for cid, (_, large, chars) in list(self._large.items()):  # a one-line title if it fits (sent now, as JSON)
+            if not write(large, "figure", with_title_wrapped(fig, chars)):
                 self._large.pop(cid, None)
         # Then the side panel's lines, in place: a copy per redraw cost as much as building the chart.
         self.plot.figure = with_title_wrapped(fig, PANEL_TITLE_CHARS, copy=False)
@@ -196,14 +198,19 @@ class ParetoPanel:
         if client is None or client.client_id in self._large or self._sv is None:
             return
         panel = client.gui.add_panel()
+        size = large_size(client)
+        # A window narrower than the one-line title breaks it into lines, as the side panel does (at 1100 x 760
+        # under software rendering the window is ~480 px: the title was cut at "target cyc").
+        chars = max(PANEL_TITLE_CHARS, int(size["width"] / PX_PER_TITLE_CHAR))
         with panel.add_tab("Pareto front (large)", viser.Icon.CHART_DOTS):
             # Close first: under the chart it fell past the window's bottom edge on a 1000-pixel-high page.
             close = client.gui.add_button("Close", icon=viser.Icon.X)
-            plot = client.gui.add_plotly(pareto_figure(self._sv, self.axes()) or go.Figure(), aspect=0.72,
+            fig = pareto_figure(self._sv, self.axes())
+            plot = client.gui.add_plotly(go.Figure() if fig is None else with_title_wrapped(fig, chars), aspect=0.72,
                                          config=CONFIG)
         close.on_click(lambda _: self._close_large(client.client_id))
-        panel.float(x=-24, y=24, **large_size(client))  # right edge by the side panel: never over it
-        self._large[client.client_id] = (panel, plot)
+        panel.float(x=-24, y=24, **size)  # right edge by the side panel: never over it
+        self._large[client.client_id] = (panel, plot, chars)
 
     def _forget(self, client: viser.ClientHandle) -> None:
         self._large.pop(client.client_id, None)

@@ -68,6 +68,9 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
         assert cb is not None and cb["y"] + cb["height"] <= 768
         wait_for(lambda: (bb := big.nth(1).bounding_box()) is not None and bb["y"] + bb["height"] <= 768,
                  "the large chart to fit the screen's height")
+        # Its title is broken into lines that fit the narrow window (one line was cut at "target cyc").
+        tb, cb2 = big.nth(1).locator(".gtitle").bounding_box(), big.nth(1).bounding_box()
+        assert tb is not None and cb2 is not None and tb["x"] + tb["width"] <= cb2["x"] + cb2["width"], (tb, cb2)
         close.click()
         expect(big).to_have_count(1)
     finally:
