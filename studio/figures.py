@@ -231,7 +231,8 @@ def make_pareto_figure(
         add("picked", [shown], {"color": "rgba(0,0,0,0)", "size": size + 14,
                                 "line": {"color": palette.css(palette.FOOT), "width": 3}})
     fig.update_layout(
-        title={"text": title, "font": {"size": 13}, "x": 0.0, "xanchor": "left"},
+        # 8 px in from the edge: at x = 0 the PNG's title touched its left border.
+        title={"text": title, "font": {"size": 13}, "x": 0.0, "xanchor": "left", "pad": {"l": 8}},
         margin={"l": 55, "r": 40, "t": 45 if title else 10, "b": 10},
         modebar={"orientation": "v"},
         # Below the axis title, outside the plot (legend items wrap on a narrow panel).

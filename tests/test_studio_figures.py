@@ -361,6 +361,8 @@ def test_a_long_chart_title_is_broken_at_its_separators_for_the_side_panel():
     assert fig.layout.title.text == title  # the large chart and the PNG keep one line
     short = make_pareto_figure(np.array([[1.0, 2.0]]), np.zeros(1), objectives=("f1", "f2"), title="a · b")
     assert with_title_wrapped(short, 42) is short
+    # Left-aligned a few pixels in from the edge (at 0 the PNG's title touched its border), wrapped or not.
+    assert fig.layout.title.xanchor == "left" and fig.layout.title.pad.l >= 4 and side.layout.title.pad.l >= 4
 
 
 def test_a_label_at_the_plots_edge_stays_inside_it_even_over_a_marker():
