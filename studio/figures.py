@@ -246,7 +246,8 @@ def make_pareto_figure(
         scene: dict[str, object] = {k: {"nticks": 4, "tickfont": {"size": 9},
                                         "title": {"text": t, "font": {"size": 11}}}
                                     for k, t in zip(("xaxis", "yaxis", "zaxis"), short, strict=True)}
-        scene["camera"] = {"eye": {"x": 1.55, "y": 1.55, "z": 1.1}}
+        # 10 % further out than first set: the first axis's title was cut at the right edge, under the mode bar.
+        scene["camera"] = {"eye": {"x": 1.7, "y": 1.7, "z": 1.2}}
         fig.update_layout(scene=scene, margin={"l": 0, "r": 0, "b": 0})
     else:
         assert ranges is not None
