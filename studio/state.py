@@ -397,10 +397,10 @@ class Session:
                 return ""
             step, now = stack[-1], self.study.selection()
             text = change_summary(self.view, step.view)
-            if step.selection is not None and (step.selection.picks, step.selection.next_stage) != (now.picks,
-                                                                                                   now.next_stage):
+            sel = step.selection if step.selection is not None and self.study.holds(step.selection) else None
+            if sel is not None and (sel.picks, sel.next_stage) != (now.picks, now.next_stage):
                 text = " · ".join(t for t in (text, "pass-on") if t)
-            elif not text and step.selection is not None and step.selection.shown != now.shown:
+            elif not text and sel is not None and sel.shown != now.shown:
                 text = "pick"
             return text or "the same design"
 

@@ -228,15 +228,20 @@ class Study:
                          tuple(None if r is None else r.picked for r in results), tuple(self.shown.items()),
                          self.viewing, self.next_stage, self.from_pick)
 
-    def reselect(self, sel: Selection) -> bool:
-        """Bring back what ``sel`` showed and picked, if the pipeline still holds the populations it did (a pass-on
-        or a pick taken back); False, and nothing changed, once a run or another pipeline came between."""
+    def holds(self, sel: Selection) -> bool:
+        """True when :meth:`reselect` can bring ``sel`` back: no run and no other pipeline came between."""
         pipe = self.pipeline
         if self.status.running or pipe is None or sel.pipeline is not pipe:
             return False
         now = [None if r is None else r.X for r in pipe.results]
-        if len(now) != len(sel.populations) or not all(_same(a, b) for a, b in zip(now, sel.populations,
-                                                                                  strict=True)):
+        return len(now) == len(sel.populations) and all(_same(a, b) for a, b in zip(now, sel.populations,
+                                                                                    strict=True))
+
+    def reselect(self, sel: Selection) -> bool:
+        """Bring back what ``sel`` showed and picked, if the pipeline still holds the populations it did (a pass-on
+        or a pick taken back); False, and nothing changed, once a run or another pipeline came between."""
+        pipe = self.pipeline
+        if pipe is None or not self.holds(sel):
             return False
         for k, r in enumerate(pipe.results):
             if r is not None and r.picked != sel.picks[k]:

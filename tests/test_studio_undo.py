@@ -253,3 +253,15 @@ def test_a_target_typed_back_to_the_paper_s_values_is_the_paper_s_again() -> Non
     assert s.view.target.origin == "set by hand"
     s.set_target(length=300.0)  # it stayed "(set by hand)" with the paper's numbers
     assert s.view.target.origin == "the paper's" and s.view.target.label().endswith("(the paper's)")
+
+
+def test_a_step_whose_selection_a_run_overtook_is_named_by_its_design_alone() -> None:
+    # An edit made before a run kept the study's selection of then; after the run it read "r4 · pass-on",
+    # though Undo brings back only r4 (the run changed the populations).
+    from tests.stage_runs import run_stage
+
+    s = Session.default()
+    nudge(s, "r4", 1.002)
+    run_stage(s, "subtask1", pop=12, gens=2)
+    assert s.study.result("subtask1") is not None
+    assert s.change_names("undo") == "r4"
