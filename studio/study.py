@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -243,9 +243,7 @@ class Study:
         pipe = self.pipeline
         if pipe is None or not self.holds(sel):
             return False
-        for k, r in enumerate(pipe.results):
-            if r is not None and r.picked != sel.picks[k]:
-                pipe.results[k] = replace(r, picked=sel.picks[k])
+        pipe.restore_picks(sel.picks)
         self.shown = dict(sel.shown)
         self.viewing, self.next_stage, self.from_pick = sel.viewing, sel.next_stage, sel.from_pick
         self.touch()

@@ -148,3 +148,19 @@ def test_a_stage_spec_can_be_replaced_before_launching() -> None:
     pipe.record(1, res)
     assert pipe.stages[1] is new and res.settings["algorithm"]["name"] == "nsga3"
     assert pipe.results[2] is None
+
+
+def test_restore_picks_sets_every_pick_and_keeps_every_result() -> None:
+    pipe = Pipeline(stages(), X0)
+    res = pipe.run()
+    old = [r.picked for r in res]
+    other = next(i for i in range(res[0].pop) if i != old[0])
+    pipe.restore_picks([other, old[1], None])
+    assert [r.picked for r in pipe.results] == [other, old[1], None]  # type: ignore[union-attr]
+    for a, b in zip(pipe.results, res, strict=True):
+        np.testing.assert_array_equal(a.X, b.X)  # type: ignore[union-attr]
+        assert a.status == b.status  # type: ignore[union-attr]
+    with pytest.raises(ValueError, match="2 picks for 3 stages"):
+        pipe.restore_picks([old[0], old[1]])
+    with pytest.raises(ValueError, match="has no member 10"):
+        pipe.restore_picks([10, None, None])

@@ -156,6 +156,17 @@ class Pipeline:
             self.results[k + 1 :] = [None] * (self.n_stages - k - 1)
         return self.results[k]  # type: ignore[return-value]
 
+    def restore_picks(self, picks: Sequence[int | None]) -> None:
+        """Set every stage's picked member at once and keep every result (Undo of a pick over the same
+        populations); ``picks`` has one entry a stage, None for no pick."""
+        if len(picks) != self.n_stages:
+            raise ValueError(f"{len(picks)} picks for {self.n_stages} stages")
+        for k, (r, m) in enumerate(zip(self.results, picks, strict=True)):
+            if r is not None and r.picked != m:
+                if m is not None and not 0 <= m < len(r.X):
+                    raise ValueError(f"stage {k} ({self.stages[k].name}) has no member {m}")
+                self.results[k] = replace(r, picked=m)
+
     def iterate(self, start: int = 0, pick: PickRule | None = None,
                 cancel: threading.Event | None = None) -> Iterator[Progress]:
         """Run stages ``start, start + 1, ...``, yielding after every generation.
