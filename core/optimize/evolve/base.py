@@ -14,14 +14,20 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from pymoo.core.algorithm import Algorithm
+from pymoo.core.individual import Individual
 from pymoo.core.population import Population
 
 F64 = NDArray[np.float64]
+EQ_EPS = float(Individual.default_config()["cv_eq"]["eps"])  # pymoo's tolerance on an equality constraint (1e-4)
 
 
 @dataclass(frozen=True)
 class Arrays:
-    """A population as arrays: X ``(n, d)``, F ``(n, m)``, G ``(n, k)``, cv ``(n,)`` (sum of positive G and |H|)."""
+    """A population as arrays: X ``(n, d)``, F ``(n, m)``, G ``(n, k)``, cv ``(n,)`` (sum of positive G).
+
+    G holds the problem's inequality constraints, then each equality constraint h as ``|h| - EQ_EPS``: the
+    violation pymoo counts for it, and a column the per-constraint algorithms (MCCMO) read like any other.
+    """
 
     X: F64
     F: F64
@@ -38,10 +44,12 @@ class Arrays:
     def concat(*parts: Arrays) -> Arrays:
         return Arrays(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("X", "F", "G", "cv")))
 
-    def population(self) -> Population:
-        """The pymoo Population of these members (F, G, CV and feasibility set as pymoo reads them)."""
-        n = len(self)
-        pop = Population.new("X", self.X, "F", self.F, "G", self.G, "H", np.zeros((n, 0)))
+    def population(self, n_ieq: int | None = None) -> Population:
+        """The pymoo Population of these members (F, G, CV and feasibility set as pymoo reads them). With
+        ``n_ieq``, the columns of G past it are equality constraints: H gets |h| (its sign is not kept)."""
+        n_ieq = self.G.shape[1] if n_ieq is None else n_ieq
+        G, H = self.G[:, :n_ieq], self.G[:, n_ieq:] + EQ_EPS
+        pop = Population.new("X", self.X, "F", self.F, "G", G, "H", H)
         cv = self.cv[:, None]
         for ind, c in zip(pop, cv, strict=True):
             ind._CV = c
@@ -99,7 +107,7 @@ class ArrayAlgorithm(Algorithm):
     @property
     def pop(self) -> Population | None:
         if self._pop_cache is None and self._arrays is not None:
-            self._pop_cache = self._arrays.population()
+            self._pop_cache = self._arrays.population(self.problem.n_ieq_constr)
         return self._pop_cache
 
     @pop.setter
@@ -109,7 +117,7 @@ class ArrayAlgorithm(Algorithm):
     @property
     def opt(self) -> Population | None:
         if self._opt_cache is None and self._arrays is not None and len(self._arrays):
-            self._opt_cache = self._arrays.take(self.optimum_index()).population()
+            self._opt_cache = self._arrays.take(self.optimum_index()).population(self.problem.n_ieq_constr)
         return self._opt_cache
 
     @opt.setter
@@ -152,13 +160,16 @@ class ArrayAlgorithm(Algorithm):
         n = len(X)
         if n == 0:
             p = self.problem
-            return Arrays(X.reshape(0, p.n_var), np.zeros((0, p.n_obj)), np.zeros((0, p.n_ieq_constr)), np.zeros(0))
+            return Arrays(X.reshape(0, p.n_var), np.zeros((0, p.n_obj)), np.zeros((0, p.n_ieq_constr + p.n_eq_constr)),
+                          np.zeros(0))
         out = self.problem.evaluate(X, return_as_dictionary=True)
         F = np.asarray(out["F"], dtype=np.float64).reshape(n, -1)
         G = np.asarray(out.get("G", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
         H = np.asarray(out.get("H", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
+        if H.shape[1]:
+            G = np.concatenate([G, np.abs(H) - EQ_EPS], axis=1)
         with np.errstate(invalid="ignore"):
-            cv = np.maximum(G, 0.0).sum(axis=1) + np.abs(H).sum(axis=1)
+            cv = np.maximum(G, 0.0).sum(axis=1)
         cv = np.where(np.isnan(cv), np.inf, cv)
         self.evaluator.n_eval += n
         return Arrays(X, F, G, cv)

@@ -117,7 +117,7 @@ class MCCMO(ArrayAlgorithm):
         p = self.problem
         self.xl, self.xu = np.asarray(p.xl, dtype=np.float64), np.asarray(p.xu, dtype=np.float64)
         p0 = self.evaluate(self.initial_X())
-        self.n_con = max(int(p.n_ieq_constr), 1)
+        self.n_con = max(int(p.n_ieq_constr) + int(p.n_eq_constr), 1)  # an equality is a column of G too
         self.Q: list[Sub] = []
         for i in range(self.n_con):
             fresh = self._random()
