@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from core.study.report import case_report
+from core.study.report import case_report, markdown
 from core.study.stats import front_quality, normaliser, summary, verdict
 
 BETTER, WORSE = [5.0, 6.0, 7.0, 8.0, 9.0], [1.0, 2.0, 3.0, 4.0, 4.5]  # rank-sum p = 0.012
@@ -63,3 +63,22 @@ def test_the_report_shows_the_smallest_feasible_pick_as_best_and_the_median_hv_r
     assert c["best_by"] == "mse" and c["best"]["a"]["seed"] == 2  # seed 3's smaller MSE is not feasible
     assert c["fronts"]["a"]["seed"] == 1  # the median HV of three
     assert c["table"]["mse"]["a"]["median"] == 3.0
+
+
+def test_a_case_where_no_run_has_a_feasible_member_reports_hv_0_and_no_igd() -> None:
+    assert normaliser([np.zeros((0, 2)), np.zeros((0, 2))]) is None
+    assert front_quality(np.zeros((0, 2)), None) == {"hv": 0.0, "igd_plus": pytest.approx(np.nan, nan_ok=True)}
+    assert front_quality([], None)["hv"] == 0.0  # a stored run's front: an empty JSON list
+    rows = [run_row("a", 1, 4.0, [], False), run_row("a", 2, 3.0, [], False)]
+    c = case_report(Rows(rows), "c", ["a"], {"a": "A"}, "a", "mse")
+    assert c["table"]["hv"]["a"]["median"] == 0.0 and c["table"]["igd_plus"]["a"]["n"] == 0
+
+
+def test_a_label_with_a_bar_stays_one_cell_of_the_markdown_table() -> None:
+    rows = [run_row("a", 1, 4.0, [[0.0, 1.0]]), run_row("a", 2, 3.0, [[1.0, 0.0]])]
+    for r in rows:
+        r["metrics"]["pick"]["dh6"] = 1.5
+    c = case_report(Rows(rows), "c", ["a"], {"a": "A"}, "a", "mse")
+    line = next(x for x in markdown("s", [c]).splitlines() if "h6 dev" in x)
+    assert line.startswith(r"| \|h6 dev\| (mm) | 1.5 ")
+    assert line.replace(r"\|", "").count("|") == 3  # two cells

@@ -53,9 +53,9 @@ def normaliser(fronts: Sequence[F64]) -> Normaliser | None:
 
 def front_quality(front: F64, norm: Normaliser | None) -> dict[str, float]:
     """HV (normalised, ref 1.1; 0 for an empty front) and IGD+ (NaN for an empty front) of one run."""
-    F = np.asarray(front, dtype=np.float64).reshape(-1, 0 if norm is None else norm.ideal.size)
-    if norm is None or F.shape[0] == 0:
+    if norm is None or np.size(front) == 0:  # no run of the case has a feasible member, or this one has none
         return {"hv": 0.0, "igd_plus": float("nan")}
+    F = np.asarray(front, dtype=np.float64).reshape(-1, norm.ideal.size)
     Fn = norm(F)
     inside = Fn[(Fn < HV_REF).all(axis=1)]
     hv = float(moocore.hypervolume(inside, ref=np.full(Fn.shape[1], HV_REF))) if len(inside) else 0.0
