@@ -69,7 +69,7 @@ class DesignConfig:
         method: one of ``METHODS``.
         mechanism: the topology (with the configuration's ``[bounds]`` applied).
         start: the one-member start design (a preset, or the middle of the bounds).
-        seed: run seed (stage k uses seed + k).
+        seed: run seed (stage k uses seed + k, wrapped past 2**32 - 1).
         stages: the stages (hierarchical / single_level).
         baseline: DP baseline settings (DP methods).
         source: the parsed TOML as a dict (recorded in results).

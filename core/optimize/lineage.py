@@ -20,7 +20,7 @@ from core.optimize.multistart import SEED_STRIDE, Chain, MultiStart, Starts, ran
 from core.optimize.pipeline import Pipeline
 from core.optimize.problem import Constraint, ProblemSpec, make_problem
 from core.optimize.result import PickRule, StageResult, best_metric
-from core.optimize.stage import Progress, StageSpec
+from core.optimize.stage import Progress, StageSpec, derived_seed
 from core.optimize.subtasks import LIMIT_METRICS, resolve_limits
 from core.optimize.workers import resolve as resolve_workers
 from core.optimize.workers import run as run_jobs
@@ -141,7 +141,7 @@ class _Chain:
     def __init__(self, config: DesignConfig, pipe: Pipeline, first: int, last: int, j: int) -> None:
         self.config, self.j = config, j
         self.pipe = Pipeline(pipe.stages, pipe.start, pipe.results[:first])  # shares the stages before the block
-        self.seeds = tuple(config.seed + k + SEED_STRIDE * j for k in range(first, last + 1))
+        self.seeds = tuple(derived_seed(config.seed, k + SEED_STRIDE * j) for k in range(first, last + 1))
         self.first, self.last = first, last
         self.picks: list[int | None] = []
         self.metrics: list[dict[str, float]] = []

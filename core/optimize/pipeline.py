@@ -29,15 +29,15 @@ from core.kinematics.mechanisms import get as get_mechanism
 from core.kinematics.model import OutputStage
 from core.optimize.box import Box
 from core.optimize.result import PickRule, StageResult, decode_array, dumps, versions
-from core.optimize.stage import Callback, Progress, Stage, StageSpec
+from core.optimize.stage import Callback, Progress, Stage, StageSpec, derived_seed
 
 FORMAT = "clm-pipeline"
 FORMAT_VERSION = 1
 
 
 def seeded(stages: Sequence[StageSpec], seed: int) -> list[StageSpec]:
-    """The same stages with seeds ``seed, seed + 1, ...`` (one run seed for a whole pipeline)."""
-    return [replace(s, seed=int(seed) + k) for k, s in enumerate(stages)]
+    """The same stages with seeds ``seed, seed + 1, ...`` (one run seed for a whole pipeline, wrapped at 2**32)."""
+    return [replace(s, seed=derived_seed(seed, k)) for k, s in enumerate(stages)]
 
 
 class Pipeline:

@@ -29,7 +29,7 @@ from core.optimize.lineage import run_block, run_stage
 from core.optimize.multistart import MultiStart
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
-from core.optimize.stage import Progress
+from core.optimize.stage import Progress, derived_seed
 from core.optimize.workers import resolve as resolve_workers
 
 RESULT_FORMAT = "clm-design"  # result.json's "format": what clm compare, clm-charts and --overwrite accept
@@ -166,7 +166,7 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
         b = run_baseline(config.method, config.mechanism, config.start.output, config.baseline, config.seed,
                          callback, cancel)
         return DesignRun(config, baseline=b, status=b.status, wall_time=time.perf_counter() - t0)
-    placeholders = [s.spec(config.seed + k, placeholder(s.options)) for k, s in enumerate(config.stages)]
+    placeholders = [s.spec(derived_seed(config.seed, k), placeholder(s.options)) for k, s in enumerate(config.stages)]
     pipe = Pipeline(placeholders, config.start)
     blocks: list[MultiStart] = []
     used = max([resolve_workers(config.workers, s.starts.n) for s in config.stages if s.starts] or [1])
@@ -176,7 +176,7 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
         starts = config.stages[k].starts
         if starts is None:
             try:
-                res = run_stage(config, pipe, k, pick, config.seed + k, callback, cancel)
+                res = run_stage(config, pipe, k, pick, derived_seed(config.seed, k), callback, cancel)
             except Exception as e:
                 raise _failed(config, pipe, blocks, used, t0, k, e) from e
             if res.picked is None:

@@ -46,6 +46,12 @@ from core.optimize.result import PickRule, StageResult, versions
 F64 = NDArray[np.float64]
 
 
+def derived_seed(seed: int, offset: int) -> int:
+    """The seed ``offset`` places after ``seed`` (a stage's, a chain's), wrapped into numpy's [0, 2**32 - 1]: a run
+    seed near the top of the range gives valid seeds to every stage instead of failing at the first past it."""
+    return (int(seed) + int(offset)) % 2**32
+
+
 @dataclass(frozen=True)
 class StageSpec:
     """Everything that defines a stage except its starting design.
