@@ -46,7 +46,7 @@ def test_violation_sums_positive_g_and_absolute_h_past_pymoos_tolerance_and_an_u
     pop = a.take(np.array([0, 2, 3])).population(n_ieq=2)
     np.testing.assert_array_equal(pop.get("G"), Fixed.G[[0, 2, 3]])
     np.testing.assert_allclose(pop.get("H"), np.abs(Fixed.H[[0, 2, 3]]), rtol=0, atol=1e-15)
-    assert pop.get("feasible").ravel().tolist() == [False, False, True]
+    assert pop.get("feas").ravel().tolist() == [False, False, True]
 
 
 def test_the_output_front_is_the_feasible_non_dominated_else_the_least_violating():
@@ -75,3 +75,25 @@ def test_an_equality_constraint_is_met_within_pymoos_tolerance_and_the_result_ha
     assert res.X is not None and len(res.X) > 0  # with |h| counted exactly nobody was ever feasible
     assert np.abs(res.opt.get("H")).max() <= 1e-4 and res.opt.get("G").max() <= 0.0
     assert res.pop.get("G").shape == (20, 1) and res.pop.get("H").shape == (20, 1)
+
+
+def test_with_one_objective_the_optimum_is_the_first_best_feasible_member_as_in_pymoo():
+    alg = IMTCMO(pop_size=12)
+    F = np.array([[2.0], [1.0], [1.0], [0.5], [3.0]])
+    alg.arrays = Arrays(np.arange(5.0)[:, None], F, np.zeros((5, 1)), np.array([0.0, 0.0, 0.0, 1.0, 0.0]))
+    assert alg.optimum_index().tolist() == [1]  # (0.5) violates; copies of the best are one optimum
+
+
+class Parabola(Problem):
+    def __init__(self) -> None:
+        super().__init__(n_var=1, n_obj=1, n_ieq_constr=1, xl=-5.0, xu=5.0)
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        out["F"], out["G"] = (X - 1.0) ** 2, 0.5 - X
+
+
+@pytest.mark.parametrize("name", ["cmoemt", "cmoes", "drlos_emcmo"])
+def test_a_single_objective_run_returns_one_optimum_not_its_copies(name):
+    res = minimize(Parabola(), make_algorithm(AlgorithmSpec(name, 12, {}), 1, 1), ("n_eval", 400), seed=1)
+    assert np.shape(res.X) == (1,) and len(res.opt) == 1  # pymoo's shape for one optimum
+    assert res.F[0] == res.pop.get("F")[res.pop.get("feas").ravel()].min()

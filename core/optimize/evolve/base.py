@@ -128,12 +128,15 @@ class ArrayAlgorithm(Algorithm):
         self._opt_cache = None  # computed when read
 
     def optimum_index(self) -> NDArray[np.int64]:
-        """The feasible non-dominated members of the output population, else the least infeasible ones."""
+        """The feasible non-dominated members of the output population (with one objective, the first best one,
+        as pymoo's ``filter_optimum``: copies of the optimum are not a front), else the least infeasible ones."""
         from core.optimize.evolve.sorting import nd_ranks
 
         a = self._arrays
         assert a is not None
         feas = np.flatnonzero(a.cv <= 0.0)
+        if feas.size and a.F.shape[1] == 1:
+            return feas[[int(np.argmin(a.F[feas, 0]))]]
         if feas.size:
             return feas[nd_ranks(a.F[feas]) == 0]
         return np.flatnonzero(a.cv == a.cv.min())
