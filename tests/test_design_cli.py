@@ -115,6 +115,25 @@ def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], caps
     assert any("copy error" in line for line in out)
 
 
+def test_compare_names_the_run_of_rows_alike_and_stars_an_infeasible_one(outputs: tuple[Path, Path, str],
+                                                                        tmp_path: Path,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    h, _, _ = outputs
+    data = json.loads((h / "result.json").read_text())
+    files = []
+    for seed, feasible in ((1, True), (2, False)):  # two cells of a study: one config, two seeds
+        data["config"]["seed"], data["rows"][0]["feasible"] = seed, feasible
+        files.append(tmp_path / f"{seed}.json")
+        files[-1].write_text(json.dumps(data))
+    assert main(["compare", *map(str, files)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].startswith("tiny: subtask2 pick (nsga2, seed 1) ") and "*" not in out[1]
+    assert out[2].startswith("tiny: subtask2 pick (nsga2, seed 2) *")
+    assert out[3].startswith("* infeasible: the pick misses its stage's constraints")
+    assert main(["compare", str(files[0])]) == 0  # a row alone keeps its label
+    assert capsys.readouterr().out.splitlines()[1].startswith("tiny: subtask2 pick  ")
+
+
 def test_compare_refuses_a_directory_without_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["compare", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("clm: error: ")

@@ -64,10 +64,30 @@ def load_rows(path: Path) -> list[dict[str, Any]]:
     if not rows:
         return [{"label": f"{data.get('name', f.parent.name)}: no result ({data.get('status')})", "time": float("nan")}]
     numeric = {"time", "mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4", "violation", "dp"}
+    config: dict[str, Any] = data["config"] if isinstance(data.get("config"), dict) else {}
     try:
-        return [{k: (decode_float(v) if k in numeric else v) for k, v in r.items()} for r in rows]
+        return [{**{k: (decode_float(v) if k in numeric else v) for k, v in r.items()}, "run": _run_name(config, r)}
+                for r in rows]
     except (ValueError, TypeError) as e:
         raise CLIError(f"{f}: a row holds a value that is not a number ({e})") from None
+
+
+def _run_name(config: dict[str, Any], row: dict[str, Any]) -> str:
+    """``nsga2, seed 3``: the row's stage's algorithm (the config's, nsga2 by default) and the run seed."""
+    def name(alg: Any) -> str | None:
+        return alg.get("name") if isinstance(alg, dict) else None
+
+    stages = [s for s in config.get("stages") or () if isinstance(s, dict) and s.get("name") == row.get("stage")]
+    alg = (name(stages[0].get("algorithm")) if stages else None) or name(config.get("algorithm"))
+    if alg is None and row.get("method", "hierarchical") in ("hierarchical", "single_level"):
+        alg = "nsga2"
+    seed = config.get("seed")
+    return ", ".join(x for x in (alg, None if seed is None else f"seed {seed}") if x)
+
+
+def infeasible(row: dict[str, Any]) -> bool:
+    """A pick that misses its stage's constraints, or a baseline whose path is no valid walking path."""
+    return row.get("feasible") is False or row.get("violation", 0.0) > 0.0
 
 
 def run(args: argparse.Namespace) -> int:
@@ -77,8 +97,13 @@ def run(args: argparse.Namespace) -> int:
     extra = [k for k in ("h6", "h4") if any(k in r for r in rows)]
     header = ["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)"] + [f"{k} (mm)" for k in extra]
     out = []
+    labels = [r["label"] for r in rows]
     for r in rows:
-        label = r["label"] + ("" if r.get("status", "complete") == "complete" else f" [{r['status']}]")
+        label = r["label"]
+        if labels.count(label) > 1 and r.get("run"):  # runs of one config (a study's cells): which is which
+            label += f" ({r['run']})"
+        label += "" if r.get("status", "complete") == "complete" else f" [{r['status']}]"
+        label += " *" if infeasible(r) else ""
         out.append([label, r.get("time", float("nan"))] + [r.get(k, float("nan")) for k in ("mse", "S", "I", *extra)])
     if args.paper:
         # The paper's S is h_s / 300 mm (spec §4), ours h_s / l_s: side by side only in a column of their own.
@@ -88,6 +113,9 @@ def run(args: argparse.Namespace) -> int:
         out += [[name, 60.0 * t, mse, float("nan"), s, i] + [float("nan")] * len(extra)
                 for name, t, mse, s, i in PAPER_B5]
     print(table(header, out))
+    if any(infeasible(r) for r in rows):
+        print("* infeasible: the pick misses its stage's constraints, or the baseline's path is no valid walking path "
+              "(its violation > 0)")
     if args.paper:
         print("\n".join(PAPER_NOTES))
     return 0
