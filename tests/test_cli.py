@@ -172,6 +172,17 @@ def test_unassemblable_design_prints_null_not_nan_and_says_why(tmp_path, capsys)
     assert "does not assemble" in out and "dyad C cannot close" in out
 
 
+def test_an_rtclm_without_a_switching_state_says_which_loop_cannot_close(capsys):
+    from core.kinematics.mechanisms.rtclm import first_loop_shortfall
+
+    design = presets.get("rtclm/case2-CMOES").design()  # the paper's printed values: loop A-B-C-D is short
+    short = first_loop_shortfall(design.params)[0]
+    code, out, _ = run_in_process(capsys, "simulate", "--preset", "rtclm/case2-CMOES")
+    assert code == 0
+    assert (f"does not assemble: loop A-B-C-D cannot close over a whole turn of crank AB, so the legs have no "
+            f"switching state (short by {short:.3g} mm)") in out and short > 1.0
+
+
 def test_summary_of_an_assembling_preset(capsys):
     code, out, _ = run_in_process(capsys, "simulate", "--preset", "stephenson1/X3")
     assert code == 0

@@ -112,9 +112,14 @@ def solution_dict(design: Design, sol: Solution, preset: str | None) -> dict[str
     }
 
 
-def why_not(sol: Solution) -> list[str]:
-    """Plain reasons why member 0 does not assemble over the whole revolution."""
+def why_not(sol: Solution, design: Design | None = None) -> list[str]:
+    """Plain reasons why member 0 does not assemble over the whole revolution (with its ``design``, also a coupling
+    that has no solution: RTCLM's switching state)."""
     reasons = []
+    if design is not None and design.mechanism.derive is not None:
+        _, short = design.mechanism.internal(design.params[:1])
+        if np.isfinite(short[0]) and short[0] > 0:
+            reasons.append(f"{design.mechanism.derive_failure} (short by {short[0]:.3g} mm)")
     if np.isfinite(sol.crank_margin[0]) and sol.crank_margin[0] < 0:
         reasons.append(f"the crank cannot turn fully (short by {-sol.crank_margin[0]:.3g} mm)")
     for name, m in zip(sol.dyad_names, sol.dyad_margin[0], strict=True):
@@ -135,7 +140,7 @@ def summary(design: Design, sol: Solution, label: str) -> str:
     if sol.feasible[0]:
         lines.append(f"assembles over the whole revolution ({n} sample{'s' if n != 1 else ''}), violation 0")
     else:
-        lines.append(f"does not assemble: {'; '.join(why_not(sol))}; violation {sol.violation[0]:.4g}")
+        lines.append(f"does not assemble: {'; '.join(why_not(sol, design))}; violation {sol.violation[0]:.4g}")
     for frame, pts in (("design", sol.point[0]), ("leg", sol.leg[0])):
         e = extent(pts)
         if e["width"] is None:

@@ -197,6 +197,7 @@ class Mechanism:
         derived: names of extra internal values computed by ``derive`` from the design
             vector (RTCLM's coupling); operands may name them.
         derive: vectorized map ``params -> (derived, violation)``; None if not needed.
+        derive_failure: what a positive derive violation means, for messages (``clm simulate``).
         doc: a paragraph on the construction.
     """
 
@@ -207,6 +208,7 @@ class Mechanism:
     tracked: str
     derived: tuple[str, ...] = ()
     derive: Derive | None = field(default=None, compare=False)
+    derive_failure: str = "its derived values have no solution"
     doc: str = ""
 
     @property

@@ -110,6 +110,9 @@ def first_loop(params: F64, phi: F64) -> tuple[F64, F64, F64]:
     return np.stack([cx, cy], axis=-1), np.stack([ex, ey], axis=-1), psi
 
 
+COUPLING_FAILURE = "loop A-B-C-D cannot close over a whole turn of crank AB, so the legs have no switching state"
+
+
 def first_loop_shortfall(params: F64) -> F64:
     """``(pop,)`` exact assembly shortfall of A-B-C-D over a whole crank turn (mm, 0 = assembles).
 
@@ -306,6 +309,7 @@ RTCLM_PRIMARY = Mechanism(
     tracked="P",
     derived=DERIVED,
     derive=derive,
+    derive_failure=COUPLING_FAILURE,
     doc=(
         "Right leg, H locked: rigid rocker D-C-H-F, Watt-I six-bar driven at A; sample 0 is the "
         "switching state (crank phase Phi_A^r). The left leg is the same mechanism pi later."
@@ -329,6 +333,7 @@ RTCLM_AUXILIARY = Mechanism(
     tracked="P",
     derived=DERIVED,
     derive=derive,
+    derive_failure=COUPLING_FAILURE,
     doc=(
         "Right leg, A locked in the switching state: A, B, C, D, E, H are frame and crank HF "
         "drives the four-bar E-H-F-G; sample 0 is the switching state. The left leg's four-bar "
