@@ -68,6 +68,22 @@ def test_a_timed_curve_csv_is_evaluated(tmp_path: Path, capsys: pytest.CaptureFi
     assert data["S"] == pytest.approx(0.0, abs=1e-6)
 
 
+def test_a_curve_without_times_says_what_its_constant_speed_makes_up(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    p, _ = compound_cycloid(360)
+    f = tmp_path / "xy.csv"
+    f.write_text("x,y\n" + "\n".join(f"{a:.17g},{b:.17g}" for a, b in p))
+    code, out, err = run(capsys, "evaluate", "--curve", str(f))
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[1].startswith("  the curve has no times: the foot is taken to move at constant speed along it")
+    assert "(I, theta1, theta2, the feature points, the stance, MSE)" in lines[2]
+    assert lines[-1].endswith(" psi2 " + lines[-1].rsplit(" psi2 ", 1)[1]) and not lines[-1].endswith(" 1")
+    f.write_text("x,y,t\n" + "\n".join(f"{a:.17g},{b:.17g},{k / 180:.17g}" for k, (a, b) in enumerate(p)))
+    code, out, err = run(capsys, "evaluate", "--curve", str(f))
+    assert code == 0 and "no times" not in out
+
+
 @pytest.mark.parametrize(
     ("text", "fragment"),
     [

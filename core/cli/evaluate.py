@@ -137,8 +137,14 @@ def table(ev: Evaluation, label: str) -> str:
         fp = r["feature_points"][n]
         lines.append(f"    {n}: t = {_fmt(fp['t'], 4)} s, ({_fmt(fp['x'], 2)}, {_fmt(fp['y'], 2)}) mm")
     lines.append("  constraints (<= 0 satisfied): " + ", ".join(
-        f"{n} {_fmt(v, 4)} {u}" for (n, v), u in zip(r["constraints"].items(), CONSTRAINT_UNITS, strict=True)))
+        f"{n} {_fmt(v, 4)}" + ("" if u == "1" else f" {u}")  # psi2's is a fraction: no unit
+        for (n, v), u in zip(r["constraints"].items(), CONSTRAINT_UNITS, strict=True)))
     return "\n".join(lines)
+
+
+NO_TIMES = ("  the curve has no times: the foot is taken to move at constant speed along it over T, so what depends on "
+            "time\n  (I, theta1, theta2, the feature points, the stance, MSE) is not a mechanism's: give x,y,t rows "
+            "for those")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -149,5 +155,9 @@ def run(args: argparse.Namespace) -> int:
         rec["constraint_names"] = list(CONSTRAINT_NAMES)
         print(dumps({**rec, **info}))
     else:
-        print(table(ev, label))
+        text = table(ev, label)
+        if info.get("time_law") is False:
+            head, _, rest = text.partition("\n")
+            text = f"{head}\n{NO_TIMES}\n{rest}"
+        print(text)
     return 0
