@@ -36,6 +36,7 @@ REFUSED = [
     (lambda: evaluate(X3, 72, trunk=0.0), ValueError, r"trunk \(mm\) must be > 0"),
     (lambda: evaluate(X3, 72, backend="gpu"), ValueError, "backend must be one of"),
     (lambda: make_problem("subtask1", n_samples=1), ValueError, "n_samples must be between 8"),
+    (lambda: X3.replace(zz=1.0), ValueError, r"stephenson1 has no parameter 'zz'; its parameters: b, g, x_a"),
     (lambda: OutputStage(k=NAN), ValueError, "output k"),
     (lambda: OutputStage(k=0.0), ValueError, "output k"),
     (lambda: OutputStage(mirror="yes"), TypeError, "mirror must be true or false"),

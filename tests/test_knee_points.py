@@ -90,6 +90,12 @@ def test_several_knees_are_ranked_distinct_and_capped() -> None:
     assert len({tuple(F[i]) for i in full.knees}) == 10
     assert (np.diff(full.scores) <= 1e-9).all()  # ranked (equal scores are ties)
     assert shortlist(F, n_max=3, radius=0.05).knees == full.knees[:3]
+    for n_max in (0, -1, 2.5, True):  # "at most n_max": none would leave the knee pick nothing
+        with pytest.raises(ValueError, match="n_max must be an integer >= 1"):
+            shortlist(F, n_max=n_max)  # type: ignore[arg-type]
+    for radius in (-0.1, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="radius must be a finite number >= 0"):
+            shortlist(F, radius=radius)
 
 
 def test_one_point_front() -> None:

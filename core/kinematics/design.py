@@ -49,8 +49,11 @@ class Design:
     def replace(self, **values: float) -> Design:
         """A copy with some named parameters changed (for every member)."""
         p = self.params.copy()
+        names = self.mechanism.param_names
         for name, v in values.items():
-            p[:, self.mechanism.param_names.index(name)] = v
+            if name not in names:
+                raise ValueError(f"{self.mechanism.name} has no parameter {name!r}; its parameters: {', '.join(names)}")
+            p[:, names.index(name)] = v
         return Design(self.mechanism, p, self.output)
 
     def solve(self, n_samples: int = 360, **kw: object) -> Solution:

@@ -194,6 +194,10 @@ def shortlist(
     Returns:
         The :class:`Shortlist`; indices refer to rows of F.
     """
+    if isinstance(n_max, bool) or not isinstance(n_max, (int, np.integer)) or n_max < 1:
+        raise ValueError(f"n_max must be an integer >= 1 (the knee pick needs one), got {n_max!r}")
+    if not (np.isfinite(radius) and radius >= 0):
+        raise ValueError(f"radius must be a finite number >= 0, got {radius!r}")
     F = np.atleast_2d(np.asarray(F, dtype=np.float64))
     front = pareto_front(F, cv)
     if front.size == 0:
