@@ -62,6 +62,7 @@ def test_clm_moea_prints_json_with_the_budget_spent(capsys):
     ["moea", "--problem", "mw1", "--algorithm", "gde3", "--option", "variant=nonsense"],
     ["moea", "--problem", "mw1", "--option", "crossover_prob=2"], ["moea", "--problem", "mw1", "--option", "de"],
     ["moea", "--problem", "mw1", "--algorithm", "cmoes", "--option", "operator=DE"],
+    ["moea", "--problem", "mw1", "--option", "crossover_prob=0.8", "--option", "crossover_prob=0.5"],
 ])
 def test_bad_arguments_are_one_line_errors(argv, capsys):
     assert main(argv) == 2

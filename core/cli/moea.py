@@ -47,6 +47,8 @@ def options(algorithm: str, given: list[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise ValueError(f"--option expects KEY=VALUE, got {item!r}")
+        if key.strip() in raw:  # a configuration refuses a repeated key too
+            raise ValueError(f"--option {key.strip()} is given twice")
         try:
             raw[key.strip()] = tomllib.loads(f"v = {value.strip()}")["v"]
         except tomllib.TOMLDecodeError:
