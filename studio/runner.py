@@ -12,7 +12,7 @@ from typing import Any
 
 from core.optimize.result import encode
 from core.optimize.stage import Progress
-from studio.study import RunPlan, RunStatus, Study, status_text
+from studio.study import RunPlan, RunStatus, Study, done_at, status_text
 
 LIVE_PERIOD = 0.25
 """Seconds between the live results a run records and announces (the Pareto chart redraws every 0.5 s). A result
@@ -82,6 +82,7 @@ class Runner:
     def _work(self, study: Study, plan: RunPlan, cancel: threading.Event) -> None:
         pipe, k = plan.pipeline, plan.index
         message, ok = "", True
+        n_gen = plan.spec.n_gen  # a stage that stops on its target is done there: its bar ends full
         try:
             stage = pipe.stage(k, pick=plan.pick, spec=plan.spec)
             stage.setup()
@@ -108,6 +109,7 @@ class Runner:
             with self._lock:
                 pipe.record(k, result)
             message = status_text(result)
+            n_gen = done_at(result)
         except Exception as exc:  # noqa: BLE001 - a failing problem must not kill the studio
             ok = False
             message = f"failed: {exc}"
@@ -115,7 +117,7 @@ class Runner:
         finally:
             with self._lock:
                 study.live = None
-                study.status = RunStatus("idle", plan.stage.name, study.status.generation, plan.spec.n_gen, message, ok,
+                study.status = RunStatus("idle", plan.stage.name, study.status.generation, n_gen, message, ok,
                                          study.status.elapsed)
                 study.touch()
             self._on_finish()

@@ -164,6 +164,19 @@ def status_text(r: StageResult) -> str:
     return text
 
 
+def done_at(r: StageResult) -> int:
+    """The generations a finished stage was to run: all it planned, or where it reached its target."""
+    return r.generation if r.status == "stopped" else r.n_gen
+
+
+def last_run(r: StageResult | None) -> RunStatus:
+    """The Stages panel's "Last run" for a pipeline whose last stage is ``r`` (a restored branch, a loaded
+    session)."""
+    if r is None:
+        return RunStatus()
+    return RunStatus("idle", r.name, r.generation, done_at(r), status_text(r), True, float(r.timings.get("total", 0.0)))
+
+
 def _same(a: object, b: object) -> bool:
     """The same population: equal members (a pick's copy of a result copies its arrays; a re-run with the same
     seed is the same population, where the same selection holds as well)."""
@@ -393,9 +406,7 @@ class Study:
         else:  # a branch without results (a hand-made file): a fresh start
             self.shown, self.next_stage, self.from_pick = {}, None, False
         # The Stages panel's "Last run" line describes the branch's last stage, not what ran before the restore.
-        self.status = RunStatus() if last is None else RunStatus(
-            "idle", last.name, last.generation, last.n_gen, status_text(last), True,
-            float(last.timings.get("total", 0.0)))
+        self.status = last_run(last)
         self.touch()
 
     def branch_design(self) -> Design | None:
@@ -526,8 +537,10 @@ class Study:
                                    _retarget(b["pipeline"], target, f"branch {j + 1}"),
                                    None if own is None else dict(b["target"]), b_shown, b_next,
                                    bool(b.get("from_pick", False))))
+        # The Stages panel's "Last run" line, as a restored branch gets it (it read "Idle" next to a finished stage).
         return Study(pipeline=pipe, branches=branches, viewing=viewing, shown=shown, next_stage=nxt,
-                     from_pick=bool(data.get("from_pick", False)), settings=settings, target=ran)
+                     from_pick=bool(data.get("from_pick", False)), settings=settings, target=ran,
+                     status=last_run(pipe.lineage[-1] if pipe is not None and pipe.lineage else None))
 
 
 def _curve(data: object, where: str, parsed: dict[int, Curve]) -> Curve:

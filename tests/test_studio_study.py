@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import threading
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from studio.chains import RunSettings, chain_for, find, stage_spec
 from studio.runner import LIVE_PERIOD, Runner
 from studio.session_pack import pack_array, unpack_study
 from studio.state import Session
-from studio.study import Study
+from studio.study import RunStatus, Study, done_at, last_run
 from studio.study_view import study_view
 from studio.target import TargetSpec
 
@@ -286,6 +287,21 @@ def test_changing_a_pick_that_later_stages_grew_from_keeps_a_branch_and_it_can_b
     np.testing.assert_array_equal(study.result("subtask2").X, old_x2.X)
     assert study.result("subtask1").picked == first
     assert len(study.branches) == 1  # the replaced pipeline became a branch in turn
+
+
+def test_a_loaded_session_shows_its_last_run_and_a_stage_stopped_on_its_target_a_full_bar(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    before = session.study.status
+    loaded = Study.from_dict(json.loads(json.dumps(session.study.to_dict())), session.view.target)
+    st = loaded.status  # it read "Idle. Choose a stage and press Run." beside the finished stage
+    assert (st.state, st.stage, st.message, st.ok, st.fraction) == ("idle", "subtask1", "complete", True, 1.0)
+    assert st.elapsed == pytest.approx(before.elapsed, rel=0.5)
+    assert Study.from_dict({}, session.view.target).status == RunStatus()
+    r = session.study.result("subtask1")
+    early = replace(r, status="stopped", generation=2)  # the target reached at generation 2 of 3
+    assert done_at(early) == 2 and last_run(early).fraction == 1.0
+    assert last_run(early).message == "target reached at generation 2"
+    assert done_at(replace(r, status="cancelled", generation=2)) == 3  # a stop by hand leaves the bar short
 
 
 def test_a_topology_switch_starts_the_stages_panel_afresh(session: Session) -> None:
