@@ -134,6 +134,20 @@ def takes_target(name: str) -> bool:
     return True
 
 
+@functools.cache
+def problems_for(mechanism: Mechanism) -> tuple[str, ...]:
+    """The registered problems the Problem list offers for ``mechanism``: those that fit it (with their default
+    options), without the library's analytic examples."""
+    from core.optimize.examples import EXAMPLES
+
+    out = []
+    for name in problem_names():
+        misfit = make_problem(name).misfit
+        if name not in EXAMPLES and (misfit is None or misfit(mechanism) is None):
+            out.append(name)
+    return tuple(out)
+
+
 def build_problem(name: str, target: TargetSpec) -> ProblemSpec:
     """A registered problem against the studio's target (problems without a ``target`` option get none)."""
     try:

@@ -431,6 +431,7 @@ class Study:
         from stage k-1's pick (the pipeline is kept as a branch first if stage k already ran).
         """
         spec = stage_spec(stage, settings, target)
+        spec.problem.check_fits(editor.mechanism)  # a session's choice the Problem list no longer offers
         # The algorithm is built here too (cheap, nothing evaluated): settings it refuses (a population too small
         # for CMOEMT, C-TAEA on one objective) stop the click with its reason before the pipeline is switched.
         make_algorithm(spec.algorithm, spec.problem.n_obj, spec.seed)

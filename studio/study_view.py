@@ -10,7 +10,7 @@ from core.optimize.box import Box, global_box, search_box
 from core.optimize.problem import Constraint
 from core.optimize.result import StageResult
 from core.optimize.stage import StageSpec
-from studio.chains import ChainStage, RunSettings, stage_spec
+from studio.chains import ChainStage, RunSettings, problems_for, stage_spec
 from studio.study import RunStatus, Study
 from studio.target import TargetSpec
 
@@ -32,6 +32,7 @@ class StudyView:
         branches: labels of the kept branches.
         constraints: ``next_stage``'s constraints in words (``assembles``, ``h_s <= 6.5``).
         run_target: the target of the pipeline's last run (None before any).
+        problems: the problems the Problem list offers for the editor's mechanism.
     """
 
     key: tuple[int, int]
@@ -50,6 +51,7 @@ class StudyView:
     branches: tuple[str, ...]
     constraints: tuple[str, ...] = ()
     run_target: TargetSpec | None = None
+    problems: tuple[str, ...] = ()
 
     def result(self, name: str | None) -> StageResult | None:
         if name is None or name not in self.names:
@@ -104,6 +106,7 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
         branches=tuple(b.label for b in study.branches),
         constraints=() if stage is None else _constraints(stage, study.settings_for(stage), target),
         run_target=study.target,
+        problems=problems_for(editor.mechanism),
     )
 
 

@@ -203,7 +203,8 @@ def test_bounds_narrow_the_mechanism() -> None:
 
 def test_predesign_needs_a_placeable_mechanism() -> None:
     d = with_("mechanism", "rtclm_primary")
-    with pytest.raises(ValueError, match=r"^stages\[0\]\.problem: predesign places designs analytically"):
+    with pytest.raises(ValueError, match=r"^stages\[0\]\.problem: problem 'predesign' does not fit the RTCLM, primary "
+                                         r"mode .*: it places every design on the target analytically"):
         parse_config(d)
 
 

@@ -11,7 +11,9 @@ import pytest
 
 from core.analysis.targets import parse_target
 from core.kinematics import presets
+from core.optimize import problem as problem_registry
 from core.optimize.box import SUBTASK_STEPS, periodic_mask
+from core.optimize.problem import ProblemSpec
 from core.optimize.result import StageResult
 from studio import palette
 from studio.chains import RunSettings, chain_for, find, stage_spec
@@ -201,12 +203,28 @@ def test_stop_ends_the_run_between_generations_and_keeps_the_partial_result(sess
     assert "stopped at generation 2/50" in session.study.status.message
 
 
-def test_a_failing_problem_is_reported_and_the_studio_stays_idle(session: Session) -> None:
+def test_a_failing_problem_is_reported_and_the_studio_stays_idle(session: Session,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    def boom() -> ProblemSpec:
+        def evaluate(design):  # a problem that fails once the run has started
+            raise RuntimeError("the solver lost its licence")
+
+        return ProblemSpec("boom", evaluate, ("f1",))
+
+    monkeypatch.setitem(problem_registry._FACTORIES, "boom", boom)
     session.load_preset("rtclm/case4")
-    session.study.settings["rtclm1"] = RunSettings("predesign", pop_size=4, n_gen=1)  # no placement for RTCLM
+    session.study.settings["rtclm1"] = RunSettings("boom", pop_size=4, n_gen=1)
     run(session, "rtclm1", from_pick=False)
     st = session.study.status
-    assert st.state == "idle" and not st.ok and "failed" in st.message and "placement" in st.message
+    assert st.state == "idle" and not st.ok and st.message == "failed: the solver lost its licence"
+
+
+def test_a_problem_that_does_not_fit_the_mechanism_is_refused_before_the_run(session: Session) -> None:
+    session.load_preset("rtclm/case4")
+    session.study.settings["rtclm1"] = RunSettings("predesign", pop_size=4, n_gen=1)  # no placement for RTCLM
+    with pytest.raises(ValueError, match="problem 'predesign' does not fit the RTCLM"):
+        run(session, "rtclm1", from_pick=False)
+    assert session.study.status.state == "idle" and session.study.pipeline is None
 
 
 @pytest.mark.parametrize(("preset", "stage", "settings", "message"), [

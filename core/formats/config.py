@@ -286,6 +286,10 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
         spec = make_problem(prob, **placeholder(options))
     except ValueError as e:
         raise _fail(f"{key}.options", str(e)) from None
+    try:  # the RTCLM problems on another mechanism; a placement on one that cannot follow a similarity transform
+        spec.check_fits(mech)
+    except ValueError as e:
+        raise _fail(f"{key}.problem", str(e)) from None
     s, d = _box(t.box, f"{key}.box")
     pick = _pick(t.pick, f"{key}.pick", spec)
     pick_where = _where(t.pick_where, f"{key}.pick_where", spec) if t.pick_where is not None else ()
@@ -310,13 +314,6 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
     size = kept(spec.n_obj) if callable(kept) else getattr(built, "pop_size", None)
     if isinstance(pick, int) and isinstance(size, int) and pick >= size:  # else found only after the stage ran
         raise _fail(f"{key}.pick", f"member {pick} does not exist: the stage keeps {size} members (0..{size - 1})")
-    if spec.repair is not None:  # placement needs a mechanism that can follow a similarity transform
-        from core.optimize.predesign import placement
-
-        try:
-            placement(mech)
-        except ValueError as e:
-            raise _fail(f"{key}.problem", f"{prob} places designs analytically, but {e}") from None
     return StageConfig(t.name, prob, s, d, t.n_gen, pick, alg, options, stop, tuple(t.fixed), t.seed_start,
                        pick_where, max_evals=t.max_evals)
 

@@ -1,4 +1,4 @@
-"""Small problems for tests, docs and the studio until the CLM subtask problems exist.
+"""Small problems for tests and docs (``EXAMPLES``; the studio's Problem list leaves them out).
 
 - ``bowl``: analytic, no kinematics. Over a mechanism's non-angle parameters scaled to
   u in [-1, 1]: f1 = mean((u - a)^2), f2 = mean((u + a)^2), subject to mean(u) <= limit and a
@@ -16,6 +16,8 @@ import numpy as np
 from core.kinematics.design import Design
 from core.kinematics.solver import solve
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
+
+EXAMPLES = ("bowl", "path_box")
 
 
 @register("bowl")

@@ -69,6 +69,15 @@ def _operand(m: Mechanism, op: Operand) -> tuple[int, float] | None:
     return m.param_names.index(name), sign
 
 
+def placement_misfit(m: Mechanism) -> str | None:
+    """Why a problem that places every design on its target analytically cannot optimize ``m``; None if it can."""
+    try:
+        placement(m)
+    except ValueError as e:
+        return f"it places every design on the target analytically, which this mechanism does not allow ({e})"
+    return None
+
+
 def placement(m: Mechanism) -> Placement:
     """The placement plan of a mechanism (see the module doc).
 
@@ -255,4 +264,5 @@ def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backen
         return place(design, target, n_samples, backend, fit)[0]  # type: ignore[arg-type]
 
     return ProblemSpec("predesign", evaluate, ("fd", "f1"), (ASSEMBLY,),
-                       labels={**LABELS, "fd": "Fourier-descriptor distance (-)"}, repair=repair)
+                       labels={**LABELS, "fd": "Fourier-descriptor distance (-)"}, repair=repair,
+                       misfit=placement_misfit)

@@ -90,6 +90,8 @@ class ProblemSpec:
             every new member before evaluation; the repaired vectors replace the members
             (kept inside the stage's box). Predesign's analytic placement (scale, rotate,
             shift, phase so the matched shape lands on the target) belongs here.
+        misfit: ``Mechanism -> reason | None``: why the problem cannot optimize that mechanism (the RTCLM
+            problems any other; an analytic placement a mechanism with derived values); None: any mechanism.
     """
 
     name: str
@@ -99,6 +101,7 @@ class ProblemSpec:
     options: Mapping[str, Any] = field(default_factory=dict)
     labels: Mapping[str, str] = field(default_factory=dict)
     repair: Callable[[Design], F64] | None = field(default=None, compare=False, repr=False)
+    misfit: Callable[[Mechanism], str | None] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "objectives", tuple(self.objectives))
@@ -120,6 +123,12 @@ class ProblemSpec:
     @property
     def n_obj(self) -> int:
         return len(self.objectives)
+
+    def check_fits(self, mechanism: Mechanism) -> None:
+        """ValueError saying why this problem cannot optimize ``mechanism``, if it cannot."""
+        reason = None if self.misfit is None else self.misfit(mechanism)
+        if reason is not None:
+            raise ValueError(f"problem {self.name!r} does not fit the {mechanism.title}: {reason}")
 
     @property
     def constraint_names(self) -> tuple[str, ...]:

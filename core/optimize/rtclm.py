@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from core.analysis.evaluate import Evaluation, evaluate
 from core.kinematics.design import Design
 from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions
+from core.kinematics.model import Mechanism
 from core.optimize.objectives import ASSEMBLY_TIER, quantize_all, tiered
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
 
@@ -121,6 +122,13 @@ def _eq29_30(eq30: bool, auxiliary: bool = True) -> tuple[Constraint, ...]:
     return cons + (_eq30("6") + _eq30("4") if eq30 else ())
 
 
+def _rtclm_only(m: Mechanism) -> str | None:
+    """The RTCLM problems evaluate both modes of one 13-parameter design: the RTCLM's alone."""
+    if m.name in (RTCLM_PRIMARY.name, RTCLM_AUXILIARY.name):
+        return None
+    return "it measures the reconfigurable leg's two modes (h6 and h4), so it optimizes the RTCLM alone"
+
+
 @register("rtclm1")
 def rtclm1(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], n_samples: int = 360,
            backend: str = "auto", eq30: bool = True, auxiliary: bool = False) -> ProblemSpec:
@@ -135,7 +143,7 @@ def rtclm1(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], n_sampl
     def ev(design: Design) -> Metrics:
         return rtclm_metrics(design.params, h6_target, h4_target, n_samples, backend, auxiliary=auxiliary)
 
-    return ProblemSpec("rtclm1", ev, ("dh6",), _eq29_30(eq30, auxiliary), labels=LABELS)
+    return ProblemSpec("rtclm1", ev, ("dh6",), _eq29_30(eq30, auxiliary), labels=LABELS, misfit=_rtclm_only)
 
 
 @register("rtclm2")
@@ -153,4 +161,4 @@ def rtclm2(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], h6_tol:
     cons = _eq29_30(eq30) + (Constraint("dh6", upper=h6_tol),)
     if eq31:
         cons += (Constraint("eq31_height_4", upper=0.0), Constraint("eq31_psi2_4", upper=0.0))
-    return ProblemSpec("rtclm2", ev, ("dh4", "dh6"), cons, labels=LABELS)
+    return ProblemSpec("rtclm2", ev, ("dh4", "dh6"), cons, labels=LABELS, misfit=_rtclm_only)

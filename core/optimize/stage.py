@@ -227,6 +227,10 @@ class Stage:
                  parent_pick: int | None = None) -> None:
         if start.pop != 1:
             raise ValueError(f"a stage starts from one design, got pop = {start.pop}")
+        try:
+            spec.problem.check_fits(start.mechanism)
+        except ValueError as e:
+            raise ValueError(f"stage {spec.name!r}: {e}") from None
         self.spec, self.start, self.index, self.callback = spec, start, index, callback
         self.parent_pick = parent_pick
         self.box = spec.box(start)

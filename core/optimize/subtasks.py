@@ -38,7 +38,7 @@ from core.optimize.objectives import (
     shape_metrics,
 )
 from core.optimize.predesign import place as place_designs
-from core.optimize.predesign import predesign_problem
+from core.optimize.predesign import placement_misfit, predesign_problem
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
 
 F64 = NDArray[np.float64]
@@ -84,7 +84,8 @@ def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
             search, where the optimizer finds the position itself (much slower).
     """
     return ProblemSpec("subtask1", _evaluator(target, n_samples, backend), ("f1", "f2", "f3"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend))
+                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend),
+                       misfit=None if place == "none" else placement_misfit)
 
 
 @register("subtask2")
@@ -94,7 +95,8 @@ def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max))
     return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
-                       labels=LABELS, repair=_placer(place, target, n_samples, backend))
+                       labels=LABELS, repair=_placer(place, target, n_samples, backend),
+                       misfit=None if place == "none" else placement_misfit)
 
 
 @register("subtask3")
@@ -105,7 +107,8 @@ def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max),
             Constraint("h_s", upper=h_s_max), Constraint("I", upper=I_max))
     return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
-                       labels=LABELS, repair=_placer(place, target, n_samples, backend))
+                       labels=LABELS, repair=_placer(place, target, n_samples, backend),
+                       misfit=None if place == "none" else placement_misfit)
 
 
 @register("single_level")
@@ -117,7 +120,8 @@ def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: st
         place: as for ``subtask1`` (``none``, the paper's direct search, by default).
     """
     return ProblemSpec("single_level", _evaluator(target, n_samples, backend), ("f1", "f2", "f3", "h_s", "I"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend))
+                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend),
+                       misfit=None if place == "none" else placement_misfit)
 
 
 @register("predesign")

@@ -1,8 +1,8 @@
 """Stages panel: choose a stage of the chain, its start, problem and algorithm settings; Run, Stop, progress.
 
-The stage list follows the editor's mechanism (``studio.chains``); the problem list is the whole
-problem registry. Only one run at a time: the Run button is disabled while a stage runs, and the
-runner refuses a second start (a double click starts one run). Settings are kept per stage.
+The stage and problem lists follow the editor's mechanism (``studio.chains``: a problem that cannot optimize
+it, as the RTCLM's on a six-bar, is not offered). Only one run at a time: the Run button is disabled while a
+stage runs, and the runner refuses a second start (a double click starts one run). Settings are kept per stage.
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 from core.optimize.algorithms import ALGORITHMS
-from core.optimize.problem import problem_names
 from studio.chains import MAX_GEN, MAX_POP, RunSettings, find
 from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
 from studio.study_view import StudyView, next_stage
@@ -41,8 +40,9 @@ class StagesPanel:
             self.start = gui.add_dropdown("Start from", (FROM_EDITOR, FROM_PICK), initial_value=FROM_EDITOR,
                                           hint="the editor's design starts a new pipeline at this stage; the previous "
                                                "stage's pick continues the current one")
-            self.problem = gui.add_dropdown("Problem", tuple(problem_names()) or ("-",),
-                                            hint="any registered problem can run in this stage's place")
+            self.problem = gui.add_dropdown("Problem", ("-",),
+                                            hint="any registered problem that fits the mechanism can run in this "
+                                                 "stage's place")
             self.algorithm = gui.add_dropdown("Algorithm", tuple(ALGORITHMS), initial_value="nsga2",
                                               hint=", ".join(f"{k}: {v.title}" for k, v in ALGORITHMS.items()))
             self._numbers = NumberFields(studio)
@@ -78,8 +78,8 @@ class StagesPanel:
         set_value(self.start, FROM_PICK if sv.from_pick else FROM_EDITOR)
         s = sv.settings
         if s is not None:
-            names = tuple(problem_names())
-            if s.problem not in names:
+            names = sv.problems  # the problems that fit the editor's mechanism
+            if s.problem not in names:  # a session's own choice stays shown (Run says why it does not fit)
                 names = (*names, s.problem)
             if tuple(self.problem.options) != names:
                 self.problem.options = names
