@@ -108,7 +108,7 @@ class CandidateInset:
             self.note.font_scene_height = SMALL_TEXT * text_height
             self.note.text = axes
         self._text_height = text_height
-        self._radius = 0.022 * (x1 - x0) * SCENE_SCALE
+        self._radius = 0.032 * (x1 - x0) * SCENE_SCALE  # ~9 px across in a 1400 x 900 page
 
     def show(self, markers: tuple[InsetMarker, ...], front: NDArray[np.float64], shown: int | None) -> None:
         """Show candidates (rebuilt when they change) and the front; colour the shown member."""
