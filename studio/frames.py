@@ -181,7 +181,7 @@ class SceneFrames:
         links: ``(n_samples, n_edges, 2, 3)`` link segments per crank sample.
         link_colors: ``(n_edges, 2, 3)`` uint8 colour per segment end.
         joints: ``(n_samples, n_moving, 3)`` moving joints per sample.
-        pivots: ``(n_ground, 3)`` ground pivots.
+        pivots: ``(n_pivots, 3)`` ground pivots a link touches (the RTCLM auxiliary mode's locked A..D are not drawn).
         pivot_names: names of the ground pivots.
         foot: ``(n_samples, 1, 3)`` tracked point, design frame.
         leg_foot: ``(n_samples, 1, 3)`` tracked point, leg frame (leg-view local coordinates).
@@ -334,11 +334,16 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
     kind_colour = np.where(edges.kinds[:, None] == EDGE_GROUND, 2, np.where(edges.kinds[:, None] == EDGE_CRANK, 1, 0))
     link_colors = np.repeat(colours[kind_colour[:, 0]][:, None, :], 2, axis=1)
     is_ground = np.array([isinstance(s, Ground) for s in mech.steps])
+    # A ground point no link touches is not drawn (the RTCLM's locked primary linkage in its auxiliary mode:
+    # A..D stood as loose pivots, and next to the bench view looked like part of it).
+    linked = np.zeros(len(is_ground), dtype=bool)
+    linked[edges.pairs.ravel()] = True
+    pivots = is_ground & linked
     point, leg = sol.point[0], sol.leg[0]
     none = np.zeros((0, 2))
     target_design = view.target_design if show_target else none
     target_leg = view.target_leg if show_target else none
-    design_pts = np.concatenate([joints.reshape(-1, 2), target_design])
+    design_pts = np.concatenate([joints[:, ~is_ground | pivots].reshape(-1, 2), target_design])
     leg_pts = np.concatenate([leg, target_leg])
     wf = view.walking
     lay, composition, texts, bars, h = _compose_views(design_pts, leg_pts, None if wf is None else wf.bounds,
@@ -373,8 +378,8 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         links=_lift(to_scene(link_segments(pose, edges.pairs)), Z_LINES),
         link_colors=link_colors,
         joints=_lift(to_scene(pose[:, ~is_ground]), Z_MARKERS),
-        pivots=_lift(to_scene(pose[0, is_ground]), Z_MARKERS),
-        pivot_names=tuple(n for n, gnd in zip(mech.joint_names, is_ground, strict=True) if gnd),
+        pivots=_lift(to_scene(pose[0, pivots]), Z_MARKERS),
+        pivot_names=tuple(n for n, shown in zip(mech.joint_names, pivots, strict=True) if shown),
         foot=_lift(to_scene(foot[:, None, :]), 2 * Z_MARKERS),
         leg_foot=_lift(to_scene(leg_foot[:, None, :]), 2 * Z_MARKERS),
         path=_lift(to_scene(closed_polyline(point)), Z_LINES),

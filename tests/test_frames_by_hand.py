@@ -131,6 +131,17 @@ def test_ground_crank_and_links_are_drawn_in_their_own_colours(x3_view, x3):
         assert (x3.link_colors[kinds == kind] == vertex_colours(np.array(rgb))).all(), kind
 
 
+def test_only_ground_pivots_a_link_touches_are_drawn_and_framed():
+    aux = Session.default("rtclm/case2/auxiliary").view
+    f = build_frames(aux)
+    assert f.pivot_names == ("E", "H")  # the locked primary linkage A..D is no loose diamond
+    j = aux.solution.joints[0][0]
+    names = aux.design.mechanism.joint_names
+    np.testing.assert_allclose(f.pivots[:, :2], j[[names.index("E"), names.index("H")]] * S, rtol=1e-6)
+    grounds = [s.name for s in Session.default("stephenson1/X3").view.design.mechanism.steps if isinstance(s, Ground)]
+    assert build_frames(Session.default("stephenson1/X3").view).pivot_names == tuple(grounds)  # a six-bar: all
+
+
 def test_the_leg_view_draws_its_ground_line_at_t1s_height_and_none_outside_the_view(x3_view, x3):
     t1 = x3_view.features[0]
     assert t1[0].split("=")[0] == "t1"
