@@ -66,6 +66,9 @@ LOAD_HOLD_MAX = 3.0
 # websocket connects: fetching and starting viser's client takes ~0.5-1 s, which the frames pushed to the open
 # pages competed with. It ends when a page connects (its own hold goes on), or after this many seconds.
 REQUEST_HOLD_MAX = 2.0
+# A page whose canvas aspect changed by more than this (a resized window), its camera not moved by the designer,
+# is framed again: a demo moved to a projector's resolution cut the mechanism and slid the inset under the panel.
+RESIZE = 0.02
 
 
 def later(delay: float, fn: Any, *args: Any) -> None:
@@ -126,6 +129,7 @@ class Studio:
         self._last_start = -DOUBLE_CLICK
         self._last_request: object = None  # (stage, settings, from the pick) of the last run started
         self._loading: dict[int, float] = {}  # pages that have not drawn yet: client id -> connected at
+        self._framed: dict[int, tuple[float, np.ndarray]] = {}  # client id -> the aspect and position it was framed at
         self._requested: collections.deque[float] = collections.deque()  # pages asked for, not yet connected
         self._request_lock = threading.Lock()  # the gate's thread adds, viser's and the animator's take
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
@@ -154,6 +158,7 @@ class Studio:
         self.studies = StudiesPanel(self, order=11)
         self.refresh(fit_camera=True)
         self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(self._forget_client)
         self.animator = Animator(self._tick, fps)
         self.animator.start()
 
@@ -296,13 +301,30 @@ class Studio:
             aspect = client.camera.aspect
         except (AssertionError, ZeroDivisionError):  # no camera report from this client yet
             aspect = DEFAULT_ASPECT
-        self.scene.fit_camera(client, aspect)
+        pos = self.scene.fit_camera(client, aspect)
+        if pos is not None:
+            self._framed[client.client_id] = (aspect, np.asarray(pos, dtype=np.float64))
+
+    def _forget_client(self, client: viser.ClientHandle) -> None:
+        self._framed.pop(client.client_id, None)
+
+    def _resized(self, client_id: int, cam: viser.CameraHandle) -> bool:
+        """True when a page's canvas changed shape (a resized window) while its camera is still where the studio
+        framed it: the views are framed again. A camera the designer moved stays where it is."""
+        framed = self._framed.get(client_id)
+        if framed is None:
+            return False
+        aspect, pos = framed
+        here = np.asarray(cam.position, dtype=np.float64)
+        moved = not np.allclose(here, pos, rtol=0.0, atol=1e-3 * max(1e-9, float(np.linalg.norm(pos))))
+        return not moved and abs(cam.aspect / aspect - 1.0) > RESIZE
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         """Refit the views to this client's canvas once it shows the initial camera.
 
         The initial camera is framed for a typical aspect ratio; a client's first camera report
-        at that pose (not yet moved by the user) gives its real aspect. One refit per client.
+        at that pose (not yet moved by the user) gives its real aspect. Later, a resized window is framed
+        again while the designer has not moved the camera.
         """
         fitted = threading.Event()
         self._loading[client.client_id] = time.monotonic()
@@ -312,6 +334,8 @@ class Studio:
 
         def on_camera(cam: viser.CameraHandle) -> None:
             if fitted.is_set():
+                if self._resized(client.client_id, cam):
+                    self._fit_client(client)
                 return
             if np.allclose(cam.position, self.server.initial_camera.position, atol=1e-4):
                 fitted.set()

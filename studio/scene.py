@@ -17,6 +17,7 @@ import viser
 from studio import palette
 from studio.frames import DEFAULT_ASPECT, F32, FOV, U8, WALK_TITLE, SceneFrames, SceneText, build_frames, paint
 from studio.geometry import (
+    F64,
     SCENE_SCALE,
     camera_pose,
 )
@@ -245,11 +246,12 @@ class MechanismScene:
                     self._draw(index)
             return serializer.as_html()
 
-    def fit_camera(self, client: viser.ClientHandle | None = None, aspect: float = DEFAULT_ASPECT) -> None:
-        """Frame both views: the server's initial camera, or one client's camera."""
+    def fit_camera(self, client: viser.ClientHandle | None = None,
+                   aspect: float = DEFAULT_ASPECT) -> F64 | None:
+        """Frame both views: the server's initial camera, or one client's camera; the camera position set."""
         f = self._frames
         if f is None:
-            return
+            return None
         pos, look = camera_pose(f.composition.bounds, FOV, aspect)
         # Past viser's default far plane (1000 m) nothing is drawn: a 300 m target (a file in um) blanked the page.
         far = max(FAR, 4.0 * float(np.linalg.norm(np.asarray(pos) - np.asarray(look))))
@@ -261,11 +263,12 @@ class MechanismScene:
             cam.position = pos
             if cam.far != far:  # each assignment is a message to every page
                 cam.far = far
-            return
+            return pos
         # Up direction and field of view come from the initial camera; only move the view.
         with client.atomic():
             client.camera.position = pos
             client.camera.look_at = look
             client.camera.far = far
+        return pos
 
 

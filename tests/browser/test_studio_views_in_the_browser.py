@@ -157,6 +157,42 @@ def test_every_mechanism_is_framed_whole_with_views_apart_and_a_scale_bar_each(p
         assert len(frames.scale_bars) == 3 * len(views)
 
 
+def test_a_resized_window_is_framed_again_unless_the_camera_was_moved(page: Any, studio: Any) -> None:
+    from conftest import VIEWPORT
+
+    show(page, studio, "Klann leg", "klann")
+    canvas = page.locator("canvas").first
+    try:
+        for size in ({"width": 900, "height": 700}, {"width": 1920, "height": 1080}):
+            page.set_viewport_size(size)  # a demo moved to a projector: the views were cut and the inset hidden
+            wait_for(lambda: framed(studio) and abs(page_camera(studio).aspect - canvas.bounding_box()["width"]
+                                                    / canvas.bounding_box()["height"]) < 0.01,
+                     f"the views framed again at {size}")
+            close_notices(page)
+            wait_for(lambda: all(v == 0 for v in ink_at_the_edges(canvas.screenshot()).values()),
+                     f"nothing cut at the canvas edges at {size}", timeout=15)
+        before = np.asarray(page_camera(studio).position)
+        box = canvas.bounding_box()
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+        page.mouse.wheel(0, -400)  # the designer zooms in
+        wait_for(lambda: not np.allclose(page_camera(studio).position, before, atol=1e-3),
+                 "the page to report the zoom")
+        page.wait_for_timeout(500)  # the zoom eases in
+        moved = np.asarray(page_camera(studio).position)
+        page.set_viewport_size({"width": 1000, "height": 800})
+        box = canvas.bounding_box()
+        wait_for(lambda: abs(page_camera(studio).aspect - box["width"] / box["height"]) < 0.01,
+                 "the page to report its new shape")
+        page.wait_for_timeout(500)
+        assert np.allclose(page_camera(studio).position, moved, atol=1e-4)  # the designer's camera stays
+    finally:
+        page.set_viewport_size(VIEWPORT)
+        studio.scene.fit_camera()
+        for client in studio.server.get_clients().values():
+            studio._fit_client(client)
+        wait_for(lambda: framed(studio), "the views framed back at the tests' size")
+
+
 def test_klann_comes_with_a_target_of_its_own_size(page: Any, studio: Any) -> None:
     show(page, studio, "Klann leg", "klann")
     open_target_panel(page)
@@ -181,7 +217,7 @@ def test_rtclm_shows_a_target_only_when_a_stage_optimizes_one_and_says_which(pag
     wait_for(lambda: "target" not in {tr["name"] for tr in bench(page)["traces"]}, "the chart without a target")
     assert len(studio.scene.frames.target) == 0 and len(studio.scene.frames.leg_target) == 0
     # Running a target-matching problem in the first stage's place: now the target is optimized, and shown.
-    choose(page, "Problem", "subtask1")
+    choose(page, "Problem", "subtask2")  # (subtask 1's analytic placement does not fit the RTCLM: not offered)
     expect(page.get_by_text("Optimized by rtclm1.")).to_be_visible()
     wait_for(lambda: "target" in {tr["name"] for tr in bench(page)["traces"]}, "the chart with its target")
     assert len(studio.scene.frames.leg_target) > 0
