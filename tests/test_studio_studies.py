@@ -39,6 +39,7 @@ def test_studies_are_found_and_read_without_writing(studies):
     assert {r.algorithm for r in runs} == {"nsga2", "cmoes"} and all("mse" in r.metrics for r in runs)
     fig = box_figure(runs, "subtask2", "mse")
     assert [t.name for t in fig.data] == ["cmoes", "nsga2"] and all(len(t.y) == 2 for t in fig.data)
+    assert fig.layout.yaxis.title.text == "MSE (mm)" and fig.layout.title.text == "subtask2: MSE (mm)"
     with pytest.raises(ValueError, match="not a folder"):
         find_studies(studies / "missing")
     with pytest.raises(ValueError, match="holds no study.sqlite"):

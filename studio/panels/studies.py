@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import plotly.graph_objects as go
 import viser
 
+from core.study.report import LABELS
 from studio import palette
 from studio.panels._inputs import set_value
 from studio.panels._lazy import LazyPlotly
@@ -32,9 +33,10 @@ def box_figure(runs: list[StudyRun], case: str, metric: str) -> go.Figure:
         colour = palette.LEGS[k % len(palette.LEGS)]
         fig.add_trace(go.Box(y=ys, name=a, boxpoints="all", jitter=0.3, marker={"color": palette.css(colour)},
                              showlegend=False))
-    fig.update_layout(title={"text": f"{case}: {metric}", "font": {"size": 13}, "x": 0.0},
+    label = LABELS.get(metric, metric)  # with its unit, as the study's report writes it
+    fig.update_layout(title={"text": f"{case}: {label}", "font": {"size": 13}, "x": 0.0},
                       margin={"l": 50, "r": 10, "t": 40, "b": 40}, plot_bgcolor="white")
-    fig.update_yaxes(showgrid=True, gridcolor="#e5e5e5", title_text=metric)
+    fig.update_yaxes(showgrid=True, gridcolor="#e5e5e5", title_text=label)
     return fig
 
 

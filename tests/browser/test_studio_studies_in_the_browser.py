@@ -27,7 +27,7 @@ def test_a_collaborator_finds_a_study_sees_its_boxes_and_loads_a_design(page: An
     wait_for(lambda: studio.studies.path.value == str(tmp_path), "the folder to reach the server")
     page.get_by_role("button", name="Find studies").click()
     expect(page.get_by_text("tiny: 2 runs done, 0 failed")).to_be_visible()
-    expect(page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask2: mse"))).to_be_visible()
+    expect(page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask2: MSE (mm)"))).to_be_visible()
     runs = finished_runs(study_rows(tmp_path / "tiny")[1])
     choose(page, "Run", runs[1].label)
     wait_for(lambda: studio.studies.run.value == runs[1].label, "the run to be chosen")
