@@ -11,7 +11,7 @@ from core.kinematics import presets
 from core.optimize import decision
 from core.optimize.box import search_box
 from studio.candidates import candidates, front_order, history_rows
-from studio.figures import make_pareto_figure
+from studio.figures import compact_3d, make_pareto_figure
 from studio.geometry import compose, inset_positions, layout
 from studio.tables import box_html, history_html
 
@@ -73,6 +73,18 @@ def test_three_objectives_give_a_3d_chart_and_one_objective_plots_against_the_vi
     fig = make_pareto_figure(F3, np.zeros(12), objectives=("a", "b", "c"), labels=long, front=tuple(range(12)))
     s = fig.layout.scene
     assert (s.xaxis.title.text, s.yaxis.title.text, s.zaxis.title.text) == ("a (mm)", "b (mm^2)", "c (mm^2)")
+    # The side panel's (~270 px) cut even those ("b (mm", "(mm)") and printed "best" texts over each other: there the
+    # axes carry names alone, and the best members' texts are on hover; the knees keep theirs.
+    fig = make_pareto_figure(F3, np.zeros(12), objectives=("a", "b", "c"), labels=long, front=tuple(range(12)),
+                             knees=(0,), best=(1, 2, 3))
+    side = compact_3d(fig)
+    s = side.layout.scene
+    assert (s.xaxis.title.text, s.yaxis.title.text, s.zaxis.title.text) == ("a", "b", "c")
+    t = traces(side)
+    assert t["best per objective"].mode == "markers" and t["knee candidates"].mode == "markers+text"
+    assert all(h.startswith("best ") for h in t["best per objective"].hovertext)
+    flat = make_pareto_figure(rng.uniform(size=(5, 2)), np.zeros(5), objectives=("a", "b"), front=(0,))
+    assert compact_3d(flat).layout.xaxis.title.text == "a"  # a 2-D chart as it was
     F1 = rng.uniform(size=(10, 1))
     cv = np.where(np.arange(10) < 3, 1.5, 0.0)
     fig = make_pareto_figure(F1, cv, objectives=("dh6",), labels={"dh6": "|h6 - h6_t| (mm)"}, front=(3,))

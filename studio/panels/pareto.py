@@ -14,7 +14,7 @@ import plotly.graph_objects as go
 import viser
 
 from studio.charts import chart_title, target_text
-from studio.figures import make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
+from studio.figures import compact_3d, make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import algorithm_name, status_text
 from studio.study_view import StudyView
@@ -174,7 +174,7 @@ class ParetoPanel:
             if not write(large, "figure", with_title_wrapped(fig, chars)):
                 self._large.pop(cid, None)
         # Then the side panel's lines, in place: a copy per redraw cost as much as building the chart.
-        self.plot.figure = with_title_wrapped(fig, PANEL_TITLE_CHARS, copy=False)
+        self.plot.figure = compact_3d(with_title_wrapped(fig, PANEL_TITLE_CHARS, copy=False))
         # A 3-D cloud in a 2-D chart's height left its axes cut (its title and legend take their own lines).
         self.plot.aspect = ASPECT_3D if n >= 3 and self.axes() is None else ASPECT_2D
         self.plot.visible = self.open_large.visible = True
