@@ -531,7 +531,8 @@ def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760():
         return SimpleNamespace(camera=SimpleNamespace(image_width=w, image_height=h))
 
     assert large_size(client(1920, 1080)) == {"width": 960.0, "height": 760.0}
-    assert large_size(client(636, 600)) == {"width": 588.0, "height": 552.0}
+    assert large_size(client(636, 600)) == {"width": 588.0, "height": 520.0}  # its chart's 0.72 x 556 + 120 px
+    assert large_size(client(510, 700)) == {"width": 480.0, "height": 443.0}  # no empty band under the chart
     assert large_size(client(300, 200)) == {"width": 480.0, "height": 400.0}
     assert large_size(SimpleNamespace()) == {"width": 960.0, "height": 760.0}  # no camera report yet
 

@@ -36,6 +36,9 @@ CONFIG = {
 # While a stage runs the chart is redrawn at most this often (s): 2-D and 3-D (WebGL, heavier).
 REDRAW_2D, REDRAW_3D = 0.5, 1.0
 ASPECT_2D, ASPECT_3D = 0.95, 1.35  # the side panel's chart: height over width
+# The large chart's window: the chart's height over width, and the window's padding and the tab bar and Close
+# button above the chart (px).
+LARGE_ASPECT, LARGE_PAD, LARGE_CHROME = 0.72, 32, 120
 PANEL_TITLE_CHARS = 42  # a title line the side panel's chart shows whole (13 px type, the mode bar beside it)
 PX_PER_TITLE_CHAR = 10.0  # the large chart's title: characters per line = its window's width / this
 
@@ -68,7 +71,11 @@ def large_size(client: viser.ClientHandle) -> dict[str, float]:
         w, h = client.camera.image_width, client.camera.image_height
     except (AssertionError, AttributeError):  # no camera report from this client yet
         w, h = 1200, 900
-    return {"width": float(min(960, max(480, w - 48))), "height": float(min(760, max(400, h - 48)))}
+    width = float(min(960, max(480, w - 48)))
+    # No taller than its chart (LARGE_ASPECT of the window's inner width) and the tab and Close button above it:
+    # a 480 px window on a 900 x 700 page had a 200 px empty band under the chart.
+    fit = round(LARGE_ASPECT * (width - LARGE_PAD)) + LARGE_CHROME
+    return {"width": width, "height": float(min(760, max(400, h - 48), fit))}
 
 
 def passed_on(sv: StudyView) -> int | None:
@@ -206,8 +213,8 @@ class ParetoPanel:
             # Close first: under the chart it fell past the window's bottom edge on a 1000-pixel-high page.
             close = client.gui.add_button("Close", icon=viser.Icon.X)
             fig = pareto_figure(self._sv, self.axes())
-            plot = client.gui.add_plotly(go.Figure() if fig is None else with_title_wrapped(fig, chars), aspect=0.72,
-                                         config=CONFIG)
+            plot = client.gui.add_plotly(go.Figure() if fig is None else with_title_wrapped(fig, chars),
+                                         aspect=LARGE_ASPECT, config=CONFIG)
         close.on_click(lambda _: self._close_large(client.client_id))
         panel.float(x=-24, y=24, **size)  # right edge by the side panel: never over it
         self._large[client.client_id] = (panel, plot, chars)
