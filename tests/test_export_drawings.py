@@ -42,7 +42,33 @@ def test_dxf_round_trip_keeps_every_link_length(name, tmp_path):
     assert {"GROUND", "PATH"} <= layers and sum(n.startswith("LINK_") for n in layers) == len(d.links)
     holes = list(msp.query("CIRCLE"))
     assert len(holes) >= sum(len(b) for b in d.links) + len(d.ground)
-    assert len(list(msp.query("DIMENSION"))) == len(edges)
+    # Every link length and every spacing of the frame's pivot holes is dimensioned, its text in mm (ezdxf's
+    # default style multiplied it by 100: a 150 mm link read "15000").
+    dims = list(msp.query("DIMENSION"))
+    assert len(dims) == len(edges) + len(d.frame()) and len(d.frame()) == math.comb(len(d.ground), 2) >= 1
+    texts = sorted(float(next(e for e in doc.blocks[dim.dxf.geometry] if e.dxftype() == "MTEXT").plain_text())
+                   for dim in dims)
+    np.testing.assert_allclose(texts, sorted(round(length, 2) for *_, length in edges + d.frame()), atol=1e-9)
+    frame = [e for e in msp.query("LINE") if e.dxf.layer == "FRAME"]
+    assert len(frame) == len(d.frame())
+
+
+def test_the_pose_is_drawn_at_the_angle_asked_and_the_svg_says_the_angle_drawn(tmp_path):
+    design = get("fourbar/chebyshev").design()
+    named = design.named()
+    d = drawing(design, math.radians(45.5))  # it was drawn at 46 deg, titled 45.5
+    a, b = d.point("A"), d.point("B")
+    crank = math.radians(45.5) + named["g"]
+    np.testing.assert_allclose(b - a, named["r1"] * np.array([math.cos(crank), math.sin(crank)]), atol=1e-9)
+    # The RTCLM's crank phase is derived (its switching state): the nearest tenth of a degree, and said so.
+    rt = drawing(get("rtclm/case4").design(), math.radians(45.54))
+    assert math.degrees(rt.angle) == pytest.approx(45.5, abs=1e-9)
+    out = tmp_path / "r.svg"
+    assert main(["export", "--preset", "rtclm/case4", "--svg", str(out), "--angle", "45.54"]) == 0
+    assert "at crank angle 45.5 deg" in out.read_text()
+    # The auxiliary mode locks A..D: its drawing has the four-bar's pivots only (the primary mode draws the rest).
+    aux = drawing(get("rtclm/case4/auxiliary").design())
+    assert aux.ground == ("E", "H") and len(aux.links) == 3
 
 
 def test_svg_is_a_drawing_of_the_linkage_and_its_path(tmp_path):
@@ -51,7 +77,7 @@ def test_svg_is_a_drawing_of_the_linkage_and_its_path(tmp_path):
     root = ET.parse(out).getroot()
     ns = "{http://www.w3.org/2000/svg}"
     d = drawing(get("stephenson1/X3").design())
-    assert len(root.findall(f"{ns}line")) == len(d.edges())
+    assert len(root.findall(f"{ns}line")) == len(d.edges()) + len(d.frame())  # links, and the frame dashed
     assert len(root.findall(f"{ns}circle")) == len(d.names)
     assert root.find(f"{ns}polygon") is not None
 

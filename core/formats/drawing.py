@@ -1,7 +1,9 @@
 """Drawings for fabrication: a design at one crank angle as DXF (one layer per link, pivot holes, ground marks,
-link lengths dimensioned in mm) and as SVG (the linkage and the foot path).
+link lengths and the frame's pivot spacings dimensioned in mm) and as SVG (the linkage and the foot path).
 
-Coordinates are the design frame in mm, y up (SVG flips y for the screen).
+Coordinates are the design frame in mm, y up (SVG flips y for the screen). The crank angle is measured from the
+crank phase, counter-clockwise; the pose is drawn at exactly that angle where the crank phase is a design
+parameter (every topology but the RTCLM, whose phase is derived: there, at the nearest tenth of a degree).
 """
 
 from __future__ import annotations
@@ -15,17 +17,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.kinematics.design import Design
-from core.kinematics.model import Ground
+from core.kinematics.model import Crank, Ground
 
 F64 = NDArray[np.float64]
 HOLE_RADIUS = 2.5  # mm: pivot holes drawn at joint centres
 N_SAMPLES = 360
+N_FINE = 3600  # a derived crank phase: the pose at the nearest of these samples
 
 
 @dataclass(frozen=True)
 class Drawing:
-    """One design at one crank angle: joints ``(n_joints, 2)`` mm, the moving links (point names), the ground
-    pivots, and the tracked point's path ``(n_samples, 2)`` mm."""
+    """One design at one crank angle (rad, the one drawn): joints ``(n_joints, 2)`` mm, the moving links (point
+    names), the ground pivots a link turns about, and the tracked point's path ``(n_samples, 2)`` mm."""
 
     mechanism: str
     names: tuple[str, ...]
@@ -46,31 +49,57 @@ class Drawing:
                 out.append((a, b, float(np.linalg.norm(self.point(a) - self.point(b)))))
         return out
 
+    def frame(self) -> list[tuple[str, str, float]]:
+        """Every pair of ground pivots, with its spacing (mm): the holes the frame is drilled with."""
+        return [(a, b, float(np.linalg.norm(self.point(a) - self.point(b)))) for a, b in combinations(self.ground, 2)]
+
 
 def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
     """The drawing of member ``member`` at crank angle ``angle`` (rad, from the design's crank phase g);
     ValueError if it does not assemble there."""
     m = design.mechanism
-    sol = design.solve(N_SAMPLES, joints=True, derivatives=False)
-    i = int(round((angle % (2 * math.pi)) / (2 * math.pi) * N_SAMPLES)) % N_SAMPLES
+    one = Design(m, design.params[member : member + 1], design.output)
+    phases = {s.phase for s in m.steps if isinstance(s, Crank)}
+    (phase,) = phases if len(phases) == 1 else (None,)
+    if isinstance(phase, str) and phase in m.param_names:  # turn the crank phase itself: sample 0 is the pose
+        params = one.params.copy()
+        params[0, m.param_names.index(phase)] += angle
+        sol = Design(m, params, one.output).solve(N_SAMPLES, joints=True, derivatives=False)
+        i, drawn = 0, float(angle)
+    else:  # a derived phase (the RTCLM's switching state): the nearest of N_FINE samples
+        sol = one.solve(N_FINE, joints=True, derivatives=False)
+        i = int(round((angle % (2 * math.pi)) / (2 * math.pi) * N_FINE)) % N_FINE
+        drawn = float(angle) + ((2 * math.pi * i / N_FINE - angle % (2 * math.pi) + math.pi) % (2 * math.pi) - math.pi)
     assert sol.joints is not None
-    joints = np.asarray(sol.joints[member, i], dtype=np.float64)
-    if not np.isfinite(joints).all() or sol.violation[member] > 0:
-        raise ValueError(f"the design does not assemble (violation {sol.violation[member]:.3g} mm): nothing to draw")
-    ground = tuple(s.name for s in m.steps if isinstance(s, Ground))
-    links = tuple(b for b in m.bodies() if not set(b) <= set(ground))
-    return Drawing(m.name, tuple(m.joint_names), joints, links, ground, np.asarray(sol.point[member]), float(angle))
+    joints = np.asarray(sol.joints[0, i], dtype=np.float64)
+    if not np.isfinite(joints).all() or sol.violation[0] > 0:
+        raise ValueError(f"the design does not assemble (violation {sol.violation[0]:.3g} mm): nothing to draw")
+    grounds = {s.name for s in m.steps if isinstance(s, Ground)}
+    links = tuple(b for b in m.bodies() if not set(b) <= grounds)
+    # The ground pivots a link turns about (the RTCLM's auxiliary mode locks A..D: its primary mode draws them).
+    ground = tuple(s.name for s in m.steps if isinstance(s, Ground) and any(s.name in b for b in links))
+    return Drawing(m.name, tuple(m.joint_names), joints, links, ground, np.asarray(sol.point[0]), drawn)
+
+
+def _dimension(msp: object, pa: F64, pb: F64, layer: str) -> None:
+    """An aligned dimension in mm, two decimals. ezdxf's default style scales the text by 100 (``DIMLFAC``):
+    a 150 mm link read "15000"."""
+    dim = msp.add_aligned_dim(p1=tuple(pa), p2=tuple(pb), distance=6.0,  # type: ignore[attr-defined]
+                              dxfattribs={"layer": layer}, override={"dimdec": 2, "dimtxt": 3.0, "dimlfac": 1.0})
+    dim.render()
 
 
 def dxf(d: Drawing) -> str:
     """The drawing as DXF R2010 text: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned
-    dimensions), ``GROUND`` (pivot holes and cross marks), ``PATH`` (the foot path)."""
+    dimensions), ``GROUND`` (pivot holes and cross marks), ``FRAME`` (dashed lines and dimensions between the
+    ground pivots), ``PATH`` (the foot path)."""
     import ezdxf
 
     doc = ezdxf.new("R2010", setup=True)
     doc.units = ezdxf.units.MM
     msp = doc.modelspace()
     doc.layers.add("GROUND", color=8)
+    doc.layers.add("FRAME", color=8)
     doc.layers.add("PATH", color=5)
     for k, body in enumerate(d.links):
         layer = "LINK_" + "-".join(body)
@@ -78,11 +107,12 @@ def dxf(d: Drawing) -> str:
         for a, b in combinations(body, 2):
             pa, pb = d.point(a), d.point(b)
             msp.add_line(tuple(pa), tuple(pb), dxfattribs={"layer": layer})
-            dim = msp.add_aligned_dim(p1=tuple(pa), p2=tuple(pb), distance=6.0, dxfattribs={"layer": layer},
-                                      override={"dimdec": 2, "dimtxt": 3.0})
-            dim.render()
+            _dimension(msp, pa, pb, layer)
         for name in body:
             msp.add_circle(tuple(d.point(name)), HOLE_RADIUS, dxfattribs={"layer": layer})
+    for a, b, _ in d.frame():  # the frame: the spacing of its pivot holes
+        _dimension(msp, d.point(a), d.point(b), "FRAME")
+        msp.add_line(tuple(d.point(a)), tuple(d.point(b)), dxfattribs={"layer": "FRAME", "linetype": "DASHED"})
     for name in d.ground:
         x, y = d.point(name)
         msp.add_circle((x, y), HOLE_RADIUS * 1.6, dxfattribs={"layer": "GROUND"})
@@ -111,11 +141,18 @@ def svg(d: Drawing, margin: float = 20.0) -> str:
            f"<title>{d.mechanism} at crank angle {math.degrees(d.angle):.1f} deg</title>"]
     path = " ".join(f"{x:.3f},{y:.3f}" for x, y in (xy(p) for p in d.path if np.isfinite(p).all()))
     out.append(f'<polygon points="{path}" fill="none" stroke="#1f77b4" stroke-width="0.6"/>')
+    for a, b, _ in d.frame():
+        (x1, y1), (x2, y2) = xy(d.point(a)), xy(d.point(b))
+        out.append(f'<line x1="{x1:.3f}" y1="{y1:.3f}" x2="{x2:.3f}" y2="{y2:.3f}" stroke="#888" '
+                   f'stroke-width="0.5" stroke-dasharray="3 2"/>')
     for a, b, _ in d.edges():
         (x1, y1), (x2, y2) = xy(d.point(a)), xy(d.point(b))
         out.append(f'<line x1="{x1:.3f}" y1="{y1:.3f}" x2="{x2:.3f}" y2="{y2:.3f}" stroke="#333" '
                    f'stroke-width="1.2" stroke-linecap="round"/>')
+    drawn = set(d.ground).union(*d.links)
     for name, p in zip(d.names, d.joints, strict=True):
+        if name not in drawn:
+            continue
         x, y = xy(p)
         fill = "#888" if name in d.ground else "#fff"
         out.append(f'<circle cx="{x:.3f}" cy="{y:.3f}" r="{HOLE_RADIUS}" fill="{fill}" stroke="#333" '
