@@ -15,6 +15,7 @@ import plotly.graph_objects as go
 
 from core.formats.design import design_to_dict
 from core.formats.files import slug
+from core.kinematics import presets
 from studio.state import DesignView
 
 CSV_COLUMNS = ("sample", "theta_rad", "t_s", "x_design_mm", "y_design_mm", "x_leg_mm", "y_leg_mm", "stance",
@@ -22,10 +23,17 @@ CSV_COLUMNS = ("sample", "theta_rad", "t_s", "x_design_mm", "y_design_mm", "x_le
 
 
 def design_json(view: DesignView) -> bytes:
-    """The current design in the design JSON format (``clm simulate --design`` reads it)."""
-    data = design_to_dict(view.design)
-    if view.preset is not None:
-        data["source"] = f"clm-studio, edited from preset {view.preset}" if view.edited else view.preset
+    """The current design in the design JSON format (``clm simulate --design`` reads it), with the fields of
+    ``clm presets show``: a preset's name, the mechanism's title, and where the values come from (a preset's
+    provenance, such as the paper row and the misprint read, is kept when the design was edited)."""
+    mech = view.design.mechanism
+    data = {"title": mech.title, **design_to_dict(view.design), "source": "clm-studio"}
+    if view.preset is not None and view.preset in presets.PRESETS:
+        p = presets.get(view.preset)
+        if view.edited:
+            data["source"] = f"clm-studio, edited from preset {p.name} ({p.source})"
+        else:
+            data = {"name": p.name, **data, "source": p.source}
     return (json.dumps(data, indent=2) + "\n").encode()
 
 

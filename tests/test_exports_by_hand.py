@@ -9,6 +9,7 @@ import numpy as np
 import plotly.graph_objects as go
 import pytest
 
+from core.kinematics import presets
 from studio.exports import (
     CSV_COLUMNS,
     design_json,
@@ -33,11 +34,17 @@ def rows(data: bytes) -> list[list[str]]:
 
 
 def test_the_design_file_names_its_preset_and_says_when_it_was_edited():
-    s = Session.default()
-    assert json.loads(design_json(s.view))["source"] == "stephenson1/X3"
+    from core.cli.presets import preset_dict
+
+    s = Session.default("stephenson1/IMTCMO-X3")
+    p = presets.get("stephenson1/IMTCMO-X3")
+    assert json.loads(design_json(s.view)) == json.loads(json.dumps(preset_dict(p)))  # as `clm presets show`
     name = s.view.design.mechanism.params[0].name
     s.set_param(name, float(s.view.values[name]) * 1.001)
-    assert json.loads(design_json(s.view))["source"] == "clm-studio, edited from preset stephenson1/X3"
+    edited = json.loads(design_json(s.view))
+    assert "name" not in edited and edited["title"] == p.mechanism.title
+    assert edited["source"] == f"clm-studio, edited from preset stephenson1/IMTCMO-X3 ({p.source})"
+    assert "b printed 047, read 0.47" in edited["source"]  # the paper row's misprint, read as the spec says
 
 
 def test_each_row_is_one_crank_sample_at_its_time_in_the_period(x3: Session):
