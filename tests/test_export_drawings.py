@@ -40,8 +40,14 @@ def test_dxf_round_trip_keeps_every_link_length(name, tmp_path):
                     assert by_pair[frozenset((end, step.name))] == pytest.approx(abs(named[op]), abs=1e-6)
     layers = {layer.dxf.name for layer in doc.layers}
     assert {"GROUND", "PATH"} <= layers and sum(n.startswith("LINK_") for n in layers) == len(d.links)
-    holes = list(msp.query("CIRCLE"))
-    assert len(holes) >= sum(len(b) for b in d.links) + len(d.ground)
+    # A hole where a joint is (two links, or a link and the frame); the foot, a point of one link, is crossed.
+    holes = [c for c in msp.query("CIRCLE") if c.dxf.layer.startswith("LINK_")]
+    assert len(holes) == sum(n in d.pivots() for b in d.links for n in b)
+    assert len([c for c in msp.query("CIRCLE") if c.dxf.layer == "GROUND"]) == len(d.ground)
+    if name in ("stephenson1/X3", "fourbar/chebyshev", "watt1/paper"):  # a coupler point; Jansen's and Klann's foot
+        assert design.mechanism.tracked not in d.pivots()               # joins two of their binary links
+    drawn = set(d.ground).union(*d.links)
+    assert sorted(t.dxf.text for t in msp.query("TEXT") if t.dxf.layer == "LABELS") == sorted(drawn)
     # Every link length and every spacing of the frame's pivot holes is dimensioned, its text in mm (ezdxf's
     # default style multiplied it by 100: a 150 mm link read "15000").
     dims = list(msp.query("DIMENSION"))
@@ -78,7 +84,8 @@ def test_svg_is_a_drawing_of_the_linkage_and_its_path(tmp_path):
     ns = "{http://www.w3.org/2000/svg}"
     d = drawing(get("stephenson1/X3").design())
     assert len(root.findall(f"{ns}line")) == len(d.edges()) + len(d.frame())  # links, and the frame dashed
-    assert len(root.findall(f"{ns}circle")) == len(d.names)
+    assert len(root.findall(f"{ns}circle")) == len(d.pivots())  # holes; the foot P is a cross
+    assert sorted(t.text for t in root.findall(f"{ns}text")) == sorted(d.names)  # every point named
     assert root.find(f"{ns}polygon") is not None
 
 

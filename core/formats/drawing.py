@@ -23,6 +23,7 @@ F64 = NDArray[np.float64]
 HOLE_RADIUS = 2.5  # mm: pivot holes drawn at joint centres
 N_SAMPLES = 360
 N_FINE = 3600  # a derived crank phase: the pose at the nearest of these samples
+LABEL_HEIGHT = 3.5  # mm: point names
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,12 @@ class Drawing:
             for a, b in combinations(body, 2):
                 out.append((a, b, float(np.linalg.norm(self.point(a) - self.point(b)))))
         return out
+
+    def pivots(self) -> set[str]:
+        """The points that are joints: shared by two links, or a link's and the frame's. A point of one link
+        alone (the foot, a coupler point) is no hole: it is marked with a cross."""
+        count = {n: sum(n in b for b in self.links) + (n in self.ground) for n in self.names}
+        return {n for n, c in count.items() if c >= 2}
 
     def frame(self) -> list[tuple[str, str, float]]:
         """Every pair of ground pivots, with its spacing (mm): the holes the frame is drilled with."""
@@ -92,7 +99,8 @@ def _dimension(msp: object, pa: F64, pb: F64, layer: str) -> None:
 def dxf(d: Drawing) -> str:
     """The drawing as DXF R2010 text: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned
     dimensions), ``GROUND`` (pivot holes and cross marks), ``FRAME`` (dashed lines and dimensions between the
-    ground pivots), ``PATH`` (the foot path)."""
+    ground pivots), ``LABELS`` (every point's name; a point of one link alone, as the foot, crossed: no hole),
+    ``PATH`` (the foot path)."""
     import ezdxf
 
     doc = ezdxf.new("R2010", setup=True)
@@ -101,6 +109,8 @@ def dxf(d: Drawing) -> str:
     doc.layers.add("GROUND", color=8)
     doc.layers.add("FRAME", color=8)
     doc.layers.add("PATH", color=5)
+    doc.layers.add("LABELS", color=7)
+    pivots = d.pivots()
     for k, body in enumerate(d.links):
         layer = "LINK_" + "-".join(body)
         doc.layers.add(layer, color=1 + k % 6)
@@ -109,7 +119,8 @@ def dxf(d: Drawing) -> str:
             msp.add_line(tuple(pa), tuple(pb), dxfattribs={"layer": layer})
             _dimension(msp, pa, pb, layer)
         for name in body:
-            msp.add_circle(tuple(d.point(name)), HOLE_RADIUS, dxfattribs={"layer": layer})
+            if name in pivots:
+                msp.add_circle(tuple(d.point(name)), HOLE_RADIUS, dxfattribs={"layer": layer})
     for a, b, _ in d.frame():  # the frame: the spacing of its pivot holes
         _dimension(msp, d.point(a), d.point(b), "FRAME")
         msp.add_line(tuple(d.point(a)), tuple(d.point(b)), dxfattribs={"layer": "FRAME", "linetype": "DASHED"})
@@ -119,6 +130,15 @@ def dxf(d: Drawing) -> str:
         for dx, dy in ((1, 0), (0, 1)):
             s = 2.5 * HOLE_RADIUS
             msp.add_line((x - s * dx, y - s * dy), (x + s * dx, y + s * dy), dxfattribs={"layer": "GROUND"})
+    drawn = set(d.ground).union(*d.links)
+    for name in (n for n in d.names if n in drawn):  # every point named on the drawing; a non-pivot crossed
+        x, y = d.point(name)
+        if name not in pivots:
+            s = HOLE_RADIUS
+            for dx, dy in ((1, 1), (1, -1)):
+                msp.add_line((x - s * dx, y - s * dy), (x + s * dx, y + s * dy), dxfattribs={"layer": "LABELS"})
+        msp.add_text(name, height=LABEL_HEIGHT, dxfattribs={"layer": "LABELS"}).set_placement(
+            (x + 1.4 * HOLE_RADIUS, y + 1.4 * HOLE_RADIUS))
     finite = d.path[np.isfinite(d.path).all(axis=1)]
     if len(finite) > 1:
         msp.add_lwpolyline([tuple(p) for p in finite], close=True, dxfattribs={"layer": "PATH"})
@@ -149,11 +169,18 @@ def svg(d: Drawing, margin: float = 20.0) -> str:
         (x1, y1), (x2, y2) = xy(d.point(a)), xy(d.point(b))
         out.append(f'<line x1="{x1:.3f}" y1="{y1:.3f}" x2="{x2:.3f}" y2="{y2:.3f}" stroke="#333" '
                    f'stroke-width="1.2" stroke-linecap="round"/>')
-    drawn = set(d.ground).union(*d.links)
+    drawn, pivots = set(d.ground).union(*d.links), d.pivots()
     for name, p in zip(d.names, d.joints, strict=True):
         if name not in drawn:
             continue
         x, y = xy(p)
+        out.append(f'<text x="{x + 1.4 * HOLE_RADIUS:.3f}" y="{y - 1.4 * HOLE_RADIUS:.3f}" font-size="{LABEL_HEIGHT}" '
+                   f'font-family="sans-serif">{name}</text>')
+        if name not in pivots:  # the foot or a coupler point: a cross, no hole
+            s = HOLE_RADIUS
+            out.append(f'<path d="M{x - s:.3f},{y - s:.3f} L{x + s:.3f},{y + s:.3f} M{x - s:.3f},{y + s:.3f} '
+                       f'L{x + s:.3f},{y - s:.3f}" stroke="#333" stroke-width="0.5"><title>{name}</title></path>')
+            continue
         fill = "#888" if name in d.ground else "#fff"
         out.append(f'<circle cx="{x:.3f}" cy="{y:.3f}" r="{HOLE_RADIUS}" fill="{fill}" stroke="#333" '
                    f'stroke-width="0.5"><title>{name}</title></circle>')
