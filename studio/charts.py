@@ -20,10 +20,11 @@ import plotly.graph_objects as go
 from core.formats.files import atomic_write, chart_file, read_design_result
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
-from studio.figures import make_pareto_figure
+from studio.figures import make_pareto_figure, with_title_wrapped
 from studio.study import status_text
 
 WIDTH, HEIGHT = 1000, 800
+TITLE_CHARS = 140  # a title line the PNG shows whole (13 px type: ~6 px a character; 170 ran past 1000 px)
 
 
 def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT) -> bytes:
@@ -77,7 +78,8 @@ def run_charts(run_dir: Path) -> list[Path]:
     for k, (spec, r) in enumerate(zip(pipe.stages, pipe.results, strict=True)):
         if r is None or r.pop == 0:
             continue
-        fig = result_figure(r, dict(spec.problem.labels), target_text(r.settings))
+        # A long title (an RTCLM stage's unmet constraints) ran past the PNG's edge: broken into lines.
+        fig = with_title_wrapped(result_figure(r, dict(spec.problem.labels), target_text(r.settings)), TITLE_CHARS)
         path = run_dir / chart_file(k, r.name)
         atomic_write(path, png(fig))
         written.append(path)
