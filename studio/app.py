@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import collections
 import json
+import sys
 import threading
 import time
 from pathlib import Path
@@ -130,6 +131,7 @@ class Studio:
         self._last_request: object = None  # (stage, settings, from the pick) of the last run started
         self._loading: dict[int, float] = {}  # pages that have not drawn yet: client id -> connected at
         self._framed: dict[int, tuple[float, np.ndarray]] = {}  # client id -> the aspect and position it was framed at
+        self._save_error: str | None = None  # the last autosave's failure, said once
         self._requested: collections.deque[float] = collections.deque()  # pages asked for, not yet connected
         self._request_lock = threading.Lock()  # the gate's thread adds, viser's and the animator's take
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
@@ -599,7 +601,17 @@ class Studio:
         if self.session_path is None:
             return
         with self._save_lock:
-            save_session(self.session, self.session_path)
+            try:
+                save_session(self.session, self.session_path)
+            except (ValueError, OSError) as exc:  # too large, disk full: said once to every page, the work goes on
+                message = str(exc) if isinstance(exc, ValueError) else f"cannot write {self.session_path} ({exc})"
+                if message != self._save_error:
+                    self._save_error = message
+                    print(f"clm-studio: session not saved: {message}", file=sys.stderr)
+                    for client in self.server.get_clients().values():
+                        self.notify(client, "Session not saved", message, color="yellow")
+                return
+            self._save_error = None
 
     def close(self) -> None:
         """Stop a run, the animation, pending input checks and the server."""

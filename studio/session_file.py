@@ -11,9 +11,15 @@ from studio.state import Session
 
 
 def save_session(session: Session, path: Path) -> None:
-    """Write a session as JSON via a temporary file and an atomic rename."""
+    """Write a session as JSON via a temporary file and an atomic rename; ValueError, the file left as it was,
+    when the session has outgrown what a session file may hold (it would not load again)."""
+    data = (json.dumps(session.to_dict(), separators=(",", ":")) + "\n").encode("utf-8")
+    if len(data) > MAX_SESSION_BYTES:
+        raise ValueError(f"the session has grown to {len(data) / 2**20:.0f} MB, past the "
+                         f"{MAX_SESSION_BYTES // 2**20} MB a session file may hold, so {path} keeps its last save; "
+                         "delete branches in the History panel to save again")
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(session.to_dict(), separators=(",", ":")) + "\n", encoding="utf-8")
+    tmp.write_bytes(data)
     os.replace(tmp, path)
 
 

@@ -441,3 +441,31 @@ def test_the_studio_autosaves_its_session_after_every_change(tmp_path) -> None:
         assert load_session(path).view.values["r4"] == 129.0
     finally:
         studio.close()
+
+
+def test_a_session_past_what_a_file_may_hold_keeps_its_last_save_and_the_studio_says_so_once(tmp_path, monkeypatch,
+                                                                                              capsys) -> None:
+    import studio.session_file as session_file
+    from studio.app import Studio
+    from studio.session_file import load_session, save_session
+
+    path = tmp_path / "session.json"
+    studio = Studio(Session.default(), host="127.0.0.1", port=0, session_path=path)
+    try:
+        before = path.read_bytes()
+        monkeypatch.setattr(session_file, "MAX_SESSION_BYTES", len(before) - 1)  # it would not load again
+        with pytest.raises(ValueError, match=r"past the 0 MB a session file may hold, so .* keeps its last save"):
+            save_session(studio.session, path)
+        studio.session.set_param("r4", 129.0)
+        studio.refresh()  # the autosave fails: no exception out of the page's callback
+        studio.session.set_param("r4", 130.0)
+        studio.refresh()
+        assert path.read_bytes() == before  # the last save, which loads
+        err = capsys.readouterr().err
+        assert err.count("clm-studio: session not saved: the session has grown to") == 1  # said once
+        monkeypatch.undo()
+        studio.session.set_param("r4", 131.0)
+        studio.refresh()
+        assert load_session(path).view.values["r4"] == 131.0 and studio._save_error is None
+    finally:
+        studio.close()
