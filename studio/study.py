@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import time
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -229,6 +230,26 @@ class Study:
     status: RunStatus = field(default_factory=RunStatus)
     live: Progress | None = None
     version: int = 0
+    # A stage result's JSON, kept once however many branches hold that result (id -> the result, weakly, and its
+    # dict): each branch parsed its own copy, ~1 MB a branch at pop 12 over an afternoon's dozens of branches.
+    _kept: dict[int, tuple[weakref.ref[StageResult], dict[str, Any]]] = field(default_factory=dict, repr=False,
+                                                                              compare=False)
+
+    def _shared(self, results: list[StageResult | None], dicts: list[Any]) -> list[Any]:
+        """The branch's result dicts, each replaced by the one kept for the same result object if any (and kept
+        for the next branch otherwise)."""
+        for key in [k for k, (ref, _) in self._kept.items() if ref() is None]:
+            del self._kept[key]
+        out = []
+        for r, d in zip(results, dicts, strict=True):
+            if r is not None:
+                ref, kept = self._kept.get(id(r), (None, None))
+                if ref is not None and ref() is r:
+                    d = kept
+                else:
+                    self._kept[id(r)] = (weakref.ref(r), d)
+            out.append(d)
+        return out
 
     def touch(self) -> None:
         self.version += 1
@@ -314,8 +335,9 @@ class Study:
         label = f"{max(used, default=0) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
                 f"{time.strftime('%H:%M:%S')})"
         target = None if self.target is None else self.target.to_dict()
-        self.branches.append(Branch(label, json.loads(pipe.to_json(indent=None)), target, dict(self.shown),
-                                    self.next_stage, self.from_pick))
+        data = json.loads(pipe.to_json(indent=None))
+        data["results"] = self._shared(pipe.results, data["results"])
+        self.branches.append(Branch(label, data, target, dict(self.shown), self.next_stage, self.from_pick))
 
     def start_over(self, why: str) -> None:
         """A new topology in the editor: keep the current pipeline as a branch and start afresh (the first
@@ -390,6 +412,7 @@ class Study:
             raise ValueError(f"no branch {j + 1}")
         chosen = self.branches[j]
         pipe = Pipeline.from_dict(chosen.pipeline)
+        self._shared(pipe.results, list(chosen.pipeline["results"]))  # kept again, the same dicts are shared
         del self.branches[j]
         self.keep_branch("left for a branch")
         self.pipeline = pipe

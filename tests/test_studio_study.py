@@ -696,3 +696,17 @@ def test_a_short_run_reads_in_hundredths_of_a_second_not_as_zero() -> None:
 
     assert [seconds(t) for t in (0.0, 0.004, 0.046, 0.999, 1.0, 12.34)] == \
         ["< 0.01 s", "< 0.01 s", "0.05 s", "1.00 s", "1.0 s", "12.3 s"]
+
+
+def test_branches_of_one_pipeline_share_their_results_json_and_save_as_before(session: Session) -> None:
+    run(session, "subtask1", from_pick=False)
+    study = session.study
+    study.keep_branch("first")
+    study.keep_branch("second")  # the same results: an afternoon's branches each parsed a copy of them
+    a, b = (br.pipeline["results"] for br in study.branches)
+    assert a[0] is b[0] and a[0] == json.loads(study.pipeline.to_json(indent=None))["results"][0]
+    study.restore_branch(0)  # a restored pipeline's results are new objects: kept again, the dicts are shared
+    study.keep_branch("third")
+    assert study.branches[-1].pipeline["results"][0] is a[0]
+    loaded = Study.from_dict(json.loads(json.dumps(study.to_dict())), session.view.target)
+    assert [br.pipeline for br in loaded.branches] == [br.pipeline for br in study.branches]
