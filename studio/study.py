@@ -231,7 +231,7 @@ class Study:
     live: Progress | None = None
     version: int = 0
     # A stage result's JSON, kept once however many branches hold that result (id -> the result, weakly, and its
-    # dict): each branch parsed its own copy, ~1 MB a branch at pop 12 over an afternoon's dozens of branches.
+    # dict): a re-run of the last stage or a topology switch parsed another copy of every earlier stage's result.
     _kept: dict[int, tuple[weakref.ref[StageResult], dict[str, Any]]] = field(default_factory=dict, repr=False,
                                                                               compare=False)
 
