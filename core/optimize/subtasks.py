@@ -59,6 +59,12 @@ def _eq30(on: bool) -> tuple[Constraint, ...]:
             Constraint("theta2_margin", upper=0.0))
 
 
+def _placement(place: str, target: str, n_samples: int, backend: str) -> dict[str, Any]:
+    """A problem's ``repair`` (the Lamarckian placement) and its ``misfit`` (the mechanisms it cannot place)."""
+    repair = _placer(place, target, n_samples, backend)
+    return {"repair": repair, "misfit": None if repair is None else placement_misfit}
+
+
 def _placer(place: str, target: str, n_samples: int, backend: str) -> Any:
     if place == "none":
         return None
@@ -84,8 +90,7 @@ def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
             search, where the optimizer finds the position itself (much slower).
     """
     return ProblemSpec("subtask1", _evaluator(target, n_samples, backend), ("f1", "f2", "f3"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend),
-                       misfit=None if place == "none" else placement_misfit)
+                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
 @register("subtask2")
@@ -95,8 +100,7 @@ def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max))
     return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
-                       labels=LABELS, repair=_placer(place, target, n_samples, backend),
-                       misfit=None if place == "none" else placement_misfit)
+                       labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
 @register("subtask3")
@@ -107,8 +111,7 @@ def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max),
             Constraint("h_s", upper=h_s_max), Constraint("I", upper=I_max))
     return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
-                       labels=LABELS, repair=_placer(place, target, n_samples, backend),
-                       misfit=None if place == "none" else placement_misfit)
+                       labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
 @register("single_level")
@@ -120,8 +123,7 @@ def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: st
         place: as for ``subtask1`` (``none``, the paper's direct search, by default).
     """
     return ProblemSpec("single_level", _evaluator(target, n_samples, backend), ("f1", "f2", "f3", "h_s", "I"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, repair=_placer(place, target, n_samples, backend),
-                       misfit=None if place == "none" else placement_misfit)
+                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
 @register("predesign")
