@@ -334,11 +334,9 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
     kind_colour = np.where(edges.kinds[:, None] == EDGE_GROUND, 2, np.where(edges.kinds[:, None] == EDGE_CRANK, 1, 0))
     link_colors = np.repeat(colours[kind_colour[:, 0]][:, None, :], 2, axis=1)
     is_ground = np.array([isinstance(s, Ground) for s in mech.steps])
-    # A ground point no link touches is not drawn (the RTCLM's locked primary linkage in its auxiliary mode:
+    # A ground point no moving body holds is not drawn (the RTCLM's locked primary linkage in its auxiliary mode:
     # A..D stood as loose pivots, and next to the bench view looked like part of it).
-    linked = np.zeros(len(is_ground), dtype=bool)
-    linked[edges.pairs.ravel()] = True
-    pivots = is_ground & linked
+    pivots = np.isin(np.array(mech.joint_names), mech.pivots())
     point, leg = sol.point[0], sol.leg[0]
     none = np.zeros((0, 2))
     target_design = view.target_design if show_target else none

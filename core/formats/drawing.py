@@ -83,9 +83,8 @@ def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
         raise ValueError(f"the design does not assemble (violation {sol.violation[0]:.3g} mm): nothing to draw")
     grounds = {s.name for s in m.steps if isinstance(s, Ground)}
     links = tuple(b for b in m.bodies() if not set(b) <= grounds)
-    # The ground pivots a link turns about (the RTCLM's auxiliary mode locks A..D: its primary mode draws them).
-    ground = tuple(s.name for s in m.steps if isinstance(s, Ground) and any(s.name in b for b in links))
-    return Drawing(m.name, tuple(m.joint_names), joints, links, ground, np.asarray(sol.point[0]), drawn)
+    # m.pivots(): the RTCLM's auxiliary mode locks A..D (its primary mode draws them).
+    return Drawing(m.name, tuple(m.joint_names), joints, links, m.pivots(), np.asarray(sol.point[0]), drawn)
 
 
 def _dimension(msp: object, pa: F64, pb: F64, layer: str) -> None:

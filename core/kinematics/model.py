@@ -251,6 +251,13 @@ class Mechanism:
         """Rigid bodies as tuples of point names (ground first), found from the steps."""
         return _bodies(self.steps)
 
+    def pivots(self) -> tuple[str, ...]:
+        """The ground points a moving body holds, in step order: what a drawing shows of the frame (the RTCLM's
+        auxiliary mode locks A..D as ground points no moving body holds)."""
+        grounds = [s.name for s in self.steps if isinstance(s, Ground)]
+        moving = [b for b in self.bodies() if not set(b) <= set(grounds)]
+        return tuple(g for g in grounds if any(g in b for b in moving))
+
 
 @cache
 def _compile(m: Mechanism) -> Program:
