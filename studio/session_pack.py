@@ -147,20 +147,23 @@ def unpack_study(study: Any) -> Any:
     if not isinstance(table, dict):
         raise ValueError("study.results must map hashes to stage results")
 
+    unpacked: dict[str, dict[str, Any]] = {}  # each result's arrays unpacked once, shared by the branches naming it
+
     def result(key: Any, pick: Any, where: str) -> Any:
         if key is None or isinstance(key, dict):  # nothing, or a version-2 result written inline
             return key
         if not isinstance(key, str) or not isinstance(table.get(key), dict):
             raise ValueError(f"{where}: no stage result {key!r} in study.results")
-        blob = dict(table[key])
-        for k in ARRAYS:
-            if k in blob:
-                blob[k] = unpack_array(blob[k], f"study.results[{key}].{k}")
-        if isinstance(blob.get("metrics"), dict):
-            blob["metrics"] = {m: unpack_array(v, f"study.results[{key}].metrics.{m}")
-                               for m, v in blob["metrics"].items()}
-        blob["picked"] = pick
-        return blob
+        if key not in unpacked:
+            blob = dict(table[key])
+            for k in ARRAYS:
+                if k in blob:
+                    blob[k] = unpack_array(blob[k], f"study.results[{key}].{k}")
+            if isinstance(blob.get("metrics"), dict):
+                blob["metrics"] = {m: unpack_array(v, f"study.results[{key}].metrics.{m}")
+                                   for m, v in blob["metrics"].items()}
+            unpacked[key] = blob
+        return {**unpacked[key], "picked": pick}
 
     def unpack_pipeline(p: Any, where: str) -> Any:
         if not isinstance(p, dict) or not isinstance(p.get("results"), list):

@@ -34,8 +34,11 @@ def stage_target(value: object, target: TargetSpec, where: str) -> object:
 
 
 def _retarget(data: dict[str, Any], target: TargetSpec, what: str = "pipeline") -> dict[str, Any]:
-    """A copy of pipeline data whose stage targets are safe to open (:func:`stage_target`)."""
-    out = json.loads(json.dumps(data))
+    """Pipeline data whose stage targets are safe to open (:func:`stage_target`): the stages copied, the
+    results shared with ``data`` (branches naming one stored result hold one copy of its arrays)."""
+    out = dict(data)
+    if "stages" in out:
+        out["stages"] = json.loads(json.dumps(out["stages"]))
     for i, opts in _stage_options(out):
         if "target" in opts:
             opts["target"] = stage_target(opts["target"], target, f"{what} stage {i + 1}")

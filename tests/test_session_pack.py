@@ -50,6 +50,9 @@ def test_branches_that_share_a_front_store_it_once_and_keep_their_own_picks(sess
     assert len(json.dumps(data)) - one < 6 * 4000  # a branch costs its labels and picks, not its front
     back = Session.from_dict(data)
     assert [b.pipeline["results"][0]["picked"] for b in back.study.branches] == list(range(6))
+    # Loaded, the branches hold one copy of the front's arrays (each branch unpacked its own before).
+    loaded = [b.pipeline["results"][0] for b in back.study.branches]
+    assert all(d["X"] is loaded[0]["X"] and d["metrics"] is loaded[0]["metrics"] for d in loaded)
     r, r2 = study.result("subtask1"), back.study.result("subtask1")
     assert np.array_equal(r.X, r2.X) and np.array_equal(r.F, r2.F) and r.picked == r2.picked
     for k, v in r.metrics.items():
