@@ -145,9 +145,43 @@ def test_cancelling_inside_a_chain_stops_the_run_with_a_partial_record() -> None
     assert out.status == "cancelled"
     (block,) = out.multistart
     assert [c.status for c in block.chains] == ["complete", "cancelled"]
-    assert block.chosen == 1 and block.chains[1].picks == (None,)
-    assert [r.status for r in out.results] == ["cancelled"]
+    assert block.chains[1].picks == (None,)
+    # The chain that finished is kept, with its picks, not the one stopped half-way.
+    assert block.chosen == 0 and [r.status for r in out.results] == ["complete", "complete"]
+    assert [r.picked for r in out.results] == list(block.chains[0].picks)
     json.loads(dumps(out.to_dict()))  # still writable
+
+
+def test_cancelling_before_any_chain_completes_keeps_the_first_cancelled_chain() -> None:
+    cancel = threading.Event()
+
+    def cb(p) -> None:  # type: ignore[no-untyped-def]
+        if p.stage == "subtask1" and p.generation == 2:
+            cancel.set()
+
+    out = run_design(parse_config({**CONFIG, "workers": 1}), callback=cb, cancel=cancel)
+    (block,) = out.multistart
+    assert [c.status for c in block.chains] == ["cancelled"]
+    assert block.chosen == 0 and [r.status for r in out.results] == ["cancelled"]
+
+
+def test_cancelling_keeps_the_best_of_the_completed_chains() -> None:
+    cfg = copy.deepcopy(CONFIG)
+    cfg["stages"][0]["starts"]["n"] = 4
+    full = run_design(parse_config({**cfg, "workers": 1}))
+    cancel = threading.Event()
+
+    def cb(p) -> None:  # type: ignore[no-untyped-def]
+        if p.stage == "subtask1" and p.chain == 3:
+            cancel.set()
+
+    out = run_design(parse_config({**cfg, "workers": 1}), callback=cb, cancel=cancel)
+    (block,), (ref,) = out.multistart, full.multistart
+    assert [c.status for c in block.chains] == ["complete"] * 3 + ["cancelled"]
+    done = block.chains[:3]
+    best = select_chain([c.last for c in done], [c.feasible for c in done], "best:S", block.starts.where)
+    assert block.chosen == best
+    assert out.results[-1].picked == ref.chains[best].picks[-1]  # the same chain as in the run not stopped
 
 
 def test_a_screen_sends_only_the_best_chains_on() -> None:

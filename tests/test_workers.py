@@ -108,12 +108,15 @@ def test_cancelling_while_chains_run_in_workers_leaves_a_loadable_partial_result
     assert out.status == "cancelled"
     (block,) = out.multistart
     chosen = next(c for c in block.chains if c.index == block.chosen)
-    assert chosen.status == "cancelled" and chosen.picks[-1] is None
     assert all(c.status in ("complete", "cancelled") for c in block.chains)
+    # Which chains finished before the cancel reached them depends on timing: a finished one is kept if any.
+    finished = any(c.status == "complete" for c in block.chains)
+    assert chosen.status == ("complete" if finished else "cancelled")
+    assert (chosen.picks[-1] is None) == (not finished)
     d = json.loads(dumps(out.to_dict()))
     back = Pipeline.from_dict(d["pipeline"])
-    statuses = [r.status for r in back.lineage]  # where the chosen chain was stopped depends on timing
-    assert statuses[-1] == "cancelled" and set(statuses[:-1]) <= {"complete"}
+    statuses = [r.status for r in back.lineage]
+    assert statuses[-1] == ("complete" if finished else "cancelled") and set(statuses[:-1]) <= {"complete"}
     assert len(statuses) == len(chosen.picks)
 
 

@@ -221,7 +221,8 @@ def run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None
                callback: Callable[[Progress], None] | None,
                cancel: threading.Event | None) -> tuple[MultiStart, Pipeline, bool]:
     """A multi-start block from stage ``first``: its record, the pipeline to go on with, and
-    whether it completed (else that pipeline is the first cancelled chain's).
+    whether it completed (else that pipeline is the best of the chains that completed the block, or if none did,
+    the first cancelled chain's).
 
     The chains run in ``config.workers`` processes. After a cancel, the record holds the chains
     that had started (the cancelled ones with their partial picks).
@@ -232,11 +233,17 @@ def run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None
     chains = [_Chain(config, pipe, first, last, j) for j in range(starts.n)]
 
     def stopped(run: list[_Chain], k: int) -> tuple[MultiStart, Pipeline, bool] | None:
-        # Unless every chain of this round reached stage k: the first cancelled one is chosen.
+        # Unless every chain of this round reached stage k: the best chain that completed the block is chosen
+        # (a designer who stops a run keeps its best finished design), else the first cancelled one.
         short = sorted((c.status != "cancelled", c.j) for c in run if not c.reached(k))
         if not short:
             return None
-        c = next(x for x in run if x.j == short[0][1])
+        done = [x for x in chains if x.status == "complete"]
+        if done:
+            c = done[select_chain([x.metrics[-1] for x in done], [x.feasible for x in done], starts.select,
+                                  starts.where)]
+        else:
+            c = next(x for x in run if x.j == short[0][1])
         records = tuple(x.record() for x in chains if x.picks)
         return MultiStart(starts, tuple(names[first : last + 1]), first, last, records, c.j), c.pipe, False
 
