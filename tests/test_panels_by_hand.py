@@ -537,6 +537,17 @@ def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760():
     assert large_size(SimpleNamespace()) == {"width": 960.0, "height": 760.0}  # no camera report yet
 
 
+def test_a_narrow_large_chart_puts_its_legend_lower_and_leaves_the_side_panels_chart_alone():
+    import plotly.graph_objects as go
+
+    from studio.panels.pareto import NARROW_LEGEND_Y, large_figure
+
+    fig = go.Figure(go.Scatter(x=[1, 2], y=[3, 4]), layout={"title": {"text": "short"}, "legend": {"y": -0.22}})
+    narrow, wide = large_figure(fig, 48), large_figure(fig, 96)  # 480 and 960 px windows
+    assert narrow.layout.legend.y == NARROW_LEGEND_Y < -0.22
+    assert wide.layout.legend.y == -0.22 and fig.layout.legend.y == -0.22  # the panel's chart is not changed
+
+
 def test_three_objectives_offer_the_3d_cloud_and_each_pair_of_the_first_three():
     from studio.panels.pareto import THREE_D, projections
 

@@ -41,6 +41,9 @@ ASPECT_2D, ASPECT_3D = 0.95, 1.35  # the side panel's chart: height over width
 LARGE_ASPECT, LARGE_PAD, LARGE_CHROME = 0.72, 32, 120
 PANEL_TITLE_CHARS = 42  # a title line the side panel's chart shows whole (13 px type, the mode bar beside it)
 PX_PER_TITLE_CHAR = 10.0  # the large chart's title: characters per line = its window's width / this
+# A large chart narrower than this (a 900 x 700 page's is 480 px) puts its legend lower: at the default's 22 % of a
+# ~180 px plot under it, the legend's first row sat on the x axis title.
+NARROW_LARGE_PX, NARROW_LEGEND_Y = 640, -0.34
 
 
 def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figure | None:
@@ -76,6 +79,16 @@ def large_size(client: viser.ClientHandle) -> dict[str, float]:
     # a 480 px window on a 900 x 700 page had a 200 px empty band under the chart.
     fit = round(LARGE_ASPECT * (width - LARGE_PAD)) + LARGE_CHROME
     return {"width": width, "height": float(min(760, max(400, h - 48), fit))}
+
+
+def large_figure(fig: go.Figure, chars: int) -> go.Figure:
+    """The large window's copy of the chart: its title broken into lines of ``chars`` characters and, in a narrow
+    window, its legend lower."""
+    out = with_title_wrapped(fig, chars)
+    if chars * PX_PER_TITLE_CHAR < NARROW_LARGE_PX:
+        out = go.Figure(out) if out is fig else out
+        out.update_layout(legend_y=NARROW_LEGEND_Y)
+    return out
 
 
 def passed_on(sv: StudyView) -> int | None:
@@ -178,7 +191,7 @@ class ParetoPanel:
             self._close_large()
             return
         for cid, (_, large, chars) in list(self._large.items()):  # a one-line title if it fits (sent now, as JSON)
-            if not write(large, "figure", with_title_wrapped(fig, chars)):
+            if not write(large, "figure", large_figure(fig, chars)):
                 self._large.pop(cid, None)
         # Then the side panel's lines, in place: a copy per redraw cost as much as building the chart.
         self.plot.figure = compact_3d(with_title_wrapped(fig, PANEL_TITLE_CHARS, copy=False))
@@ -213,7 +226,7 @@ class ParetoPanel:
             # Close first: under the chart it fell past the window's bottom edge on a 1000-pixel-high page.
             close = client.gui.add_button("Close", icon=viser.Icon.X)
             fig = pareto_figure(self._sv, self.axes())
-            plot = client.gui.add_plotly(go.Figure() if fig is None else with_title_wrapped(fig, chars),
+            plot = client.gui.add_plotly(go.Figure() if fig is None else large_figure(fig, chars),
                                          aspect=LARGE_ASPECT, config=CONFIG)
         close.on_click(lambda _: self._close_large(client.client_id))
         panel.float(x=-24, y=24, **size)  # right edge by the side panel: never over it
