@@ -76,6 +76,28 @@ def test_crank_margin_sign_matches_grashof(r1, extra) -> None:
     assert (sol.crank_margin[0] > 0) == (s + ln < p + q)
 
 
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_a_crank_that_stops_between_two_samples_is_not_feasible(backend: str) -> None:
+    # Crank 50 about A, D at 100: |BD| reaches 150 at phi = pi, which a coupler + rocker of 149.999 cannot span.
+    # With the phase g = 0.5 deg no sample of 360 falls at phi = pi, so every sample closes: the exact crank margin
+    # (-0.001 mm) is the violation, small and continuous, where it read 0 (feasible).
+    g = np.deg2rad(0.5)
+    for short, viol in ((0.0, 0.0), (1e-3, 1e-3), (1e-4, 1e-4)):
+        sol = solve(FOURBAR, design(g=g, r1=50.0, r2=75.0, r3=75.0 - short, r4=100.0), 360, backend=backend)
+        assert sol.valid.all()
+        assert sol.violation[0] == pytest.approx(viol, rel=1e-6, abs=1e-12)
+        assert sol.violation[0] == pytest.approx(max(0.0, -sol.crank_margin[0]), abs=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(30.0, 100.0), st.lists(st.floats(0.0, 300.0), min_size=3, max_size=3), st.floats(0.0, 6.28))
+def test_a_feasible_four_bar_turns_fully_at_any_phase(r1, extra, g) -> None:
+    r2, r3, r4 = (r1 + e for e in extra)
+    sol = solve(FOURBAR, design(g=g, r1=r1, r2=r2, r3=r3, r4=r4), 36, backend="numpy")
+    if sol.violation[0] == 0.0:
+        assert sol.crank_margin[0] >= 0.0
+
+
 def test_unassemblable_is_nan_with_violation_equal_to_the_shortfall() -> None:
     # With b = g = 0 the sample theta = pi stretches B-D to r1 + r4 = 250; a coupler + rocker of
     # 250 - t leaves a shortfall of exactly t there.

@@ -42,9 +42,10 @@ class Solution:
         leg, dleg: ``(pop, n_samples, 2)`` tracked point in the leg frame and d/dtheta.
         (djoints, dpoint and dleg are None when solved with ``derivatives=False``.)
         valid: ``(pop, n_samples)`` True where every joint is placed.
-        violation: ``(pop,)`` >= 0; 0 iff the mechanism assembles over every sample, else the
-            sum over dyads of the worst assembly shortfall (mm), plus negative lengths and
-            any coupling violation of the mechanism (RTCLM).
+        violation: ``(pop,)`` >= 0; 0 iff the mechanism assembles over every sample and its crank
+            turns fully, else the sum over dyads of the worst assembly shortfall (mm), plus negative
+            lengths and any coupling violation of the mechanism (RTCLM); where every sample closes
+            but the crank cannot turn fully (its loop opens between two samples), ``-crank_margin``.
         dyad_margin: ``(pop, n_dyads)`` min over the cycle of each dyad's distance from its
             singular (fully stretched or folded) configuration, ``min(d - |l1-l2|, l1+l2-d)`` (mm).
         mu_min, mu_max: ``(pop, n_dyads)`` range of each dyad's transmission angle (rad) over the
@@ -188,6 +189,11 @@ def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.b
         violation = shortfall + np.nan_to_num(neg, nan=0.0) + np.nan_to_num(prep.derive_violation, nan=np.inf)
     # Degenerate geometry (coincident points of an attachment) leaves NaN with no shortfall.
     violation = np.where(broken & (violation == 0.0), 1e-9, violation)
+    # A crank loop that opens only between two samples (the crank cannot turn fully, every sample closes): its exact
+    # shortfall. Only where the samples saw none, so every other violation keeps its value.
+    crank = _crank_margin(prep.program.ops, prep.vals)
+    with np.errstate(invalid="ignore"):
+        violation = np.where((violation == 0.0) & (crank < 0.0), -crank, violation)
     violation[prep.bad | np.isnan(violation)] = np.inf
     return violation
 
