@@ -68,6 +68,31 @@ def test_extra_landing_roots_cost_their_lobe_and_vanish_continuously() -> None:
     assert viol[2] < 0.5  # 0.007 past the threshold: a small defect, a small value
 
 
+def dwell(n: int = 360, frac: float = 0.6, noise: float = 0.0) -> np.ndarray:
+    """A foot flat on the ground for ``frac`` of the cycle (longer than T/2: f = 0 over an interval), then a
+    cycloidal arch 60 mm high back; ``noise`` (mm) on its heights."""
+    t = np.arange(n) / n
+    s = np.clip((t - frac) / (1.0 - frac), 0.0, 1.0)
+    x = np.where(t < frac, 300.0 * t / frac, 300.0 * (1.0 - s + np.sin(2.0 * np.pi * s) / (2.0 * np.pi)))
+    y = np.where(t < frac, 0.0, 30.0 * (1.0 - np.cos(2.0 * np.pi * s)))
+    y = y + noise * np.random.default_rng(1).standard_normal(n)
+    return np.stack([x, y], -1)[None]
+
+
+@pytest.mark.parametrize("kernel", [False, True])
+def test_a_dwell_is_judged_on_its_shape_not_on_round_off(kernel: bool) -> None:
+    # A flat stance longer than half the cycle changes sign on noise alone: 1e-13 mm of it made the path infeasible
+    # (30 "landings"). Round-off lobes are not landings; a real bump still costs its size.
+    exact = evaluate_paths(dwell(), dwell(), kernel=kernel)
+    for noise, feasible in ((1e-13, True), (1e-11, True), (1e-6, False)):
+        p = dwell(noise=noise)
+        ev = evaluate_paths(p, p, kernel=kernel)
+        assert bool(ev.feasible[0]) == feasible, noise
+        if feasible:  # where the landing sits on the flat is a matter of noise: within a micrometre
+            assert ev.l_s[0] == pytest.approx(exact.l_s[0], abs=1e-3) and ev.h_m[0] == pytest.approx(exact.h_m[0])
+    assert exact.feasible[0] and exact.l_s[0] == pytest.approx(250.0, rel=1e-5)
+
+
 def test_a_figure_eight_is_infeasible() -> None:
     th = 2.0 * np.pi * np.arange(360) / 360
     p = np.stack([150 * np.sin(th), 60 * np.sin(2 * th) + 20 * np.sin(th)], -1)

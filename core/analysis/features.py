@@ -9,7 +9,7 @@ Rules where the paper and spec are silent (see ``docs/metrics.md``):
 - landing candidates are the sign changes of ``f(t) = y(t) - y(t + T/2)``; among all of them the
   one whose half-cycle ``[t1, t1 + T/2]`` has the lowest mean height is the landing t1;
 - several landing-root pairs: ``root_violation`` = the summed peak ``|f|`` (mm) of every lobe of
-  ``|f|`` but the largest (zero when the extra roots merge away);
+  ``|f|`` but the largest, less ``LOBE_TOL`` each (zero when the extra roots merge away, or are round-off);
 - no root (``f`` identically zero, a path folded on itself): ``root_violation = 1`` mm;
 - the turning number of the sampled polygon must be +-1 (a simple closed curve); otherwise the
   path self-intersects (``turning`` reports it; the constraint is in ``core.analysis.metrics``);
@@ -29,6 +29,9 @@ F64 = NDArray[np.float64]
 FEATURE_NAMES = ("t1", "t2", "t3", "t4", "t5", "t6", "t7", "t8")
 DEFAULT_PERIOD = 2.0  # s; spec §4: the paper's "2 Hz" means omega = pi rad/s
 NO_ROOT_VIOLATION = 1.0  # mm, for a finite path whose f(t) vanishes identically
+# mm: an extra lobe of |f| this small is round-off, not a second landing. A dwell (f = 0 over part of the cycle, a
+# flat stance longer than T/2) changes sign on noise alone: 1e-13 mm of it made such a path infeasible.
+LOBE_TOL = 1e-9
 ROOT_ITERATIONS = 6  # safeguarded Newton steps per landing root
 
 
@@ -226,12 +229,13 @@ def _landing(y: F64, f: F64, df: F64) -> tuple[F64, NDArray[np.int64], F64]:
     many = n_roots > 2
     if many.any():
         a = np.abs(f[many])
-        lab = np.cumsum(cross[many], 1) % n_roots[many][:, None]
+        # Sample i belongs to the lobe after the crossings before it (a crossing at i is between i and i + 1).
+        lab = (np.cumsum(cross[many], 1) - cross[many]) % n_roots[many][:, None]
         rows = np.arange(a.shape[0])[:, None] * n + lab
         peak = np.zeros(a.shape[0] * n)
         np.maximum.at(peak, rows.ravel(), a.ravel())
         peak = np.sort(peak.reshape(-1, n), 1)
-        viol[many] = 0.5 * (peak.sum(1) - peak[:, -1] - peak[:, -2])
+        viol[many] = 0.5 * np.maximum(peak[:, :-2] - LOBE_TOL, 0.0).sum(1)
     viol[n_roots == 0] = NO_ROOT_VIOLATION
     return q1 % n, n_roots, viol
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from core.analysis.features import LOBE_TOL, NO_ROOT_VIOLATION
 from core.analysis.path_math import _herm, _herm_w, _parab, _rel, _union_psi, _vertex, _weights, _wrap
 
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
-NO_ROOT_VIOLATION = 1.0
 ROOT_ITERATIONS = 6
 
 # Output columns of the scalar block ``S`` (pop, N_SCALARS).
@@ -137,12 +137,13 @@ def _one(px, py, dpx, dpy, qx, qy, T, period, a, b, offs2, ph2, offs4, ph4, W, i
             peak[i] = 0.0
         cnt = 0
         for i in range(n):
+            lab = cnt % n_roots  # sample i's lobe: a crossing at i is between i and i + 1
+            peak[lab] = max(peak[lab], abs(f[i]))
             if (f[i] >= 0.0) != (f[_wrap(i + 1, n)] >= 0.0):
                 cnt += 1
-            lab = cnt % n_roots
-            peak[lab] = max(peak[lab], abs(f[i]))
         srt = np.sort(peak)
-        viol = 0.5 * (srt.sum() - srt[-1] - srt[-2])
+        for k in range(len(srt) - 2):
+            viol += 0.5 * max(srt[k] - LOBE_TOL, 0.0)
     S[N_ROOTS] = n_roots
     S[ROOT_VIOL] = viol
     q1 = (best_i + best_u) % n
