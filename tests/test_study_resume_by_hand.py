@@ -90,3 +90,30 @@ def test_a_resumed_study_runs_only_what_is_not_done_and_counts_it(tmp_path: Path
         assert {r["key"]: r["attempts"] for r in store.rows()}["subtask2/spea2/2"] == 2
     finally:
         store.close()
+
+
+def metric_task(cell: dict[str, Any]) -> dict[str, Any]:
+    """A finished cell whose evaluations are its budget (what the report would pool)."""
+    budget = int(cell["case"]["budget"])
+    return {"key": cell["key"], "case": cell["case"]["name"], "algorithm": cell["algorithm"]["name"],
+            "seed": cell["seed"], "status": "done", "result": "{}", "task_time": 0.0,
+            "metrics": {"front": [[0.0, 1.0], [1.0, 0.0]], "objectives": ["f1", "f2"], "feasible_ratio": 1.0,
+                        "pick": {"mse": float(cell["seed"])}, "pick_feasible": True, "params": {},
+                        "wall_time": 1.0, "n_eval": budget}}
+
+
+def test_the_report_covers_the_study_as_it_stands_not_seeds_or_budgets_it_dropped(tmp_path: Path,
+                                                                                  client: _Client) -> None:
+    from core.study.report import write_report
+
+    out = str(tmp_path / "out")
+    (tmp_path / "s.toml").write_text(STUDY.replace('seeds = "1..3"', 'seeds = "1..5"'))
+    runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=metric_task)
+    # Fewer seeds and a larger budget, the changed cells run again: seeds 4 and 5 stay in the store at budget 100.
+    (tmp_path / "s.toml").write_text(STUDY.replace("budget = 100", "budget = 150"))
+    s = runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=metric_task, rerun_changed=True)
+    assert (s.total, s.ran) == (6, 6)
+    md = write_report(out)[0].read_text()
+    assert "Runs: nsga2 3, spea2 3" in md
+    assert "| evaluations | 150 [0] | 150 [0] ≈ |" in md  # not 150 pooled with the dropped seeds' 100
+    assert "Left out: 4 run(s)" in md

@@ -48,6 +48,9 @@ class Rows:
     def rows(self) -> list[dict[str, Any]]:
         return self._rows
 
+    def meta(self, name: str, default: Any = None) -> Any:
+        return default  # a study without meta: every row is one of its cells
+
 
 def run_row(algorithm: str, seed: int, mse: float, front: list[list[float]], feasible: bool = True) -> dict[str, Any]:
     return {"key": f"c/{algorithm}/{seed}", "case": "c", "algorithm": algorithm, "seed": seed, "status": "done",

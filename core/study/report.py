@@ -19,7 +19,7 @@ import numpy as np
 
 from core.formats.files import atomic_write
 from core.study.stats import HIGHER_IS_BETTER, run_values, summary, verdict
-from core.study.store import Store
+from core.study.store import Store, current_rows
 
 FRONT_METRICS = ("hv", "igd_plus", "feasible_ratio")
 PICK_ORDER = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
@@ -47,8 +47,12 @@ def best_metric(values: list[dict[str, float]], wanted: str) -> str | None:
 
 def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str, str], reference: str,
                 best: str) -> dict[str, Any]:
-    """Everything the report shows for one case, as plain data."""
-    rows = [r for r in store.rows() if r["case"] == case and r["algorithm"] in algorithms]
+    """Everything the report shows for one case, as plain data: the study's current cells only
+    (``current_rows``), with how many of the case's other rows were left out."""
+    every = [r for r in store.rows() if r["case"] == case]
+    current = current_rows(store.meta("study"), every)
+    rows = [r for r in current if r["algorithm"] in algorithms]
+    left_out = len(every) - len(current)
     pairs = run_values(rows)
     for _, v in pairs:
         if "dh6" in v and "dh4" in v:
@@ -82,7 +86,8 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
     failed = [{"key": r["key"], "error": r["error"]} for r in rows if r["status"] != "done"]
     values = {a: {m: [v.get(m, math.nan) for _, v in per_alg[a]] for m in metrics} for a in algorithms}
     return {"case": case, "metrics": metrics, "table": table, "best_by": key, "best": best_rows, "fronts": fronts,
-            "failed": failed, "values": values, "labels": labels, "reference": reference, "algorithms": algorithms}
+            "failed": failed, "values": values, "labels": labels, "reference": reference, "algorithms": algorithms,
+            "left_out": left_out}
 
 
 def _cell(text: str) -> str:
@@ -110,6 +115,10 @@ def markdown(name: str, cases: list[dict[str, Any]]) -> str:
         n = {a: c["table"][c["metrics"][0]][a]["n"] if c["metrics"] else 0 for a in algs}
         out += ["", "Runs: " + ", ".join(f"{labels.get(a, a)} {n[a]}" for a in algs) + f"; reference "
                 f"{labels.get(c['reference'], c['reference'])}.", ""]
+        if c.get("left_out"):
+            out += [f"Left out: {c['left_out']} run(s) in this directory that the study no longer lists (other "
+                    "seeds, algorithms or settings; `clm study` with `--rerun-changed` runs changed cells again).",
+                    ""]
         if c["best"]:
             out += [f"Best picked design per algorithm (smallest {c['best_by']}):", ""]
             for a, b in c["best"].items():

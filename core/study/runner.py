@@ -19,7 +19,7 @@ from typing import Any, TextIO
 from core.formats.study import Study, settings_change
 from core.optimize.workers import connect
 from core.study.cell import check_cells, run_cell
-from core.study.store import Store
+from core.study.store import Store, settings_digest
 
 
 class StudyChanged(ValueError):
@@ -119,7 +119,9 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
                                  "algorithms": [a.name for a in study.algorithms],
                                  "labels": {a.name: a.title for a in study.algorithms},
                                  "cases": [c.name for c in study.cases], "seeds": list(study.seeds),
-                                 "best": {c.name: c.best for c in study.cases}})
+                                 "best": {c.name: c.best for c in study.cases},
+                                 # The cells the report covers: rows of removed seeds or old settings are not.
+                                 "cells": {c["key"]: settings_digest(c["settings"]) for c in cells}})
         finished = set(kept) - {c["key"] for c in changed}
         waiting = [dict(c, threads=1) for c in cells if c["key"] not in finished]
         skipped = len(cells) - len(waiting)  # finished before this invocation (not those ``limit`` leaves waiting)

@@ -6,6 +6,7 @@ before its row), so a crash or Ctrl-C loses nothing finished, and a row never na
 
 from __future__ import annotations
 
+import hashlib
 import json
 import sqlite3
 from pathlib import Path
@@ -29,6 +30,24 @@ CREATE TABLE IF NOT EXISTS runs (
 );
 CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
+
+
+def settings_digest(settings: str) -> str:
+    """A cell's settings (a JSON text, which holds its case config's contents) in 16 hex digits."""
+    return hashlib.sha256(settings.encode("utf-8")).hexdigest()[:16]
+
+
+def current_rows(meta: dict[str, Any] | None, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The rows of the study's cells as the study file last set them (``meta["cells"]``: key -> settings
+    digest): not the cells since removed (seeds, algorithms, cases), nor those run with other settings and not run
+    again. A study begun before ``cells`` was kept: the rows of its listed seeds."""
+    meta = meta or {}
+    cells = meta.get("cells")
+    if cells is not None:
+        return [r for r in rows if r["key"] in cells
+                and (r.get("settings") is None or settings_digest(r["settings"]) == cells[r["key"]])]
+    seeds = set(meta.get("seeds", [r["seed"] for r in rows]))
+    return [r for r in rows if r["seed"] in seeds]
 
 
 class Store:
@@ -80,10 +99,10 @@ class Store:
     def rows(self) -> list[dict[str, Any]]:
         """Every row, ordered by case, algorithm and seed, metrics decoded."""
         cur = self.db.execute(
-            "SELECT key, case_name, algorithm, seed, status, error, metrics, result_path, task_time, attempts "
-            "FROM runs ORDER BY case_name, algorithm, seed")
+            "SELECT key, case_name, algorithm, seed, status, error, metrics, result_path, task_time, attempts, "
+            "settings FROM runs ORDER BY case_name, algorithm, seed")
         names = ("key", "case", "algorithm", "seed", "status", "error", "metrics", "result_path", "task_time",
-                 "attempts")
+                 "attempts", "settings")
         out = []
         for row in cur:
             d = dict(zip(names, row, strict=True))
