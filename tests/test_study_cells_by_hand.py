@@ -100,3 +100,17 @@ def test_measure_keeps_the_final_pick_its_feasibility_and_parameters() -> None:
     m = measure(run)
     assert m["pick"] == {"S": 55.0, "I": 9.0}  # the study's pick metrics only
     assert m["pick_feasible"] is False and m["params"] == {"r1": 11.0}
+
+
+def test_the_warm_up_runs_each_algorithm_and_each_case_once_with_a_few_generations() -> None:
+    from core.study.cell import warm_cells
+
+    cells = [{"key": f"{k}/{a}/{s}", "seed": s, "algorithm": {"name": a, "pop_size": p},
+              "case": {"name": k, "budget": 20000}}
+             for k in ("s1", "s2", "s3") for a, p in (("nsga2", 200), ("imtcmo", 100)) for s in (1, 2)]
+    warm = warm_cells(cells)
+    # Every algorithm on the first case and the first algorithm on every case: 2 + 3 - 1 cells, not 12.
+    assert [(c["case"]["name"], c["algorithm"]["name"]) for c in warm] == \
+        [("s1", "nsga2"), ("s1", "imtcmo"), ("s2", "nsga2"), ("s3", "nsga2")]
+    assert [c["case"]["budget"] for c in warm] == [601, 301, 601, 601]  # a few generations, whatever N per one
+    assert cells[0]["case"]["budget"] == 20000 and warm_cells([]) == []  # the study's own cells untouched

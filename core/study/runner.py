@@ -18,7 +18,7 @@ from typing import Any, TextIO
 
 from core.formats.study import Study, settings_change
 from core.optimize.workers import connect
-from core.study.cell import check_cells, run_cell
+from core.study.cell import check_cells, run_cell, warm_cells, warm_up
 from core.study.store import Store, settings_digest
 
 
@@ -130,6 +130,11 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
         failed = 0
         if todo:
             with client_for(scheduler, workers) as client:
+                if task is run_cell:  # every worker loads the kernels before any cell is timed
+                    try:
+                        client.run(warm_up, warm_cells(todo))
+                    except Exception:  # noqa: BLE001 - a worker lost here is the cells' to report, not the warm-up's
+                        pass
                 futures = client.map(task, todo, pure=False, key=[f"cell-{c['key']}-{os.getpid()}" for c in todo])
                 by_key = {f.key: c for f, c in zip(futures, todo, strict=True)}
                 for fut in as_completed(futures):
