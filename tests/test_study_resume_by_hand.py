@@ -117,3 +117,33 @@ def test_the_report_covers_the_study_as_it_stands_not_seeds_or_budgets_it_droppe
     assert "Runs: nsga2 3, spea2 3" in md
     assert "| evaluations | 150 [0] | 150 [0] ≈ |" in md  # not 150 pooled with the dropped seeds' 100
     assert "Left out: 4 run(s)" in md
+
+
+def test_a_second_study_into_the_same_directory_is_refused_while_the_first_runs(tmp_path: Path,
+                                                                                 client: _Client) -> None:
+    from core.study.store import study_lock
+
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "out"
+    with study_lock(out):  # the first clm study, still running
+        with pytest.raises(ValueError, match="another clm study is running into it"):
+            runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
+    assert client.sent == []
+    runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)  # once it has ended
+    assert len(client.sent) == 6
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage"])
+def test_a_damaged_study_database_is_one_line_and_exit_2(tmp_path: Path, client: _Client, damage: str,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    from core.cli import main
+
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "out"
+    runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
+    db = out / "study.sqlite"
+    db.write_bytes(db.read_bytes()[:3000] if damage == "truncate" else bytes(range(256)) * 64)
+    for argv in (["study", str(tmp_path / "s.toml"), "--out", str(out), "--quiet"], ["study", "report", str(out)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "study.sqlite: not a usable study database" in err, err

@@ -46,6 +46,17 @@ def _check_out(out: str | None) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
+    import sqlite3
+
+    try:
+        return _run(args)
+    except sqlite3.Error as e:  # a damaged, truncated or read-only study.sqlite
+        where = args.args[1] if args.args[0] == "report" and len(args.args) == 2 else args.out
+        raise CLIError(f"{Path(str(where)) / 'study.sqlite'}: not a usable study database ({e}); the finished runs' "
+                       "results are in runs/ beside it") from None
+
+
+def _run(args: argparse.Namespace) -> int:
     from core.study.report import write_report
 
     if args.args[0] == "report":

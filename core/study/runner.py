@@ -19,7 +19,7 @@ from typing import Any, TextIO
 from core.formats.study import Study, settings_change
 from core.optimize.workers import connect
 from core.study.cell import check_cells, run_cell, warm_cells, warm_up
-from core.study.store import Store, settings_digest
+from core.study.store import Store, settings_digest, study_lock
 
 
 class StudyChanged(ValueError):
@@ -56,9 +56,20 @@ def client_for(scheduler: str | None, workers: int | None) -> Iterator[Any]:
             client.close()
         return
     n = workers or default_workers()
+    # CRITICAL: a cell's failure comes back as data, and a worker's death through its futures; the workers'
+    # own ERROR lines (heartbeats to a cluster that is closing) only buried the one line that says what happened.
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
+        client.run(ignore_sigint)
         yield client
+
+
+def ignore_sigint() -> None:
+    """In a local worker: Ctrl-C reaches the whole process group, and the client stops the cluster itself (each
+    worker printed a KeyboardInterrupt traceback, ~70 lines in all)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 class Progress:
@@ -100,11 +111,18 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
         rerun_changed: run again the finished cells whose settings changed since (budget, population, options,
             the case config's contents); without it such a study is refused (StudyChanged), never reused.
     """
-    from distributed import as_completed
-
     t0 = time.perf_counter()
     check_cells(study)
     cells = study.cells()
+    with study_lock(out):
+        return _run(study, cells, out, scheduler, workers, stream, task, limit, rerun_changed, t0)
+
+
+def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | None, workers: int | None,
+         stream: TextIO | None, task: Callable[[dict[str, Any]], dict[str, Any]], limit: int | None,
+         rerun_changed: bool, t0: float) -> Summary:
+    from distributed import as_completed
+
     store = Store(out)
     try:
         kept = store.finished()

@@ -6,9 +6,13 @@ before its row), so a crash or Ctrl-C loses nothing finished, and a row never na
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
+import os
 import sqlite3
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +34,31 @@ CREATE TABLE IF NOT EXISTS runs (
 );
 CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
+
+
+@contextmanager
+def study_lock(directory: str | Path) -> Iterator[None]:
+    """Hold ``DIR/.lock`` while a study runs into ``DIR``: a second ``clm study`` on the same directory is
+    refused (it ran every cell again beside the first, doubling the cost and the attempts counted). The lock
+    goes with the process, however it ends."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    with open(d / ".lock", "a+") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            pid = f.read().strip() or "?"
+            raise ValueError(f"{d}: another clm study is running into it (process {pid}); wait for it to end, or "
+                             "choose another --out") from None
+        f.seek(0)
+        f.truncate()
+        f.write(str(os.getpid()))
+        f.flush()
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def settings_digest(settings: str) -> str:
