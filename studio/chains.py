@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from core.kinematics.model import Mechanism
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
 from core.optimize.box import SUBTASK_STEPS
-from core.optimize.problem import ProblemSpec, make_problem, problem_names
+from core.optimize.problem import Constraint, ProblemSpec, make_problem, problem_names
 from core.optimize.stage import StageSpec
 from studio.target import TargetSpec
 
@@ -33,7 +33,10 @@ class ChainStage:
         title: what the designer reads (``Subtask 1 -> X1``).
         s, d: box rule around the previous pick (spec §6); ``s = None``: global bounds.
         stop_below: early stop once a feasible member has every objective <= these (None: off).
-        pick: automatic pick when the stage completes (``StageResult.choose``); the designer can change it.
+        pick: automatic pick when the stage completes (``core.optimize.lineage.auto_pick``, as ``clm design``
+            picks: among the members that meet the next stage's constraints); the designer can change it.
+        pick_where: limits that narrow the automatic pick first, if any member meets them (a config's
+            ``pick_where``).
         pop_size, n_gen: default population and generations offered in the panel.
     """
 
@@ -45,17 +48,23 @@ class ChainStage:
     pick: str = "knee"
     pop_size: int = 40
     n_gen: int = 30
+    pick_where: tuple[Constraint, ...] = ()
 
 
 def _step(k: int) -> tuple[float, float]:
     return SUBTASK_STEPS[k]
 
 
+# Populations, generations and picks of assets/configs/stephenson1_cycloid.toml (one chain of it: the config runs
+# twelve, see docs/studio.md): at 40 members and 30 generations a stage took ~0.2 s and X0 -> X3 ended on a design
+# worse than the paper's X3 on every metric; at these, 2-3 s in all.
 SIX_BAR = (
-    ChainStage("predesign", "Predesign → X0", None, 0.0, pop_size=100, n_gen=40),
-    ChainStage("subtask1", "Subtask 1 → X1 (shape, position)", *_step(1)),
-    ChainStage("subtask2", "Subtask 2 → X2 (h_s, I)", *_step(2), pick="best:h_s"),
-    ChainStage("subtask3", "Subtask 3 → X3 (fine-tuning)", *_step(3), pick="best:I"),
+    ChainStage("predesign", "Predesign → X0", None, 0.0, pick="best:f1", pop_size=200, n_gen=60),
+    ChainStage("subtask1", "Subtask 1 → X1 (shape, position)", *_step(1), pick="best:f1", pop_size=200, n_gen=30),
+    ChainStage("subtask2", "Subtask 2 → X2 (h_s, I)", *_step(2), pick="best:h_s", pop_size=200, n_gen=100,
+               pick_where=(Constraint("I", upper=1.0),)),
+    ChainStage("subtask3", "Subtask 3 → X3 (fine-tuning)", *_step(3), pick="best:S", pop_size=200, n_gen=120,
+               pick_where=(Constraint("I", upper=0.44),)),
 )
 # As assets/configs/rtclm_case*.toml (``clm design``): both subtasks over the global bounds (subtask 2
 # holds subtask 1's h6 as a constraint and starts from its pick, seeded into the population).
@@ -165,8 +174,8 @@ def stage_spec(stage: ChainStage, settings: RunSettings, target: TargetSpec) -> 
     if stop is not None and len(stop) != problem.n_obj:
         stop = None  # another problem in this slot: the chain's early-stop rule does not apply
     pick = stage.pick
-    if pick.startswith("best:") and pick[5:] not in problem.objectives:
-        pick = "knee"
+    if pick.startswith("best:") and pick[5:] not in problem.objectives and settings.problem != stage.name:
+        pick = "knee"  # another problem in this slot: the stage's rule names a metric it may not report
     algorithm = AlgorithmSpec(settings.algorithm, settings.pop_size)
     return StageSpec(stage.name, problem, s=stage.s, d=stage.d, algorithm=algorithm, n_gen=settings.n_gen,
                      seed=settings.seed, stop_below=stop, pick=pick)

@@ -12,7 +12,7 @@ from typing import Any
 
 from core.optimize.result import encode
 from core.optimize.stage import Progress
-from studio.study import RunPlan, RunStatus, Study, done_at, status_text
+from studio.study import RunPlan, RunStatus, Study, done_at, status_text, studio_pick
 
 LIVE_PERIOD = 0.25
 """Seconds between the live results a run records and announces (the Pareto chart redraws every 0.5 s). A result
@@ -105,7 +105,7 @@ class Runner:
                 stage.cancel()
             result = stage.result()
             if result.status in ("complete", "stopped") and result.pop > 0:
-                result = result.with_pick(plan.spec.pick)
+                result = result.with_pick(studio_pick(result, plan))
             with self._lock:
                 pipe.record(k, result)
             message = status_text(result)

@@ -33,6 +33,7 @@ import numpy as np
 from core.kinematics.design import Design
 from core.optimize.algorithms import make_algorithm
 from core.optimize.box import Box
+from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
 from core.optimize.stage import Progress, StageSpec
@@ -107,6 +108,18 @@ class RunPlan:
     spec: StageSpec
     stage: ChainStage
     target: TargetSpec
+
+
+def studio_pick(result: StageResult, plan: RunPlan) -> int:
+    """A finished run's automatic pick, as ``clm design`` makes it: the stage's rule among the members that meet the
+    next stage's constraints, narrowed by its ``pick_where`` (the limits on metrics this problem reports)."""
+    pipe, k = plan.pipeline, plan.index
+    nxt = pipe.stages[k + 1].problem if k + 1 < pipe.n_stages else None
+    where = tuple(c for c in plan.stage.pick_where if c.metric in result.metrics)
+    try:
+        return auto_pick(result, plan.spec.pick, plan.spec.stop_below, nxt, where)
+    except ValueError:  # a rule naming a metric another problem in this slot does not report
+        return result.choose("knee")
 
 
 def algorithm_name(settings: object) -> str:

@@ -125,14 +125,22 @@ def run_stage(config: DesignConfig, pipe: Pipeline, k: int, pick: int | None, se
         # The next stage's absolute thresholds steer the pick (relative ones hold for every candidate).
         s = config.stages[k + 1]
         nxt = make_problem(s.problem, **placeholder(s.options, absolute=True))
-    mask = next_feasible(res, nxt)
-    if res.status == "stopped" and spec.stop_below is not None:
-        # The stage stopped because members met its thresholds: pick among those.
-        met = res.feasible & (res.F <= np.asarray(spec.stop_below)).all(axis=1)
-        mask = mask & met if (mask & met).any() else met
-    res = res.with_pick(choose(res, stage_cfg.pick, mask, stage_cfg.pick_where))
+    res = res.with_pick(auto_pick(res, stage_cfg.pick, spec.stop_below, nxt, stage_cfg.pick_where))
     pipe.record(k, res)
     return res
+
+
+def auto_pick(res: StageResult, rule: PickRule, stop_below: tuple[float, ...] | None, nxt: ProblemSpec | None,
+              where: tuple[Constraint, ...] = ()) -> int:
+    """A finished stage's automatic pick (``clm design``'s and the studio's): ``rule`` among the members that also
+    meet the next stage's constraints (``nxt``), narrowed by ``where`` (see :func:`choose`); after an early stop,
+    among the members that met its thresholds."""
+    mask = next_feasible(res, nxt)
+    if res.status == "stopped" and stop_below is not None:
+        # The stage stopped because members met its thresholds: pick among those.
+        met = res.feasible & (res.F <= np.asarray(stop_below)).all(axis=1)
+        mask = mask & met if (mask & met).any() else met
+    return choose(res, rule, mask, where)
 
 
 class _Chain:
