@@ -253,7 +253,13 @@ def change_summary(a: DesignView, b: DesignView) -> str:
     names = [n for n, x, y in zip(a.design.mechanism.param_names, a.design.params[0], b.design.params[0],
                                   strict=True) if x != y]
     if names and not parts:
-        parts.append(", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else ""))
+        # A few edits by name; a run's pick or a restored branch changes most of them ("b, g, x_a and 13 more").
+        if len(names) == len(a.design.mechanism.param_names) and len(names) > 5:
+            parts.append("design")
+        elif len(names) > 5:
+            parts.append(f"{len(names)} parameters")
+        else:
+            parts.append(", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else ""))
     if a.design.output != b.design.output:
         parts.append("output stage")
     if a.target != b.target:
@@ -400,8 +406,8 @@ class Session:
             sel = step.selection if step.selection is not None and self.study.holds(step.selection) else None
             if sel is not None and (sel.picks, sel.next_stage) != (now.picks, now.next_stage):
                 text = " · ".join(t for t in (text, "pass-on") if t)
-            elif not text and sel is not None and sel.shown != now.shown:
-                text = "pick"
+            elif sel is not None and sel.shown != now.shown and not text.startswith("topology"):
+                text = "pick"  # another member shown: that is what Undo takes back, not its parameters or preset
             return text or "the same design"
 
     # Design -------------------------------------------------------------------------------

@@ -130,6 +130,15 @@ def test_the_change_summary_names_what_differs() -> None:
     assert change_summary(a, s.view) == "r4, r5, r6 and 2 more · target"
     s.load_preset("stephenson1/X1")
     assert change_summary(a, s.view) == "preset → X1 · target"
+    # A run's pick or a restored branch changes most parameters: a count, or the design, not three names of 16.
+    b = Session.default()
+    x0 = b.view
+    for name in ("r4", "r5", "r6", "r7", "r8", "r9"):
+        nudge(b, name, 1.001)
+    assert change_summary(x0, b.view) == "6 parameters"
+    for name in b.view.design.mechanism.param_names:
+        b.set_param(name, b.view.values[name] + 0.01)
+    assert change_summary(x0, b.view) == "design"
 
 
 def test_the_mechanism_panels_undo_and_redo_follow_the_history_and_rest_during_a_run() -> None:
@@ -214,7 +223,7 @@ def test_undo_takes_a_pass_on_back_and_then_the_pick_and_the_panels_agree() -> N
         other = next(i for i in range(r.pop) if i != first and r.feasible[i])
         before_pick = s.view
         studio.pick("subtask1", other, None)
-        assert study.shown_member("subtask1") == other and s.change_names("undo") != ""
+        assert study.shown_member("subtask1") == other and s.change_names("undo") == "pick"  # not its parameters
         depth = len(s.undone)
         studio.pick("subtask1", other, None)  # a page echoing the dropdown: no new step (it cleared Redo)
         assert len(s.undone) == depth
