@@ -64,7 +64,8 @@ def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
             db.close()
     except sqlite3.Error as exc:
         raise ValueError(f"{db_path}: not a readable study ({exc})") from None
-    name = json.loads(meta["name"]) if "name" in meta else directory.name
+    study = json.loads(meta["study"]) if "study" in meta else {}  # clm study keeps its name in meta "study"
+    name = study.get("name") if isinstance(study, dict) and isinstance(study.get("name"), str) else directory.name
     for r in rows:
         r["metrics"] = json.loads(r["metrics"]) if r["metrics"] else {}
     return str(name), rows

@@ -668,3 +668,17 @@ def test_the_studies_panel_names_the_folder_it_searched_and_a_missing_report(stu
     (d / "report.html").write_text("<html></html>")
     press(studio.studies.scan, c)
     assert studio.studies.summary.content.endswith(f"Report: `{d / 'report.html'}`.")
+
+
+def test_the_algorithm_list_offers_the_papers_seven_first() -> None:
+    import studio.app as app
+    from core.optimize.algorithms import ALGORITHMS
+    from studio.panels.stages import PAPER_ALGORITHMS
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        options = tuple(studio.stages.algorithm.options)
+        # On a 720 px screen the list ran past the bottom edge with three of the paper's seven below it.
+        assert options[:7] == PAPER_ALGORITHMS and sorted(options) == sorted(ALGORITHMS)
+    finally:
+        studio.close()

@@ -23,18 +23,18 @@ TINY = tiny_study("nsga2", "cmoes")
 def studies(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("runs")
     (root / "tiny.toml").write_text(TINY)
-    run_study(load_study(root / "tiny.toml"), str(root / "tiny"), workers=1, stream=None)
+    run_study(load_study(root / "tiny.toml"), str(root / "tiny_dir"), workers=1, stream=None)
     (root / "not-a-study").mkdir()
     return root
 
 
 def test_studies_are_found_and_read_without_writing(studies):
     dirs = find_studies(studies)
-    assert [d.name for d in dirs] == ["tiny"]
-    before = sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny").iterdir())
+    assert [d.name for d in dirs] == ["tiny_dir"]
+    before = sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny_dir").iterdir())
     name, rows = study_rows(dirs[0])
-    assert name == "tiny" and len(rows) == 4 and {r["status"] for r in rows} == {"done"}
-    assert sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny").iterdir()) == before
+    assert name == "tiny" and len(rows) == 4 and {r["status"] for r in rows} == {"done"}  # the study's, not its folder's
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny_dir").iterdir()) == before
     runs = finished_runs(rows)
     assert {r.algorithm for r in runs} == {"nsga2", "cmoes"} and all("mse" in r.metrics for r in runs)
     fig = box_figure(runs, "subtask2", "mse")
@@ -47,10 +47,10 @@ def test_studies_are_found_and_read_without_writing(studies):
 
 
 def test_a_runs_picked_design_comes_back_exactly(studies):
-    _, rows = study_rows(studies / "tiny")
+    _, rows = study_rows(studies / "tiny_dir")
     run = finished_runs(rows)[0]
-    design = picked_design(studies / "tiny", run)
-    data = json.loads((studies / "tiny" / run.result_path).read_text())
+    design = picked_design(studies / "tiny_dir", run)
+    data = json.loads((studies / "tiny_dir" / run.result_path).read_text())
     last = Pipeline.from_dict(data["pipeline"]).results[-1]
     assert np.array_equal(design.params[0], last.X[last.picked])
     assert run.metrics["mse"] == pytest.approx(float(last.metrics["mse"][last.picked]))
@@ -59,4 +59,4 @@ def test_a_runs_picked_design_comes_back_exactly(studies):
 def test_a_run_file_outside_the_study_is_refused(studies):
     bad = StudyRun("subtask2", "nsga2", 1, {}, "../tiny.toml")
     with pytest.raises(ValueError, match="outside the study directory"):
-        picked_design(studies / "tiny", bad)
+        picked_design(studies / "tiny_dir", bad)

@@ -147,3 +147,28 @@ def test_a_damaged_study_database_is_one_line_and_exit_2(tmp_path: Path, client:
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "study.sqlite: not a usable study database" in err, err
+
+
+def test_cells_lost_with_the_scheduler_are_not_failures_and_the_study_says_so(tmp_path: Path,
+                                                                              client: _Client) -> None:
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "out"
+    real_map = client.map
+
+    def map_losing_half(fn: Any, cells: list[dict[str, Any]], pure: bool, key: list[str]) -> list[_Future]:
+        futures = real_map(fn, cells, pure, key)
+        for f in futures[3:]:  # the scheduler died: these never ran (distributed: cancelled, no exception)
+            f.status = "cancelled"
+        return futures
+
+    client.map = map_losing_half  # type: ignore[method-assign]
+    with pytest.raises(ValueError, match=r"the Dask cluster went away: 3 cell\(s\) did not run"):
+        runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
+    store = Store(out)
+    try:
+        assert len(store.rows()) == 3  # no row for a cell that never ran (it read failed, "NoneType: None")
+    finally:
+        store.close()
+    client.map = real_map  # type: ignore[method-assign]
+    s = runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
+    assert (s.skipped, s.ran) == (3, 3)

@@ -85,3 +85,15 @@ def test_a_label_with_a_bar_stays_one_cell_of_the_markdown_table() -> None:
     line = next(x for x in markdown("s", [c]).splitlines() if "h6 dev" in x)
     assert line.startswith(r"| \|h6 dev\| (mm) | 1.5 ")
     assert line.replace(r"\|", "").count("|") == 3  # two cells
+
+
+def test_a_label_cannot_end_the_reports_script_and_run_its_own() -> None:
+    from core.study.report import html_report
+
+    rows = [run_row("a", 1, 4.0, [[0.0, 1.0]]), run_row("a", 2, 3.0, [[1.0, 0.0]])]
+    label = "A</script><script>document.title='pwned'</script>"
+    c = case_report(Rows(rows), "c", ["a"], {"a": label}, "a", "mse")
+    page = html_report("s", markdown("s", [c]), [c])
+    # Inside a script only "</script" ends it: the label's stays data (its "<script>" is then plain text).
+    assert "</script><script>document.title" not in page
+    assert "A<\\/script><script>document.title" in page

@@ -140,7 +140,7 @@ def figures(c: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
                 for a in c["algorithms"]]
         figs.append((f"{c['case']}: {LABELS.get(m, m)}", {"data": data, "layout": {
             "title": {"text": f"{c['case']}: {LABELS.get(m, m)}"}, "showlegend": False, "height": 320,
-            "margin": {"l": 60, "r": 20, "t": 40, "b": 40}}}))
+            "yaxis": {"title": {"text": LABELS.get(m, m)}}, "margin": {"l": 60, "r": 20, "t": 40, "b": 40}}}))
     data = []
     names: list[str] = []
     for a, f in c["fronts"].items():
@@ -167,6 +167,12 @@ def plotly_js() -> str:
     return path.read_text() if path.is_file() else ""
 
 
+def _script_json(value: Any) -> str:
+    """JSON to place inside a ``<script>``: ``</`` escaped, so a label holding ``</script>`` cannot end the script
+    (and run what follows it) in a report made to be shared."""
+    return json.dumps(value).replace("</", "<\\/")
+
+
 def html_report(name: str, md: str, cases: list[dict[str, Any]]) -> str:
     js = plotly_js()
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>Study {html.escape(name)}</title>",
@@ -179,8 +185,8 @@ def html_report(name: str, md: str, cases: list[dict[str, Any]]) -> str:
         for title, fig in figures(c):
             n += 1
             parts.append(f"<div class='fig' id='fig{n}' title='{html.escape(title)}'></div>"
-                         f"<script>Plotly.newPlot('fig{n}', {json.dumps(fig['data'])}, "
-                         f"{json.dumps(fig['layout'])}, {{responsive: true}});</script>")
+                         f"<script>Plotly.newPlot('fig{n}', {_script_json(fig['data'])}, "
+                         f"{_script_json(fig['layout'])}, {{responsive: true}});</script>")
     parts.append(f"<h2>Tables</h2><pre>{html.escape(md)}</pre></body></html>")
     return "\n".join(parts)
 

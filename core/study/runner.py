@@ -46,8 +46,10 @@ def client_for(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     """A Dask client: connected to ``scheduler`` if given, else to a new LocalCluster on 127.0.0.1."""
     from distributed import Client, LocalCluster
 
-    for name in ("distributed", "distributed.worker", "distributed.nanny", "distributed.scheduler"):
-        logging.getLogger(name).setLevel(logging.ERROR)
+    # CRITICAL: a lost scheduler is said in one line (below); its ERROR lines were a 51-line traceback.
+    for name in ("distributed", "distributed.worker", "distributed.nanny", "distributed.scheduler",
+                 "distributed.client"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
     if scheduler:
         client = connect(scheduler)
         try:
@@ -155,8 +157,13 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
                         pass
                 futures = client.map(task, todo, pure=False, key=[f"cell-{c['key']}-{os.getpid()}" for c in todo])
                 by_key = {f.key: c for f, c in zip(futures, todo, strict=True)}
+                lost = 0
                 for fut in as_completed(futures):
                     cell = by_key[fut.key]
+                    if fut.status in ("cancelled", "lost"):  # the scheduler went away: the cell never ran
+                        lost += 1
+                        fut.release()
+                        continue
                     if fut.status == "finished":
                         record = fut.result()
                     else:  # the worker died or the task could not run at all
@@ -168,6 +175,9 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
                     failed += record["status"] != "done"
                     progress.step(record["status"] != "done")
                     fut.release()
+                if lost:
+                    raise ValueError(f"the Dask cluster went away: {lost} cell(s) did not run (the {len(todo) - lost} "
+                                     f"that ended are kept in {out}); run the same command again to resume")
         return Summary(len(cells), skipped, len(todo), failed, time.perf_counter() - t0)
     finally:
         store.close()
