@@ -524,17 +524,19 @@ def test_passing_on_an_infeasible_member_asks_first_and_a_feasible_one_does_not(
     assert asked == ["Pass on an infeasible member of subtask1?"] and used == ["subtask1"]
 
 
-def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760():
+def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760_with_its_chart_whole():
     from studio.panels.pareto import large_size
 
     def client(w: float, h: float):
         return SimpleNamespace(camera=SimpleNamespace(image_width=w, image_height=h))
 
-    assert large_size(client(1920, 1080)) == {"width": 960.0, "height": 760.0}
+    # At most 760 px high, so at most 920 wide: a 960 px chart and its legend ran 28 px past the window's bottom.
+    assert large_size(client(1920, 1080)) == {"width": 920.0, "height": 759.0}
+    assert large_size(client(1232, 672)) == {"width": 732.0, "height": 624.0}  # 1280 x 720: its legend was cut
     assert large_size(client(636, 600)) == {"width": 588.0, "height": 520.0}  # its chart's 0.72 x 556 + 120 px
     assert large_size(client(510, 700)) == {"width": 480.0, "height": 443.0}  # no empty band under the chart
     assert large_size(client(300, 200)) == {"width": 480.0, "height": 400.0}
-    assert large_size(SimpleNamespace()) == {"width": 960.0, "height": 760.0}  # no camera report yet
+    assert large_size(SimpleNamespace()) == {"width": 920.0, "height": 759.0}  # no camera report yet
 
 
 def test_a_narrow_large_chart_puts_its_legend_lower_and_leaves_the_side_panels_chart_alone():

@@ -74,11 +74,14 @@ def large_size(client: viser.ClientHandle) -> dict[str, float]:
         w, h = client.camera.image_width, client.camera.image_height
     except (AssertionError, AttributeError):  # no camera report from this client yet
         w, h = 1200, 900
-    width = float(min(960, max(480, w - 48)))
+    tall = min(760, max(400, h - 48))
+    # No wider than a chart the window's height holds whole (its legend was cut at 1280 x 720 and even 1920 x 1080:
+    # a 960 px chart is 668 px high, under 120 px of tab and Close button).
+    width = float(min(960, max(480, w - 48), max(480, int((tall - LARGE_CHROME) / LARGE_ASPECT + LARGE_PAD))))
     # No taller than its chart (LARGE_ASPECT of the window's inner width) and the tab and Close button above it:
     # a 480 px window on a 900 x 700 page had a 200 px empty band under the chart.
     fit = round(LARGE_ASPECT * (width - LARGE_PAD)) + LARGE_CHROME
-    return {"width": width, "height": float(min(760, max(400, h - 48), fit))}
+    return {"width": width, "height": float(min(tall, fit))}
 
 
 def large_figure(fig: go.Figure, chars: int) -> go.Figure:
