@@ -684,3 +684,14 @@ def test_the_algorithm_list_offers_the_papers_seven_first() -> None:
         assert options[:7] == PAPER_ALGORITHMS and sorted(options) == sorted(ALGORITHMS)
     finally:
         studio.close()
+
+
+def test_the_run_status_says_its_seconds_are_compute_time() -> None:
+    from studio.panels.stages import StagesPanel
+    from studio.study import RunStatus
+
+    # The page's redraws come on top: "(4.9 s)" read as the wait, which was 10.5 s.
+    sv = SimpleNamespace(status=RunStatus("running", "subtask2", 5, 30, "generation 5/30", True, 4.9))
+    assert StagesPanel._status(sv).endswith("(4.9 s compute)")
+    sv = SimpleNamespace(status=RunStatus("idle", "subtask2", 30, 30, "complete", True, 0.13))
+    assert StagesPanel._status(sv) == "Last run: subtask2 complete (0.13 s compute)."
