@@ -594,6 +594,11 @@ class Studio:
                 self.notify(client, "Session not loaded", f"{name or 'upload'}: {exc}. The current session is kept.")
             return False
         self.refresh(fit_camera=True)
+        if client is not None:  # viser's own "File uploaded successfully." said nothing of the session
+            study = self.session.study
+            last = study.status.stage
+            self.notify(client, "Session loaded", f"{name or 'upload'}: {self.session.view.design.mechanism.title}, "
+                        f"{len(study.branches)} branch(es)" + (f", last run {last}" if last else ""), color="green")
         return True
 
     def autosave(self) -> None:

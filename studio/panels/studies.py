@@ -137,3 +137,6 @@ class StudiesPanel:
                 self.studio.notify(event.client, "Design not loaded", str(exc))
             return
         self.studio.refresh()
+        if event.client is not None:  # the editor changes quietly otherwise: say whose design it now shows
+            self.studio.notify(event.client, "Design loaded", f"{run.label} (study in {self._dir.name}) is the "
+                               "editor's design now; Undo takes it back", color="green")

@@ -34,3 +34,4 @@ def test_a_collaborator_finds_a_study_sees_its_boxes_and_loads_a_design(page: An
     page.get_by_role("button", name="Load its design").click()
     want = picked_design(tmp_path / "tiny", runs[1])
     wait_for(lambda: np.array_equal(studio.session.view.design.params, want.params), "the design in the editor")
+    expect(page.get_by_text("Design loaded")).to_be_visible()  # the editor changed: the page says whose design
