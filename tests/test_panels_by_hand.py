@@ -695,3 +695,40 @@ def test_the_run_status_says_its_seconds_are_compute_time() -> None:
     assert StagesPanel._status(sv).endswith("(4.9 s compute)")
     sv = SimpleNamespace(status=RunStatus("idle", "subtask2", 30, 30, "complete", True, 0.13))
     assert StagesPanel._status(sv) == "Last run: subtask2 complete (0.13 s compute)."
+
+
+def test_a_slow_export_says_it_is_being_drawn_and_ignores_a_second_click_meanwhile() -> None:
+    from studio.panels.files import FilesPanel
+
+    class Note:
+        def __init__(self, log: list[str], title: str) -> None:
+            self.log, self.title = log, title
+
+        def remove(self) -> None:
+            self.log.append(f"- {self.title}")
+
+    class Client:
+        client_id = 1
+
+        def __init__(self) -> None:
+            self.log: list[str] = []
+
+        def add_notification(self, title: str, body: str, **kw: Any) -> Note:
+            self.log.append(f"+ {title}" + (" (loading)" if kw.get("loading") else ""))
+            return Note(self.log, title)
+
+        def send_file_download(self, name: str, content: bytes, **kw: Any) -> None:
+            self.log.append(f"file {name}")
+
+    panel = object.__new__(FilesPanel)
+    client = Client()
+    event = SimpleNamespace(client=client)
+
+    def make() -> tuple[str, bytes]:
+        handler(event)  # the presenter clicks again while it is drawn: nothing more happens
+        client.log.append("drawn")
+        return "pareto.png", b"png"
+
+    handler = panel._send(make, slow="kaleido draws the chart")
+    handler(event)
+    assert client.log == ["+ Preparing the file (loading)", "drawn", "- Preparing the file", "file pareto.png"]

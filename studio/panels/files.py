@@ -48,20 +48,34 @@ class FilesPanel:
         self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg")))
         self.csv.on_click(self._send(self.studio.trajectories_file))
         self.pareto.on_click(self._send(self.studio.pareto_file))
-        self.pareto_png.on_click(self._send(self.studio.pareto_png_file))
+        self.pareto_png.on_click(self._send(self.studio.pareto_png_file, slow="kaleido draws the chart on the server"))
         self.scene.on_click(self._send(self.studio.scene_file))
         self.load.on_upload(self._on_load)
 
-    def _send(self, make: Any) -> Any:
+    def _send(self, make: Any, slow: str | None = None) -> Any:
+        """A button's handler: ``make()`` -> (name, bytes) sent to the page. ``slow``: what takes the time, said in a
+        notification while it does (the PNG took 6-9 s with nothing on screen, so a presenter clicked again); a click
+        while it is drawn is ignored."""
+        busy: set[int] = set()
+
         def handler(event: viser.GuiEvent[Any]) -> None:
             client = event.client
-            if client is None:
+            if client is None or client.client_id in busy:
                 return
+            note = None
+            if slow is not None:
+                busy.add(client.client_id)
+                note = client.add_notification("Preparing the file", f"{slow}; a few seconds", loading=True,
+                                               with_close_button=False)
             try:
                 name, content = make()
             except ValueError as exc:
                 self.studio.notify(client, "Nothing to export", str(exc))
                 return
+            finally:
+                busy.discard(client.client_id)
+                if note is not None:
+                    note.remove()
             client.send_file_download(name, content, save_immediately=True)
 
         return handler
