@@ -33,7 +33,8 @@ def test_studies_are_found_and_read_without_writing(studies):
     assert [d.name for d in dirs] == ["tiny_dir"]
     before = sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny_dir").iterdir())
     name, rows = study_rows(dirs[0])
-    assert name == "tiny" and len(rows) == 4 and {r["status"] for r in rows} == {"done"}  # the study's, not its folder's
+    assert name == "tiny"  # the study's name, not its folder's
+    assert len(rows) == 4 and {r["status"] for r in rows} == {"done"}
     assert sorted((p.name, p.stat().st_mtime_ns) for p in (studies / "tiny_dir").iterdir()) == before
     runs = finished_runs(rows)
     assert {r.algorithm for r in runs} == {"nsga2", "cmoes"} and all("mse" in r.metrics for r in runs)

@@ -47,9 +47,9 @@ class StagesPanel:
                                             hint="any registered problem that fits the mechanism can run in this "
                                                  "stage's place")
             # The paper's seven first: on a 720 px screen the list ran past the bottom edge, three of them below it.
-            order = sorted(ALGORITHMS, key=lambda k: (k not in PAPER_ALGORITHMS, list(ALGORITHMS).index(k)))
-            self.algorithm = gui.add_dropdown("Algorithm", tuple(order), initial_value="nsga2",
-                                              hint=", ".join(f"{k}: {ALGORITHMS[k].title}" for k in order))
+            listed = sorted(ALGORITHMS, key=lambda k: (k not in PAPER_ALGORITHMS, list(ALGORITHMS).index(k)))
+            self.algorithm = gui.add_dropdown("Algorithm", tuple(listed), initial_value="nsga2",
+                                              hint=", ".join(f"{k}: {ALGORITHMS[k].title}" for k in listed))
             self._numbers = NumberFields(studio)
             self.pop_size = self._number("pop_size", "Population", 40, 2, MAX_POP, "members per generation")
             self.n_gen = self._number("n_gen", "Generations", 30, 1, MAX_GEN,
