@@ -172,3 +172,25 @@ def test_cells_lost_with_the_scheduler_are_not_failures_and_the_study_says_so(tm
     client.map = real_map  # type: ignore[method-assign]
     s = runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
     assert (s.skipped, s.ran) == (3, 3)
+
+
+def test_a_population_written_out_equal_to_the_configs_is_no_change(tmp_path: Path, client: _Client) -> None:
+    import tomllib
+
+    from tests.test_study import CONFIG
+
+    pop = tomllib.loads(Path(CONFIG).read_text())["algorithm"]["pop_size"]
+    unset = STUDY.replace("pop_size = 20\n", "")
+    (tmp_path / "s.toml").write_text(unset)
+    out = str(tmp_path / "out")
+    runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)
+    client.sent.clear()
+    # The same runs: refused before ("algorithm.pop_size (none) -> 200"), and --rerun-changed recomputed them.
+    (tmp_path / "s.toml").write_text(unset.replace('name = "spea2"\n', f'name = "spea2"\npop_size = {pop}\n'))
+    s = runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)
+    assert client.sent == ["subtask2/spea2/2"]  # only the cell that failed runs again
+    # Another population is a change.
+    (tmp_path / "s.toml").write_text(unset.replace('name = "spea2"\n', f'name = "spea2"\npop_size = {pop + 2}\n'))
+    with pytest.raises(runner.StudyChanged, match=f"algorithm.pop_size {pop} -> {pop + 2}"):
+        runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)
+    assert s.total == 6

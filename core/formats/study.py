@@ -107,6 +107,20 @@ def cell_settings(a: AlgorithmEntry, c: CaseEntry, config: dict[str, Any]) -> st
     return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
 
 
+def effective_settings(settings: str) -> str:
+    """:func:`cell_settings` with what they leave to the case config filled in (a population not given is the
+    config's, else 100, as ``core.study.cell.case_config`` runs it): two cells that run alike compare equal (a
+    population written out equal to the config's was refused as a change)."""
+    data = json.loads(settings)
+    alg = data.get("algorithm") if isinstance(data, dict) else None
+    case = data.get("case") if isinstance(data, dict) else None
+    if isinstance(alg, dict) and alg.get("pop_size") is None and isinstance(case, dict):
+        config = case.get("config") if isinstance(case.get("config"), dict) else {}
+        base = config.get("algorithm") if isinstance(config.get("algorithm"), dict) else {}
+        alg["pop_size"] = base.get("pop_size", 100)
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+
+
 def settings_change(old: str, new: str) -> str:
     """The first difference between two :func:`cell_settings`, e.g. ``case.budget 600 -> 800``."""
 

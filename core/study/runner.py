@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-from core.formats.study import Study, settings_change
+from core.formats.study import Study, effective_settings, settings_change
 from core.optimize.workers import connect
 from core.study.cell import check_cells, run_cell, warm_cells, warm_up
 from core.study.store import Store, settings_digest, study_lock
@@ -128,13 +128,14 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
     store = Store(out)
     try:
         kept = store.finished()
-        changed = [c for c in cells if kept.get(c["key"]) not in (None, c["settings"])]
+        changed = [c for c in cells if kept.get(c["key"]) is not None
+                   and effective_settings(kept[c["key"]] or "") != effective_settings(c["settings"])]
         if changed and not rerun_changed:
             first = changed[0]
+            was, now = (effective_settings(x) for x in (kept[first["key"]] or "", first["settings"]))
             raise StudyChanged(
                 f"{out} holds {len(changed)} finished cell(s) run with other settings, e.g. {first['key']}: "
-                f"{settings_change(kept[first['key']] or '', first['settings'])}; pass --rerun-changed to run them "
-                "again, or choose another --out")
+                f"{settings_change(was, now)}; pass --rerun-changed to run them again, or choose another --out")
         store.set_meta("study", {"name": study.name, "path": study.path, "reference": study.reference,
                                  "algorithms": [a.name for a in study.algorithms],
                                  "labels": {a.name: a.title for a in study.algorithms},

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from core.formats.files import atomic_write
+from core.formats.study import effective_settings
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
@@ -62,8 +63,8 @@ def study_lock(directory: str | Path) -> Iterator[None]:
 
 
 def settings_digest(settings: str) -> str:
-    """A cell's settings (a JSON text, which holds its case config's contents) in 16 hex digits."""
-    return hashlib.sha256(settings.encode("utf-8")).hexdigest()[:16]
+    """A cell's effective settings (a JSON text, which holds its case config's contents) in 16 hex digits."""
+    return hashlib.sha256(effective_settings(settings).encode("utf-8")).hexdigest()[:16]
 
 
 def current_rows(meta: dict[str, Any] | None, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
