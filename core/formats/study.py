@@ -115,9 +115,9 @@ def effective_settings(settings: str) -> str:
     alg = data.get("algorithm") if isinstance(data, dict) else None
     case = data.get("case") if isinstance(data, dict) else None
     if isinstance(alg, dict) and alg.get("pop_size") is None and isinstance(case, dict):
-        config = case.get("config") if isinstance(case.get("config"), dict) else {}
-        base = config.get("algorithm") if isinstance(config.get("algorithm"), dict) else {}
-        alg["pop_size"] = base.get("pop_size", 100)
+        config = case.get("config")
+        base = config.get("algorithm") if isinstance(config, dict) else None
+        alg["pop_size"] = base.get("pop_size", 100) if isinstance(base, dict) else 100
     return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
 
 
