@@ -194,3 +194,14 @@ def test_a_population_written_out_equal_to_the_configs_is_no_change(tmp_path: Pa
     with pytest.raises(runner.StudyChanged, match=f"algorithm.pop_size {pop} -> {pop + 2}"):
         runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)
     assert s.total == 6
+
+
+def test_a_finished_cell_whose_result_file_was_deleted_runs_again(tmp_path: Path, client: _Client) -> None:
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "out"
+    runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
+    (out / "runs" / "subtask2" / "nsga2" / "3.json").unlink()  # by hand: the row alone was trusted
+    client.sent.clear()
+    runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
+    assert client.sent == ["subtask2/nsga2/3", "subtask2/spea2/2"]  # it, and the cell that failed
+    assert (out / "runs" / "subtask2" / "nsga2" / "3.json").is_file()

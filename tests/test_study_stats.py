@@ -75,6 +75,8 @@ def test_a_case_where_no_run_has_a_feasible_member_reports_hv_0_and_no_igd() -> 
     rows = [run_row("a", 1, 4.0, [], False), run_row("a", 2, 3.0, [], False)]
     c = case_report(Rows(rows), "c", ["a"], {"a": "A"}, "a", "mse")
     assert c["table"]["hv"]["a"]["median"] == 0.0 and c["table"]["igd_plus"]["a"]["n"] == 0
+    # The section was left out without a word: the report says why there is no best design.
+    assert "Best picked design: none; no run's pick met its stage's constraints" in markdown("s", [c])
 
 
 def test_a_label_with_a_bar_stays_one_cell_of_the_markdown_table() -> None:

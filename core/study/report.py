@@ -127,6 +127,9 @@ def markdown(name: str, cases: list[dict[str, Any]]) -> str:
                 out.append(f"- **{labels.get(a, a)}** (seed {b['seed']}): {pick}; parameters "
                            f"({', '.join(b['params'])}) = {params}")
             out.append("")
+        elif c["best_by"] is not None and any(n.values()):
+            out += [f"Best picked design: none; no run's pick met its stage's constraints with a finite "
+                    f"{c['best_by']}.", ""]
         if c["failed"]:
             out += ["Failed runs:", ""] + [f"- {f['key']}: {f['error']}" for f in c["failed"]] + [""]
     return "\n".join(out)

@@ -106,8 +106,10 @@ class Store:
         return set(self.finished())
 
     def finished(self) -> dict[str, str | None]:
-        """The finished cells' keys and the settings they ran with (None: kept before settings were)."""
-        return dict(self.db.execute("SELECT key, settings FROM runs WHERE status = 'done'").fetchall())
+        """The finished cells' keys and the settings they ran with (None: kept before settings were); a cell whose
+        result file is gone (deleted by hand) is not finished: it runs again."""
+        rows = self.db.execute("SELECT key, settings, result_path FROM runs WHERE status = 'done'").fetchall()
+        return {key: settings for key, settings, path in rows if path is None or (self.dir / path).is_file()}
 
     def save(self, record: dict[str, Any]) -> None:
         """Keep a finished cell: its result file first, then its row (replacing an earlier failed one)."""
