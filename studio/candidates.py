@@ -35,9 +35,13 @@ class Candidate:
 
 
 def _fmt(v: float) -> str:
+    """A candidate's value in a few characters: below 1e-4 (0.1 um, um/s or ppm of a percent for the studio's metrics)
+    it is nothing a designer can build or measure, and "I 4.08e-07" read as noise on a slide."""
     if not math.isfinite(v):
         return "-"
     a = abs(v)
+    if 0.0 < a < 1e-4:
+        return "≈0"
     if a != 0.0 and (a < 1e-3 or a >= 1e5):
         return f"{v:.3g}"
     return f"{v:.3g}" if a < 1.0 else f"{v:.4g}"

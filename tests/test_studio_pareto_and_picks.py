@@ -304,3 +304,10 @@ def test_the_pick_panel_compares_objectives_then_constrained_then_report_metrics
 
     assert compared_metrics(R(), ("h_s", "violation")) == ("f1", "f2", "h_s", "mse", "I", "width", "violation")  # type: ignore[arg-type]
 
+
+
+def test_candidate_values_read_as_a_designer_would_say_them() -> None:
+    from studio.candidates import _fmt
+
+    assert [_fmt(v) for v in (4.08e-07, -2.9e-08, 0.0, 5.2e-4, 0.4472, 4.1017, 123456.0, float("nan"))] == \
+        ["≈0", "≈0", "0", "0.00052", "0.447", "4.102", "1.23e+05", "-"]
