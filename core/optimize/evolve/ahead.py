@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
+from numba.np.random.random_methods import random_interval
 from numpy.typing import NDArray
 
 from core.optimize.evolve.base import Arrays
@@ -115,13 +116,28 @@ def _draw_pools(rng: np.random.Generator, B: I64, members: I64, n: int, delta: f
     m = len(members)
     offs = np.zeros(m + 1, dtype=np.int64)
     flat = np.empty(m * max(n, B.shape[1]), dtype=np.int64)
+    everyone = np.arange(n)
     for t in range(m):
-        pool = rng.permutation(B[members[t]]) if rng.random() < delta else rng.permutation(n)
+        pool = permuted(rng, B[members[t]]) if rng.random() < delta else permuted(rng, everyone)
         offs[t + 1] = offs[t] + len(pool)
         flat[offs[t] : offs[t + 1]] = pool
         for j in range(nums.shape[1]):
             nums[t, j] = rng.random()
     return flat[: offs[m]].copy(), offs
+
+
+@numba.njit(cache=True)
+def permuted(rng: np.random.Generator, values: I64) -> I64:  # pragma: no cover - compiled
+    """``rng.permutation(values)``: the same numbers drawn the same way (numpy's Fisher-Yates with
+    ``random_interval``), 3.5x faster than numba's, whose swaps go through 0-d array views (~36 ns a member: most of
+    CMOEMT's and MOEA/D-CMT's drawing time)."""
+    out = values.copy()
+    bits = rng.bit_generator
+    for i in range(len(out) - 1, 0, -1):
+        j = numba.types.intp(random_interval(bits, i))
+        if i != j:
+            out[i], out[j] = out[j], out[i]
+    return out
 
 
 def numbers(op: int, d: int) -> int:
