@@ -51,7 +51,7 @@ def result_figure(r: StageResult, labels: dict[str, str] | None = None, target: 
 
 
 def target_text(settings: object, curve_names: Mapping[str, str] | None = None) -> str:
-    """The target a stage was run against, from its settings (``cycloid L=300.0 H=100.0 T=2.0``, ``curve leg.csv``),
+    """The target a stage was run against, from its settings (``cycloid L=300 mm, H=100 mm, T=2 s``, ``curve leg.csv``),
     else "". A curve file is named by ``curve_names`` (``{target option: name}``, an upload's name) or its file name,
     never by its path: the studio keeps curves in the server's cache folder, whose path has no place on a chart."""
     problem = settings.get("problem") if isinstance(settings, dict) else None
@@ -62,10 +62,27 @@ def target_text(settings: object, curve_names: Mapping[str, str] | None = None) 
     if curve_names and target in curve_names:
         text = curve_names[target]
     elif target.split(":", 1)[0] == "cycloid":  # as core.analysis.targets.parse_target reads it
-        text = target.replace(":", " ").replace(",", " ")
+        text = cycloid_text(target)
     else:
         text = f"curve {Path(target).name}"
     return html.escape(text, quote=False)  # a chart's title is HTML to plotly: an upload named "<b>" is text
+
+
+UNITS = {"L": "mm", "H": "mm", "T": "s"}
+
+
+def cycloid_text(target: str) -> str:
+    """``cycloid:L=300.0,H=100.0,T=2.0`` as a title says it: ``cycloid L=300 mm, H=100 mm, T=2 s`` (the option's
+    own text, "L=300.0 H=100.0 T=2.0", gave no units)."""
+    _, _, args = target.partition(":")
+    parts = []
+    for item in filter(None, args.split(",")):
+        key, _, value = item.partition("=")
+        try:
+            parts.append(f"{key}={float(value):g} {UNITS[key]}" if key in UNITS else item)
+        except ValueError:
+            parts.append(item)
+    return "cycloid" + (" " + ", ".join(parts) if parts else "")
 
 
 def run_charts(run_dir: Path) -> list[Path]:

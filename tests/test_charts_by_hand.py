@@ -100,7 +100,7 @@ def test_clm_charts_titles_each_chart_with_its_stage_target_and_axis_labels(run_
         assert fig.layout.xaxis.title.text == spec.labels[spec.objectives[0]] != spec.objectives[0]
         assert fig.layout.yaxis.title.text == spec.labels[spec.objectives[1]]
         assert f" · {stage} · " in fig.layout.title.text
-        assert fig.layout.title.text.endswith(" · target cycloid L=300.0 H=100.0 T=2.0")
+        assert fig.layout.title.text.endswith(" · target cycloid L=300 mm, H=100 mm, T=2 s")
         # Each title line fits the 1000 px PNG (a long one, as an RTCLM stage's unmet constraints, ran off it).
         assert all(len(line) <= charts.TITLE_CHARS for line in fig.layout.title.text.split("<br>"))
 

@@ -470,7 +470,7 @@ def test_a_chart_names_an_uploaded_curve_target_never_its_path_in_the_servers_ca
     settings = sv.result("subtask1").settings
     assert target_text(settings).startswith("curve target-") and "/" not in target_text(settings)
     cycloid = {"problem": {"options": {"target": "cycloid:L=300.0,H=100.0,T=2.0"}}}
-    assert target_text(cycloid) == "cycloid L=300.0 H=100.0 T=2.0"
+    assert target_text(cycloid) == "cycloid L=300 mm, H=100 mm, T=2 s"  # units: it read "L=300.0"
     folder = {"problem": {"options": {"target": "cycloids/leg.csv"}}}  # a file, though it starts with "cycloid"
     assert target_text(folder) == "curve leg.csv"
     assert target_text(folder, {"cycloids/leg.csv": "curve <b>x</b>.csv"}) == "curve &lt;b&gt;x&lt;/b&gt;.csv"
