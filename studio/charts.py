@@ -39,7 +39,10 @@ def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT) -> bytes:
 def chart_title(r: StageResult, state: str, target: str = "") -> str:
     """A Pareto chart's title, readable on its own: mechanism, stage, ``state``, feasible count, front size and
     the target (``target_text``)."""
-    return (f"{r.mechanism.title} · {r.name} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
+    # The RTCLM's stages measure both modes: its mechanism's title ("RTCLM, primary mode (...)") read wrong over
+    # rtclm2, the auxiliary-mode stage.
+    mech = "RTCLM" if r.mechanism.name.startswith("rtclm") else r.mechanism.title
+    return (f"{mech} · {r.name} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
             f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
 
 

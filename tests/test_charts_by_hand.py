@@ -38,7 +38,7 @@ def result(**kw: object) -> SimpleNamespace:
     """Enough of a StageResult for the chart: 5 members, members 0, 2 and 3 feasible, a front of 0 and 2."""
     feasible = np.array([True, False, True, True, False])
     r = SimpleNamespace(
-        mechanism=SimpleNamespace(title="Six-bar"), name="subtask2", status="complete", generation=3, n_gen=3,
+        mechanism=SimpleNamespace(name="six", title="Six-bar"), name="subtask2", status="complete", generation=3, n_gen=3,
         pop=5, feasible=feasible, cv=np.where(feasible, 0.0, 1.0), front=(0, 2), objectives=("a", "b"),
         F=np.array([[1.0, 4.0], [2.0, 2.0], [3.0, 1.0], [3.5, 3.5], [4.0, 0.5]]),
         shortlist=SimpleNamespace(knees=(2,), best=(0, 2)), picked=3)
@@ -53,6 +53,9 @@ def test_the_title_counts_feasible_members_and_the_front_and_names_the_target_on
         "Six-bar · subtask2 · complete · 3 feasible of 5 · front 2 · target cycloid L=1")
     none = result(feasible=np.zeros(5, dtype=bool))
     assert " 0 feasible of 5 " in charts.chart_title(none, "x")
+    # The RTCLM's stages measure both modes: "RTCLM, primary mode (...)" read wrong over the auxiliary-mode stage.
+    rt = result(mechanism=SimpleNamespace(name="rtclm_primary", title="RTCLM, primary mode (x)"), name="rtclm2")
+    assert charts.chart_title(rt, "complete").startswith("RTCLM · rtclm2 · complete")
 
 
 def traces(fig: go.Figure) -> dict[str, list[int]]:
