@@ -732,3 +732,10 @@ def test_a_slow_export_says_it_is_being_drawn_and_ignores_a_second_click_meanwhi
     handler = panel._send(make, slow="kaleido draws the chart")
     handler(event)
     assert client.log == ["+ Preparing the file (loading)", "drawn", "- Preparing the file", "file pareto.png"]
+
+
+def test_the_trace_chart_grows_with_its_legend() -> None:
+    from studio.panels.pareto import trace_aspect
+
+    # CMOEMT's four lines shrank the plot to ~100 px under the legend in the side panel.
+    assert trace_aspect(1) == trace_aspect(2) == 0.8 and trace_aspect(4) > trace_aspect(3) > 0.8

@@ -84,6 +84,12 @@ def large_size(client: viser.ClientHandle) -> dict[str, float]:
     return {"width": width, "height": float(min(tall, fit))}
 
 
+def trace_aspect(lines: int) -> float:
+    """The trace chart's height over width: 0.8 for up to two lines, and a legend row more per two lines beyond
+    (CMOEMT's four lines and epsilon shrank its plot to ~100 px in the side panel)."""
+    return 0.8 + 0.07 * max(0, lines - 2)
+
+
 def large_figure(fig: go.Figure, chars: int) -> go.Figure:
     """The large window's copy of the chart: its title broken into lines of ``chars`` characters and, in a narrow
     window, its legend lower."""
@@ -204,6 +210,7 @@ class ParetoPanel:
         tfig = None if r is None else make_trace_figure(r.trace, f"{algorithm_name(r.settings)} trace")
         if tfig is not None:
             self.trace.figure = tfig
+            self.trace.aspect = trace_aspect(len(tfig.data))
         self.trace.visible = tfig is not None
         what = ("objective against violation" if n == 1 else "2-D" if n == 2 else
                 ("3-D" if self.axes() is None else str(self.view.value)) if n >= 3 else "")
