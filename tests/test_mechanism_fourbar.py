@@ -87,6 +87,13 @@ def test_a_crank_that_stops_between_two_samples_is_not_feasible(backend: str) ->
         assert sol.valid.all()
         assert sol.violation[0] == pytest.approx(viol, rel=1e-6, abs=1e-12)
         assert sol.violation[0] == pytest.approx(max(0.0, -sol.crank_margin[0]), abs=1e-12)
+    # Further short, a sample fails too: the violation keeps growing (it fell ~1000x to that sample's shortfall
+    # when only the samples counted once one of them failed).
+    shorts = np.linspace(1e-4, 5e-2, 400)
+    P = np.concatenate([design(g=g, r1=50.0, r2=75.0, r3=75.0 - x, r4=100.0) for x in shorts])
+    sol = solve(FOURBAR, P, 360, backend=backend)
+    assert (~sol.valid).any()  # the range crosses the point where samples fail
+    assert np.all(np.diff(sol.violation) > 0) and np.all(sol.violation >= shorts * (1 - 1e-9))
 
 
 @settings(max_examples=100, deadline=None)

@@ -44,8 +44,8 @@ class Solution:
         valid: ``(pop, n_samples)`` True where every joint is placed.
         violation: ``(pop,)`` >= 0; 0 iff the mechanism assembles over every sample and its crank
             turns fully, else the sum over dyads of the worst assembly shortfall (mm), plus negative
-            lengths and any coupling violation of the mechanism (RTCLM); where every sample closes
-            but the crank cannot turn fully (its loop opens between two samples), ``-crank_margin``.
+            lengths and any coupling violation of the mechanism (RTCLM); at least ``-crank_margin``
+            where the crank cannot turn fully (its loop may open between two samples).
         dyad_margin: ``(pop, n_dyads)`` min over the cycle of each dyad's distance from its
             singular (fully stretched or folded) configuration, ``min(d - |l1-l2|, l1+l2-d)`` (mm).
         mu_min, mu_max: ``(pop, n_dyads)`` range of each dyad's transmission angle (rad) over the
@@ -173,13 +173,15 @@ def prepare(mechanism: Mechanism, params: F64) -> Prepared:
     return Prepared(prog, vals, derive_viol, bad)
 
 
-def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.bool_]) -> F64:
+def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.bool_],
+                       crank: F64 | None = None) -> F64:
     """``Solution.violation`` from the interpreters' cycle statistics.
 
     Args:
         prep: the population.
         mmin, neg: see ``core.kinematics.kernel.run``.
         broken: ``(pop,)`` True where some sample has a non-finite joint.
+        crank: ``(pop,)`` the crank loops' margin (``_crank_margin``) if already computed.
     """
     margin = mmin[:, prep.program.ops[:, 0] == DYAD]
     with np.errstate(invalid="ignore"):
@@ -189,11 +191,12 @@ def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.b
         violation = shortfall + np.nan_to_num(neg, nan=0.0) + np.nan_to_num(prep.derive_violation, nan=np.inf)
     # Degenerate geometry (coincident points of an attachment) leaves NaN with no shortfall.
     violation = np.where(broken & (violation == 0.0), 1e-9, violation)
-    # A crank loop that opens only between two samples (the crank cannot turn fully, every sample closes): its exact
-    # shortfall. Only where the samples saw none, so every other violation keeps its value.
-    crank = _crank_margin(prep.program.ops, prep.vals)
+    # A crank loop that cannot turn fully: at least its exact shortfall. A loop that opens between two samples was
+    # feasible; taking the shortfall only where the samples saw none made the violation drop ~1000x once the nearest
+    # sample failed (a design further from assembling looked closer). The larger of the two is continuous.
+    crank = _crank_margin(prep.program.ops, prep.vals) if crank is None else crank
     with np.errstate(invalid="ignore"):
-        violation = np.where((violation == 0.0) & (crank < 0.0), -crank, violation)
+        violation = np.where(crank < 0.0, np.maximum(violation, -crank), violation)
     violation[prep.bad | np.isnan(violation)] = np.inf
     return violation
 
@@ -250,7 +253,8 @@ def solve(
         assert out.leg is not None
         leg, dleg = out.leg, out.dleg
     dyads = np.flatnonzero(prog.ops[:, 0] == DYAD)
-    violation = assembly_violation(prep, mmin, neg, np.asarray((~valid).any(axis=1), dtype=np.bool_))
+    crank = _crank_margin(prog.ops, vals)
+    violation = assembly_violation(prep, mmin, neg, np.asarray((~valid).any(axis=1), dtype=np.bool_), crank)
     with np.errstate(invalid="ignore"):
         mu_min = np.arccos(np.clip(cmax[:, dyads], -1.0, 1.0))
         mu_max = np.arccos(np.clip(cmin[:, dyads], -1.0, 1.0))
@@ -272,7 +276,7 @@ def solve(
         dyad_margin=mmin[:, dyads],
         mu_min=mu_min,
         mu_max=mu_max,
-        crank_margin=_crank_margin(prog.ops, vals),
+        crank_margin=crank,
         joint_names=names,
         dyad_names=tuple(names[j] for j in dyads),
     )
