@@ -34,13 +34,14 @@ class Candidate:
     label: str
 
 
-def _fmt(v: float) -> str:
+def _fmt(v: float, exact: bool = False) -> str:
     """A candidate's value in a few characters: below 1e-4 (0.1 um, um/s or ppm of a percent for the studio's metrics)
-    it is nothing a designer can build or measure, and "I 4.08e-07" read as noise on a slide."""
+    it is nothing a designer can build or measure, and "I 4.08e-07" read as noise on a slide. ``exact``: a value
+    whose every nonzero digit matters (a violation: any is infeasible, "≈0" read as feasible)."""
     if not math.isfinite(v):
         return "-"
     a = abs(v)
-    if 0.0 < a < 1e-4:
+    if 0.0 < a < 1e-4 and not exact:
         return "≈0"
     if a != 0.0 and (a < 1e-3 or a >= 1e5):
         return f"{v:.3g}"
@@ -104,7 +105,8 @@ def comparison(result: StageResult, member: int, start: Mapping[str, float], nam
     rows = []
     for n in names:
         cand = float(result.metrics[n][member])
-        rows.append((labels.get(n, n), _fmt(float(start.get(n, math.nan))), _fmt(cand)))
+        exact = n in ("violation", "violation_mm")
+        rows.append((labels.get(n, n), _fmt(float(start.get(n, math.nan)), exact), _fmt(cand, exact)))
     return rows
 
 

@@ -311,3 +311,4 @@ def test_candidate_values_read_as_a_designer_would_say_them() -> None:
 
     assert [_fmt(v) for v in (4.08e-07, -2.9e-08, 0.0, 5.2e-4, 0.4472, 4.1017, 123456.0, float("nan"))] == \
         ["≈0", "≈0", "0", "0.00052", "0.447", "4.102", "1.23e+05", "-"]
+    assert _fmt(1e-9, exact=True) == "1e-09"  # a violation: any is infeasible, and "≈0" read as feasible

@@ -117,6 +117,12 @@ def test_the_report_covers_the_study_as_it_stands_not_seeds_or_budgets_it_droppe
     assert "Runs: nsga2 3, spea2 3" in md
     assert "| evaluations | 150 [0] | 150 [0] ≈ |" in md  # not 150 pooled with the dropped seeds' 100
     assert "Left out: 4 run(s)" in md
+    # The studio's Studies panel shows what the report counts (its box plots pooled all ten runs).
+    from studio.studies import finished_runs, study_rows
+
+    runs = finished_runs(study_rows(Path(out))[1])
+    assert sorted((r.algorithm, r.seed) for r in runs) == [(a, s) for a in ("nsga2", "spea2") for s in (1, 2, 3)]
+    assert {r.metrics["n_eval"] for r in runs} == {150}
 
 
 def test_a_second_study_into_the_same_directory_is_refused_while_the_first_runs(tmp_path: Path,

@@ -171,9 +171,10 @@ def plotly_js() -> str:
 
 
 def _script_json(value: Any) -> str:
-    """JSON to place inside a ``<script>``: ``</`` escaped, so a label holding ``</script>`` cannot end the script
-    (and run what follows it) in a report made to be shared."""
-    return json.dumps(value).replace("</", "<\\/")
+    """JSON to place inside a ``<script>``: every ``<`` escaped (``\\u003c``, the same string to JSON), so a label
+    holding ``</script>`` cannot end the script and run what follows it, nor ``<!--<script>`` keep the page's
+    next script open, in a report made to be shared."""
+    return json.dumps(value).replace("<", "\\u003c")
 
 
 def html_report(name: str, md: str, cases: list[dict[str, Any]]) -> str:

@@ -161,7 +161,7 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
                 lost = 0
                 for fut in as_completed(futures):
                     cell = by_key[fut.key]
-                    if fut.status in ("cancelled", "lost"):  # the scheduler went away: the cell never ran
+                    if fut.status == "cancelled":  # the scheduler went away: the cell never ran
                         lost += 1
                         fut.release()
                         continue
