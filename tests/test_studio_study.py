@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import threading
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -713,3 +714,40 @@ def test_branches_of_one_pipeline_share_their_results_json_and_save_as_before(se
     assert study.branches[-1].pipeline["results"][0] is a[0]
     loaded = Study.from_dict(json.loads(json.dumps(study.to_dict())), session.view.target)
     assert [br.pipeline for br in loaded.branches] == [br.pipeline for br in study.branches]
+
+
+def test_the_studio_picks_as_clm_design_does() -> None:
+    # The automatic pick: subtask 2's best h_s among the members with I <= 1 (when any) that meet subtask 3's limits;
+    # subtask 3's best S (a metric, not an objective) among those with I <= 0.44; the knee if a rule cannot apply.
+    from core.optimize.lineage import auto_pick, next_feasible
+    from studio.study import studio_pick
+
+    s = Session.default()
+    tiny(s.study, "subtask2", pop=30, gens=6)
+    run(s, "subtask2", from_pick=False)
+    st = s.study
+    r = st.result("subtask2")
+    plan = SimpleNamespace(pipeline=st.pipeline, index=st.index("subtask2"), stage=find(chain_for(
+        s.view.design.mechanism), "subtask2"), spec=st.pipeline.stages[st.index("subtask2")])
+    got = studio_pick(r, plan)
+    assert r.picked == got  # what the run recorded
+    ok = next_feasible(r, st.pipeline.stages[st.index("subtask3")].problem)
+    low = ok & (r.metrics["I"] <= 1.0)
+    cands = np.flatnonzero(low if low.any() else ok)
+    assert len(cands) and low.any()  # the run gives the rule something to narrow
+    assert r.metrics["h_s"][got] == r.metrics["h_s"][cands].min()  # the rule, by hand
+    assert got == auto_pick(r, "best:h_s", None, st.pipeline.stages[st.index("subtask3")].problem,
+                            find(chain_for(s.view.design.mechanism), "subtask2").pick_where)
+    # A rule naming a metric the result lacks falls back to the knee, never raises.
+    odd = SimpleNamespace(**{**vars(plan), "spec": SimpleNamespace(pick="best:nonesuch", stop_below=None)})
+    assert studio_pick(r, odd) == r.choose("knee")
+
+
+def test_a_stage_keeps_its_metric_pick_rule_for_its_own_problem_only() -> None:
+    from studio.chains import stage_spec
+    from studio.target import TargetSpec
+
+    s3 = find(chain_for(Session.default().view.design.mechanism), "subtask3")
+    assert s3.pick == "best:S"  # S is a metric subtask 3 reports, not one of its objectives
+    assert stage_spec(s3, RunSettings("subtask3"), TargetSpec()).pick == "best:S"
+    assert stage_spec(s3, RunSettings("subtask2"), TargetSpec()).pick == "knee"  # another problem in the slot
