@@ -85,8 +85,8 @@ def large_size(client: viser.ClientHandle) -> dict[str, float]:
 
 
 def trace_aspect(lines: int) -> float:
-    """The trace chart's height over width: 0.8 for up to two lines, and a legend row more per two lines beyond
-    (CMOEMT's four lines and epsilon shrank its plot to ~100 px in the side panel)."""
+    """The trace chart's height over width: 0.8 for up to two lines, 0.07 more per line beyond (in the side panel a
+    long legend name takes a row of its own; CMOEMT's lines and epsilon shrank its plot to ~100 px)."""
     return 0.8 + 0.07 * max(0, lines - 2)
 
 
