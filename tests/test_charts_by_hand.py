@@ -38,7 +38,8 @@ def result(**kw: object) -> SimpleNamespace:
     """Enough of a StageResult for the chart: 5 members, members 0, 2 and 3 feasible, a front of 0 and 2."""
     feasible = np.array([True, False, True, True, False])
     r = SimpleNamespace(
-        mechanism=SimpleNamespace(name="six", title="Six-bar"), name="subtask2", status="complete", generation=3, n_gen=3,
+        mechanism=SimpleNamespace(name="six", title="Six-bar"), name="subtask2", status="complete", generation=3,
+        n_gen=3,
         pop=5, feasible=feasible, cv=np.where(feasible, 0.0, 1.0), front=(0, 2), objectives=("a", "b"),
         F=np.array([[1.0, 4.0], [2.0, 2.0], [3.0, 1.0], [3.5, 3.5], [4.0, 0.5]]),
         shortlist=SimpleNamespace(knees=(2,), best=(0, 2)), picked=3)
