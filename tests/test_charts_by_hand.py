@@ -118,3 +118,22 @@ def test_clm_charts_skips_a_stage_without_a_result_and_draws_the_ones_after_it(r
     figs = drawn(monkeypatch)
     assert [p.name for p in charts.run_charts(run)] == ["pareto-1_subtask3.png"]
     assert (run / "pareto-1_subtask3.png").read_bytes() == b"png" and len(figs) == 1
+
+
+def test_a_runs_final_pick_is_a_design_for_evaluate_simulate_and_export(run_dir, tmp_path, capsys):
+    # A designer's next step after clm design: "unknown design key 'format'" and a design JSON written by hand.
+    from core.optimize.pipeline import Pipeline
+
+    data = json.loads((run_dir / "result.json").read_text())
+    last = [r for r in Pipeline.from_dict(data["pipeline"]).lineage if r.picked is not None][-1]
+    assert clm(["evaluate", "--design", str(run_dir / "result.json"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)
+    assert clm(["simulate", "--design", str(run_dir), "--json"]) == 0  # the run's folder works too
+    sim = json.loads(capsys.readouterr().out)
+    assert sim["mechanism"] == last.mechanism.name
+    np.testing.assert_allclose([sim["params"][n] for n in last.mechanism.param_names], last.X[last.picked])
+    assert clm(["export", "--design", str(run_dir), "--svg", str(tmp_path / "pick.svg")]) == 0
+    assert (tmp_path / "pick.svg").read_text().startswith("<svg")
+    # A folder that holds no run: one line, exit 2.
+    assert clm(["evaluate", "--design", str(tmp_path)]) == 2
+    assert "result.json" in capsys.readouterr().err

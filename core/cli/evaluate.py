@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", metavar="FILE", type=Path, help="a design JSON file")
+    src.add_argument("--design", metavar="FILE", type=Path,
+                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
     src.add_argument("--curve", metavar="FILE", type=Path, help="a CSV curve: x,y or x,y,t per line (design frame)")
     p.add_argument(
         "--leg-frame",

@@ -32,7 +32,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", metavar="FILE", type=Path, help="a design JSON file")
+    src.add_argument("--design", metavar="FILE", type=Path,
+                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
     p.add_argument("--samples", type=int, default=360, metavar="N", help="crank samples per revolution (default 360)")
     p.add_argument("--json", action="store_true", help="print the whole solution as JSON")
     p.add_argument(
@@ -51,6 +52,8 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
     path: Path = args.design
     if not path.exists():
         raise CLIError(f"design file {str(path)!r} not found")
+    if path.is_dir() or _is_run(path):  # a `clm design` run (its folder or result.json): its final pick
+        return run_pick(path / "result.json" if path.is_dir() else path), None
     text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
     try:
         data = json.loads(text, object_pairs_hook=unique_keys)
@@ -64,6 +67,41 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
         return design_from_dict(data), None
     except ValueError as e:
         raise CLIError(f"{path}: {e}") from None
+
+
+def _is_run(path: Path) -> bool:
+    """Whether a file begins as a ``clm design`` result.json does (its format first)."""
+    from core.optimize.run import RESULT_FORMAT
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(256) if path.is_file() else b""
+    except OSError:
+        return False
+    return f'"{RESULT_FORMAT}"'.encode() in head
+
+
+def run_pick(path: Path) -> Design:
+    """The final pick of a ``clm design`` run (its ``result.json``, or the folder holding it): the design the run
+    chose, as ``--design`` takes it (a designer evaluates, simulates and draws it; there was no way to but
+    writing its design JSON by hand)."""
+    from core.formats.files import read_design_result
+    from core.optimize.pipeline import Pipeline
+
+    try:
+        data = read_design_result(path)
+        pipe = data.get("pipeline")
+        if not isinstance(pipe, dict):
+            raise ValueError(f"{path}: a baseline run ({data.get('method', '?')}) holds no population to pick from; "
+                             "its design is in the run's rows")
+        picked = [r for r in Pipeline.from_dict(pipe).lineage if r.picked is not None]
+        if not picked:
+            raise ValueError(f"{path}: the run picked no design (status {data.get('status', '?')})")
+        return check_design(picked[-1].pick())
+    except (KeyError, TypeError) as e:
+        raise CLIError(f"{path}: not a readable 'clm design' result ({type(e).__name__}: {e})") from None
+    except ValueError as e:
+        raise CLIError(str(e)) from None
 
 
 def extent(points: np.ndarray) -> dict[str, float | None]:
