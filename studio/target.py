@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample
+from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample, scale_note
 from core.kinematics.model import OutputStage
 
 F64 = NDArray[np.float64]
@@ -36,7 +36,6 @@ MAX_CURVE_POINTS = 100_000  # a curve read from a session (an upload is bounded 
 STORED_CURVE = re.compile(r"target-[0-9a-f]{20}\.csv")  # a curve's file in the store: named by its content
 
 
-SPAN_MM = (5.0, 5000.0)  # a target curve's width or height outside this is probably not in mm
 
 
 @dataclass(frozen=True)
@@ -57,14 +56,8 @@ class Curve:
 
     def scale_note(self) -> str:
         """A word on the curve's size if it is far from a leg's (a file written in m or um is read as mm: 300 m
-        across drew nothing at all, 0.3 mm a dot), else ""."""
-        pts = np.asarray(self.points)
-        span = float(np.ptp(pts, axis=0).max())
-        if SPAN_MM[0] <= span <= SPAN_MM[1]:
-            return ""
-        size = f"{span:,.0f}" if span >= 1.0 else f"{span:.2g}"
-        return (f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
-                "mm (a file in m or um needs scaling)")
+        across drew nothing at all, 0.3 mm a dot), else "" (``core.analysis.targets.scale_note``)."""
+        return scale_note(self.points)
 
     @staticmethod
     def from_target(t: Target) -> Curve:

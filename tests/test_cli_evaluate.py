@@ -162,3 +162,20 @@ def test_the_period_is_the_time_law_s_unless_given(tmp_path: Path, capsys: pytes
     _, out2, _ = run(capsys, "evaluate", "--curve", str(tmp_path / "c2.csv"), "--json")
     _, out4, _ = run(capsys, "evaluate", "--curve", str(tmp_path / "c4.csv"), "--json")
     assert json.loads(out4)["period"] == 4.0 and json.loads(out2)["period"] == 2.0
+
+
+def test_a_target_curve_in_metres_is_evaluated_with_a_warning(tmp_path, capsys):
+    # Read as mm, a 0.18 m path became a 0.18 mm target: the studio said so, the CLI went on without a word.
+    from core.cli import main
+    from core.cli.design import _warn_scale
+
+    t = np.linspace(0.0, 2.0 * np.pi, 60, endpoint=False)
+    path = tmp_path / "foot_m.csv"
+    path.write_text("\n".join(f"{0.09 * np.cos(a):.6f},{0.03 * np.sin(a):.6f}" for a in t) + "\n")
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(path)]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("clm: warning: target foot_m.csv: it spans 0.18 mm") and err.count("\n") == 1
+    _warn_scale(str(path))  # what clm design says of its config's target
+    assert "needs scaling" in capsys.readouterr().err
+    _warn_scale("cycloid:L=300.0,H=100.0,T=2.0")
+    assert capsys.readouterr().err == ""

@@ -14,6 +14,7 @@ import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -224,6 +225,21 @@ def read_user_file(path: str | Path, max_bytes: int = MAX_CURVE_FILE_BYTES, what
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise ValueError(f"cannot read {what} {str(p)!r}: not UTF-8 text") from None
+
+
+SPAN_MM = (5.0, 5000.0)  # a target curve's width or height outside this is probably not in mm
+
+
+def scale_note(points: Any) -> str:
+    """A word on a curve's size if it is far from a leg's (a file written in m or um is read as mm: 0.18 m became a
+    0.18 mm target, optimized to a confident nonsense), else ""."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    span = float(np.ptp(pts, axis=0).max()) if len(pts) else 0.0
+    if SPAN_MM[0] <= span <= SPAN_MM[1]:
+        return ""
+    size = f"{span:,.0f}" if span >= 1.0 else f"{span:.2g}"
+    return (f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
+            "mm (a file in m or um needs scaling)")
 
 
 def load_curve(path: str | Path) -> Target:

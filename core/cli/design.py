@@ -250,6 +250,7 @@ def run(args: argparse.Namespace) -> int:
         if not any(st.starts for st in config.stages):  # not contacted at all: say so rather than seem to use it
             print(f"clm: note: --scheduler is not used: {args.config} has no multi-start block "
                   "(only a block's chains run on Dask)", file=sys.stderr)
+    _warn_scale(config.baseline.target)
     check_out_dir(args.out_text, output_names(config))
     previous: list[str] = []
     if (args.out / "result.json").exists():
@@ -310,3 +311,16 @@ def run(args: argparse.Namespace) -> int:
     if result.status == "complete":
         return 0
     return 143 if terminated else 130
+
+
+def _warn_scale(target: str) -> None:
+    """A word on stderr when the config's target curve is far from a leg's size (a CSV in m or um is read as mm: the
+    run went on to a confident nonsense, where the studio warned about the same file)."""
+    from core.analysis.targets import load_curve, scale_note
+
+    if target.split(":", 1)[0] == "cycloid":
+        return
+    note = scale_note(load_curve(target).points)
+    if note:
+        print(f"clm: warning: target {Path(target).name}: {note}", file=sys.stderr)
+

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,7 @@ from core.analysis.evaluate import (
 )
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
-from core.analysis.targets import load_curve, parse_target
+from core.analysis.targets import load_curve, parse_target, scale_note
 from core.cli import CLIError, dumps
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.presets import PAPER_PANTOGRAPH
@@ -75,6 +76,10 @@ def _check(args: argparse.Namespace) -> None:
 
 def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:
     target = parse_target(args.target)
+    note = "" if target is None or args.target is None or args.target.split(":", 1)[0] == "cycloid" \
+        else scale_note(target.points)
+    if note:  # a CSV in m or um is read as mm
+        print(f"clm: warning: target {Path(args.target).name}: {note}", file=sys.stderr)
     curve = load_curve(args.curve) if args.curve is not None else None
     period = args.period
     if period is None:  # the time law's period: T = 4 in the target is the crank period the optimizer used
