@@ -73,9 +73,11 @@ def _is_run(path: Path) -> bool:
     """Whether a file begins as a ``clm design`` result.json does (its format first)."""
     from core.optimize.run import RESULT_FORMAT
 
+    if not path.is_file():  # a FIFO would block the open (read_user_file refuses it, below)
+        return False
     try:
         with open(path, "rb") as f:
-            head = f.read(256) if path.is_file() else b""
+            head = f.read(256)
     except OSError:
         return False
     return f'"{RESULT_FORMAT}"'.encode() in head
