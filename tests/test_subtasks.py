@@ -130,3 +130,23 @@ def test_a_csv_target_with_times_gives_the_formula_targets_metrics(tmp_path) -> 
     by_formula = shape_metrics(x3, "cycloid", n_samples=N)
     for k in ("f1", "f2", "f3", "h_s", "I"):
         assert by_csv[k][0] == pytest.approx(by_formula[k][0], rel=1e-9, abs=1e-9), k
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_the_crank_margin_is_a_metric_a_pick_can_require(backend: str) -> None:
+    # Picks 0.002 mm from a dead point (transmission angles of 179.9 deg) could not be refused: no metric said so.
+    from core.formats.config import parse_config
+
+    d = get("stephenson1/X3").design()
+    P = np.repeat(d.params, 3, axis=0)
+    P[1:, d.mechanism.param_names.index("r1")] *= (1.02, 1.2)  # a longer crank: nearer its dead point, or past it
+    design = Design(d.mechanism, P, d.output)
+    m = shape_metrics(design, backend=backend)
+    want = design.solve(360, joints=False, backend="numpy").crank_margin
+    np.testing.assert_allclose(m["crank_margin"], want, rtol=1e-9)
+    assert m["crank_margin"][0] > m["crank_margin"][1]
+    assert "crank_margin" in make_problem("subtask2").metric_names  # a config may name it
+    cfg = parse_config({"name": "x", "preset": "stephenson1/X0", "algorithm": {"name": "nsga2", "pop_size": 12},
+                        "stages": [{"name": "subtask1", "n_gen": 2, "pick": "best:f1",
+                                    "pick_where": {"crank_margin_min": 1.0}}]})
+    assert cfg.stages[0].pick_where[0].metric == "crank_margin" and cfg.stages[0].pick_where[0].lower == 1.0

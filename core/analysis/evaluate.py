@@ -11,7 +11,7 @@ gait constraints (Eq. 30 order and 15 degree angles, Eq. 31) are reported separa
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from typing import Any, Literal
 
@@ -56,6 +56,8 @@ class Evaluation:
             (NaN unless requested).
         times: ``(pop, 8)`` t1 ... t8 (s); points: ``(pop, 8, 2)`` leg-frame positions.
         constraints: ``(pop, 5)`` Eq. 30-31 values, columns ``CONSTRAINT_NAMES`` (<= 0 satisfied).
+        crank_margin: the crank loops' exact full-rotation margin (mm, ``Solution.crank_margin``; +inf if the
+            crank closes no loop, NaN for paths without a design): how far the design is from a dead point.
     """
 
     feasible: NDArray[np.bool_]
@@ -86,6 +88,7 @@ class Evaluation:
     period: float
     n_samples: int
     target: str
+    crank_margin: F64
 
     @property
     def pop(self) -> int:
@@ -165,7 +168,7 @@ def evaluate(
     if (use_numba and not phase_optimal) or design.pop == 0:
         return _evaluate_fused(design, n_samples, target, period, obstacle, trunk)
     sol = design.solve(n_samples, joints=False, backend="numba" if use_numba else "numpy")
-    return evaluate_paths(
+    ev = evaluate_paths(
         sol.point,
         sol.leg,
         sol.dleg,
@@ -177,6 +180,7 @@ def evaluate(
         phase_optimal=phase_optimal,
         kernel=use_numba,
     )
+    return replace(ev, crank_margin=sol.crank_margin)
 
 
 def _check_args(
@@ -232,7 +236,7 @@ def _evaluate_fused(
     """
     # Imported here: PARALLEL_MIN_POP is read at call time (tests lower it to run the parallel kernel).
     from core.analysis import kernel as K
-    from core.kinematics.solver import PARALLEL_MIN_POP, assembly_violation, prepare, sample_angles
+    from core.kinematics.solver import PARALLEL_MIN_POP, assembly_violation, crank_margin_of, prepare, sample_angles
 
     prep = prepare(design.mechanism, design.params)
     tgt = _default_target(float(period)) if target is None else target
@@ -243,9 +247,10 @@ def _evaluate_fused(
         prep.program.ops, prep.vals, sample_angles(n), prep.program.tracked, out.kernel_args(),
         _target_samples(tgt, n), float(period), a, b, *_layouts(float(trunk)), pop >= PARALLEL_MIN_POP,
     )
-    kin = assembly_violation(prep, mmin, neg, broken)
+    crank = crank_margin_of(prep)
+    kin = assembly_violation(prep, mmin, neg, broken, crank)
     return _assemble(_kernel_results(index, pts, tans, S, float(period), n), np.full(pop, np.nan), kin, tgt,
-                     period, (a, b), trunk, n)
+                     period, (a, b), trunk, n, crank)
 
 
 def _kernel(
@@ -372,8 +377,10 @@ def _assemble(
     obstacle: tuple[float, float],
     trunk: float,
     n: int,
+    crank: F64 | None = None,
 ) -> Evaluation:
-    """The Evaluation from the analysis results (kernel or numpy modules) and the kinematic violation."""
+    """The Evaluation from the analysis results (kernel or numpy modules), the kinematic violation and the crank
+    margin (None: paths without a design, NaN)."""
     fp, h_s, h_m, h_bar, psi2, psi4, step, err, width, y_min = results
     l_s = M.stance_length(fp)
     theta = M.tangent_angles(fp)
@@ -413,6 +420,7 @@ def _assemble(
         period=float(period),
         n_samples=n,
         target=tgt.name,
+        crank_margin=np.full(len(violation), np.nan) if crank is None else np.asarray(crank, dtype=np.float64),
     )
 
 

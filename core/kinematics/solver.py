@@ -173,6 +173,11 @@ def prepare(mechanism: Mechanism, params: F64) -> Prepared:
     return Prepared(prog, vals, derive_viol, bad)
 
 
+def crank_margin_of(prep: Prepared) -> F64:
+    """``(pop,)`` ``Solution.crank_margin`` of a prepared population."""
+    return _crank_margin(prep.program.ops, prep.vals)
+
+
 def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.bool_],
                        crank: F64 | None = None) -> F64:
     """``Solution.violation`` from the interpreters' cycle statistics.
