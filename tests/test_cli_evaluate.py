@@ -164,14 +164,19 @@ def test_the_period_is_the_time_law_s_unless_given(tmp_path: Path, capsys: pytes
     assert json.loads(out4)["period"] == 4.0 and json.loads(out2)["period"] == 2.0
 
 
+def ellipse_csv(path, rx: float, ry: float, cy: float):
+    """An x,y CSV (no times) of an ellipse with half-axes rx, ry about (0, cy); the path."""
+    t = np.linspace(0.0, 2.0 * np.pi, 60, endpoint=False)
+    path.write_text("\n".join(f"{rx * np.cos(a):.6f},{cy + ry * np.sin(a):.6f}" for a in t) + "\n")
+    return path
+
+
 def test_a_target_curve_in_metres_is_evaluated_with_a_warning(tmp_path, capsys):
     # Read as mm, a 0.18 m path became a 0.18 mm target: the studio said so, the CLI went on without a word.
     from core.cli import main
     from core.cli.design import _warn_scale
 
-    t = np.linspace(0.0, 2.0 * np.pi, 60, endpoint=False)
-    path = tmp_path / "foot_m.csv"
-    path.write_text("\n".join(f"{0.09 * np.cos(a):.6f},{0.03 * np.sin(a):.6f}" for a in t) + "\n")
+    path = ellipse_csv(tmp_path / "foot_m.csv", 0.09, 0.03, 0.0)
     assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(path)]) == 0
     err = capsys.readouterr().err
     assert err.startswith("clm: warning: target foot_m.csv: it spans 0.18 mm") and err.count("\n") == 1
@@ -186,9 +191,7 @@ def test_a_target_without_times_gets_the_optimizers_shape_error_and_only_the_pap
     # pick read 10.21 mm here against the run's 8.29. And "h_s / 300 mm, the paper's S" was printed for any target.
     from core.cli import main
 
-    t = np.linspace(0.0, 2.0 * np.pi, 60, endpoint=False)
-    path = tmp_path / "foot.csv"
-    path.write_text("\n".join(f"{150 * np.cos(a):.6f},{-150 + 40 * np.sin(a):.6f}" for a in t) + "\n")
+    path = ellipse_csv(tmp_path / "foot.csv", 150.0, 40.0, -150.0)
     assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(path)]) == 0
     out = capsys.readouterr().out
     assert "shape error, best phase" in out and "the paper's S" not in out
