@@ -17,6 +17,7 @@ from pathlib import Path
 
 import plotly.graph_objects as go
 
+from core.analysis.targets import cycloid_params
 from core.formats.files import atomic_write, chart_file, read_design_result
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
@@ -71,21 +72,14 @@ def target_text(settings: object, curve_names: Mapping[str, str] | None = None) 
     return html.escape(text, quote=False)  # a chart's title is HTML to plotly: an upload named "<b>" is text
 
 
-UNITS = {"L": "mm", "H": "mm", "T": "s"}
-
-
 def cycloid_text(target: str) -> str:
     """``cycloid:L=300.0,H=100.0,T=2.0`` as a title says it: ``cycloid L=300 mm, H=100 mm, T=2 s`` (the option's
-    own text, "L=300.0 H=100.0 T=2.0", gave no units)."""
-    _, _, args = target.partition(":")
-    parts = []
-    for item in filter(None, args.split(",")):
-        key, _, value = item.partition("=")
-        try:
-            parts.append(f"{key}={float(value):g} {UNITS[key]}" if key in UNITS else item)
-        except ValueError:
-            parts.append(item)
-    return "cycloid" + (" " + ", ".join(parts) if parts else "")
+    own text, "L=300.0 H=100.0 T=2.0", gave no units); a malformed one as it is."""
+    try:
+        p = cycloid_params(target)
+    except ValueError:
+        return target.replace(":", " ").replace(",", " ")
+    return f"cycloid L={p['L']:g} mm, H={p['H']:g} mm, T={p['T']:g} s"
 
 
 def run_charts(run_dir: Path) -> list[Path]:

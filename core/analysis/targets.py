@@ -248,21 +248,28 @@ def load_curve(path: str | Path) -> Target:
     return curve_from_rows(list(csv.reader(io.StringIO(read_user_file(p)))), p.name)
 
 
+def cycloid_params(spec: str) -> dict[str, float]:
+    """``{L, H, T}`` of a ``cycloid[:L=300,H=100,T=2]`` value (defaults for those not given); ValueError if
+    malformed."""
+    kw = {"L": 300.0, "H": 100.0, "T": 2.0}
+    if ":" in spec:
+        given: set[str] = set()
+        for item in spec.split(":", 1)[1].split(","):
+            key, _, val = item.partition("=")
+            if key.strip() not in kw or not _numeric(val):
+                raise ValueError(f"bad cycloid parameter {item!r}; use cycloid:L=300,H=100,T=2")
+            if key.strip() in given:
+                raise ValueError(f"cycloid parameter {key.strip()} is given twice in {spec!r}")
+            given.add(key.strip())
+            kw[key.strip()] = float(val)
+    if not all(math.isfinite(v) and v > 0 for v in kw.values()):
+        raise ValueError("cycloid parameters L, H, T must be positive")
+    return kw
+
+
 def parse_target(spec: str | None) -> Target:
     """A target from a command-line value: None or ``cycloid[:L=300,H=100,T=2]`` or a CSV path."""
     if spec is None or spec.split(":", 1)[0] == "cycloid":
-        kw = {"L": 300.0, "H": 100.0, "T": 2.0}
-        if spec and ":" in spec:
-            given: set[str] = set()
-            for item in spec.split(":", 1)[1].split(","):
-                key, _, val = item.partition("=")
-                if key.strip() not in kw or not _numeric(val):
-                    raise ValueError(f"bad cycloid parameter {item!r}; use cycloid:L=300,H=100,T=2")
-                if key.strip() in given:
-                    raise ValueError(f"cycloid parameter {key.strip()} is given twice in {spec!r}")
-                given.add(key.strip())
-                kw[key.strip()] = float(val)
-        if not all(math.isfinite(v) and v > 0 for v in kw.values()):
-            raise ValueError("cycloid parameters L, H, T must be positive")
+        kw = cycloid_params(spec or "cycloid")
         return cycloid_target(kw["L"], kw["H"], kw["T"])
     return load_curve(spec)
