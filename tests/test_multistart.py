@@ -208,6 +208,26 @@ def test_a_screen_sends_only_the_best_chains_on() -> None:
     assert back.starts == block.starts and [c.status for c in back.chains] == [c.status for c in block.chains]
 
 
+def test_a_screen_with_limits_keeps_the_best_chains_that_meet_them() -> None:
+    # The screen ranks as select_chain does: chains that meet its limits first, then the metric. Here the limit
+    # (f1 at least the third smallest chain's) excludes the two chains the metric alone would keep.
+    cfg = copy.deepcopy(CONFIG)
+    screen: dict[str, Any] = {"after": "subtask1", "keep": 2, "by": "best:f1"}
+    cfg["stages"][0]["starts"] = {"n": 4, "until": "subtask2", "select": "best:S", "screen": screen}
+    plain = run_design(parse_config(cfg)).multistart[0]
+    f1 = [c.metrics[0]["f1"] for c in plain.chains]
+    floor = sorted(f1)[2]
+    screen["where"] = {"f1_min": floor}
+    (block,) = run_design(parse_config(cfg)).multistart
+    assert block.starts.screen == Screen("subtask1", 2, "best:f1", (Constraint("f1", lower=floor),))
+    assert [c.metrics[0]["f1"] for c in block.chains] == f1  # the same chains up to the screen
+    kept = sorted(c.index for c in block.chains if c.status == "complete")
+    assert kept == sorted(j for j in range(4) if f1[j] >= floor)
+    assert kept != sorted(c.index for c in plain.chains if c.status == "complete")
+    back = MultiStart.from_dict(json.loads(dumps(block.to_dict())))
+    assert back.starts == block.starts
+
+
 def test_pick_where_and_best_metric_steer_the_final_pick(run: DesignRun) -> None:
     r = run.results[2]
     ok = r.feasible & (r.metrics["I"] <= 50.0)

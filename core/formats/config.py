@@ -355,8 +355,10 @@ def _screen(t: Screen_, key: str, stages: list[StageConfig], first: int, last: i
         raise _fail(f"{key}.keep", f"keeps {t.keep} of only {n} chains")
     if not t.by.startswith("best:"):
         raise _fail(f"{key}.by", f"{t.by!r}: use 'best:<metric>'")
-    _metric(t.by[5:], f"{key}.by", stages[names.index(t.after, first)].problem_spec(), t.by)
-    return Screen(t.after, t.keep, t.by)
+    spec = stages[names.index(t.after, first)].problem_spec()
+    _metric(t.by[5:], f"{key}.by", spec, t.by)
+    where = _where(t.where, f"{key}.where", spec) if t.where is not None else ()
+    return Screen(t.after, t.keep, t.by, where)
 
 
 def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | None = None) -> DesignConfig:

@@ -53,6 +53,7 @@ class Screen_(Struct, forbid_unknown_fields=True, frozen=True):
     after: str
     keep: PosInt
     by: str
+    where: dict[str, Any] | None = None
 
 
 class Starts_(Struct, forbid_unknown_fields=True, frozen=True):

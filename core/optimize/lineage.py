@@ -260,7 +260,8 @@ def run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None
         return out
     going = chains
     if starts.screen is not None:
-        order = rank_chains([c.metrics[-1] for c in chains], [c.feasible for c in chains], starts.screen.by)
+        order = rank_chains([c.metrics[-1] for c in chains], [c.feasible for c in chains], starts.screen.by,
+                            starts.screen.where)
         kept = set(order[: starts.screen.keep])
         going = [c for c in chains if c.j in kept]
         for c in chains:

@@ -111,19 +111,24 @@ class Screen:
     Attributes:
         after: name of a stage of the block before its last one.
         keep: chains that go on (>= 1).
-        by: ``"best:<metric>"`` of ``after``'s pick (ranked as in :func:`select_chain`, no limits).
+        by: ``"best:<metric>"`` of ``after``'s pick, ranked as in :func:`select_chain`.
+        where: limits on ``after``'s picks, ranked as in :func:`select_chain` (none: the metric alone).
     """
 
     after: str
     keep: int
     by: str
+    where: tuple[Constraint, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"after": self.after, "keep": self.keep, "by": self.by}
+        out: dict[str, Any] = {"after": self.after, "keep": self.keep, "by": self.by}
+        if self.where:
+            out["where"] = where_to_dict(self.where)
+        return out
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Screen:
-        return cls(str(d["after"]), int(d["keep"]), str(d["by"]))
+        return cls(str(d["after"]), int(d["keep"]), str(d["by"]), where_from_dict(d.get("where", {})))
 
 
 @dataclass(frozen=True)
