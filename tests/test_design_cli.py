@@ -147,14 +147,34 @@ def test_design_lists_every_chain_and_tags_their_progress(tmp_path: Path, capsys
     lines = cap.out.splitlines()
     assert "2 worker processes" in lines[0]
     i = next(k for k, line in enumerate(lines) if line.startswith("multi-start subtask1..subtask1: 3 chains"))
-    assert lines[i + 1].split()[:4] == ["chain", "status", "time", "(s)"]
+    assert lines[i + 1].split()[:7] == ["chain", "status", "time", "(s)", "pick", "at", "feasible"]
     rows = lines[i + 2 : i + 5]
+    assert all(" subtask1 " in r for r in rows)
     data = json.loads((tmp_path / "o" / "result.json").read_text())
     chosen = data["multistart"][0]["chosen"]
     assert [r.split()[0] for r in rows].count("*") == 1
     assert rows[chosen].startswith("* ") and data["workers"] == 2
     assert all(f"chain {j}]" in cap.err for j in range(3))
     assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "p"), "--workers", "0"]) == 2
+
+
+def test_design_says_what_a_screen_kept_and_where_each_chain_stopped(tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    starts = ('pick = "best:f1"\nstarts = {n = 3, until = "subtask2", select = "best:S", '
+              'screen = {after = "subtask1", keep = 1, by = "best:f1", where = {f2_max = 1e6}}}')
+    (tmp_path / "m.toml").write_text(TINY.replace('pick = "best:f1"', starts, 1))
+    assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "o"), "--workers", "1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    i = next(k for k, line in enumerate(lines) if line.startswith("multi-start subtask1..subtask2: 3 chains"))
+    assert lines[i].endswith("; after subtask1 the 1 best by best:f1, f2_max 1e+06 went on")
+    rows = [r.split() for r in lines[i + 2 : i + 5]]
+    kept = [r for r in rows if "complete" in r]
+    dropped = [r for r in rows if "dropped" in r]
+    assert len(kept) == 1 and len(dropped) == 2
+    # A dropped chain's row is its subtask-1 pick, and says nothing of subtask 2's constraints.
+    assert all(r[r.index("dropped") + 2 : r.index("dropped") + 4] == ["subtask1", "-"] for r in dropped)
+    k = kept[0]
+    assert k[k.index("complete") + 2] == "subtask2" and k[k.index("complete") + 3] in ("yes", "no")
 
 
 def test_an_earlier_run_in_out_is_kept_unless_overwrite_replaces_it_whole(tmp_path: Path,

@@ -17,6 +17,7 @@ import io
 import signal
 import sys
 import threading
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
@@ -30,6 +31,7 @@ from core.formats.typed import MAX_SEED
 from core.optimize.baselines import DP_METHODS
 from core.optimize.design_config import DesignConfig
 from core.optimize.multistart import MultiStart, where_name
+from core.optimize.problem import Constraint
 from core.optimize.result import StageResult, dumps
 from core.optimize.run import DesignRun, StageFailed, run_design
 from core.optimize.stage import Progress
@@ -219,17 +221,26 @@ def summary(run_: DesignRun) -> str:
     return "\n".join(lines)
 
 
+def _limits(where: Sequence[Constraint]) -> str:
+    return "".join(f", {where_name(c)} {c.upper if c.upper is not None else c.lower:g}" for c in where)
+
+
 def chains_table(block: MultiStart, show: list[str]) -> str:
-    """One line per chain of a multi-start block: its status, time and pick at the block's last stage."""
+    """One line per chain of a multi-start block: its status, time and its last pick (at the block's last stage,
+    or where a screen dropped it or a cancel stopped it)."""
     names = block.stages
     head = (f"multi-start {names[0]}..{names[-1]}: {len(block.chains)} chains, select {block.starts.select}"
-            + "".join(f", {where_name(c)} {c.upper if c.upper is not None else c.lower:g}" for c in block.starts.where))
+            + _limits(block.starts.where))
+    if (sc := block.starts.screen) is not None:
+        head += f"; after {sc.after} the {sc.keep} best by {sc.by}{_limits(sc.where)} went on"
     rows = []
     for c in block.chains:
         m = c.last
-        rows.append([("* " if c.index == block.chosen else "  ") + str(c.index), c.status, c.time,
-                     "yes" if c.feasible else "no", *[float(m.get(k, float("nan"))) for k in show]])
-    return head + "\n" + table(["chain", "status", "time (s)", "feasible", *show], rows)
+        at = names[len(c.metrics) - 1] if c.metrics else "-"
+        feasible = ("yes" if c.feasible else "no") if c.status == "complete" else "-"
+        rows.append([("* " if c.index == block.chosen else "  ") + str(c.index), c.status, c.time, at, feasible,
+                     *[float(m.get(k, float("nan"))) for k in show]])
+    return head + "\n" + table(["chain", "status", "time (s)", "pick at", "feasible", *show], rows)
 
 
 def run(args: argparse.Namespace) -> int:
