@@ -198,3 +198,11 @@ def test_a_target_without_times_gets_the_optimizers_shape_error_and_only_the_pap
     assert main(["evaluate", "--preset", "stephenson1/X3"]) == 0  # the paper's cycloid: times, the paper's S
     out = capsys.readouterr().out
     assert "shape error, best phase" not in out and "the paper's S" in out
+    # The paper's stride is read from the target's parameters, not its name: a CSV named like the cycloid is not it,
+    # and the cycloid written out with L = 300.0 is.
+    named = ellipse_csv(tmp_path / "compound cycloid L=300 H=100 T=2.csv", 150.0, 40.0, -150.0)
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(named)]) == 0
+    assert "the paper's S" not in capsys.readouterr().out
+    for spec, papers in (("cycloid:L=300.0,H=80", True), ("cycloid:L=250", False), ("cycloid:H=100", True)):
+        assert main(["evaluate", "--preset", "stephenson1/X3", "--target", spec]) == 0
+        assert ("the paper's S" in capsys.readouterr().out) == papers

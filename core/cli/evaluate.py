@@ -22,7 +22,7 @@ from core.analysis.evaluate import (
 )
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
-from core.analysis.targets import load_curve, parse_target, scale_note
+from core.analysis.targets import cycloid_params, load_curve, parse_target, scale_note
 from core.cli import CLIError, dumps
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.presets import PAPER_PANTOGRAPH
@@ -108,9 +108,12 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     return ev, preset if preset is not None else str(args.design), info
 
 
-def _papers(ev: Evaluation) -> bool:
-    """Whether the target is the paper's 300 mm stride, the only one whose S the paper printed as h_s / 300 mm."""
-    return str(ev.target).startswith("compound cycloid L=300 ")
+def papers_stride(spec: str | None) -> bool:
+    """Whether a ``--target`` value is the paper's 300 mm stride, the only one whose S the paper printed as
+    h_s / 300 mm: a cycloid with L = 300, read from its parameters (a CSV file is never, whatever its name)."""
+    if spec is not None and spec.split(":", 1)[0] != "cycloid":
+        return False
+    return cycloid_params(spec or "cycloid")["L"] == 300.0
 
 
 def _fmt(v: float, digits: int = 3) -> str:
@@ -119,8 +122,8 @@ def _fmt(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}f}" if abs(v) < 1e9 else f"{v:.4g}"  # a 1e300 mm target printed 300 digits
 
 
-def table(ev: Evaluation, label: str) -> str:
-    """A readable summary of member 0."""
+def table(ev: Evaluation, label: str, papers: bool = False) -> str:
+    """A readable summary of member 0; ``papers``: also the paper's S (h_s / 300 mm), for its stride."""
     r = ev.record(0)
     deg = math.degrees
     status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g}: {why_infeasible(ev)})"
@@ -129,7 +132,7 @@ def table(ev: Evaluation, label: str) -> str:
         ("stance length l_s", _fmt(r["l_s"]), "mm"),
         ("body fluctuation h_s", _fmt(r["h_s"]), "mm"),
         ("straightness S = h_s/l_s", _fmt(r["S"]), "%"),
-        *([("  (h_s / 300 mm, the paper's S)", _fmt(100 * r["h_s"] / 300.0), "%")] if _papers(ev) else []),
+        *([("  (h_s / 300 mm, the paper's S)", _fmt(100 * r["h_s"] / 300.0), "%")] if papers else []),
         ("impact I", _fmt(r["I"]), "mm/s"),
         ("landing angle theta1", _fmt(deg(r["theta1"]) if np.isfinite(r["theta1"]) else np.nan, 2), "deg"),
         ("take-off angle theta2", _fmt(deg(r["theta2"]) if np.isfinite(r["theta2"]) else np.nan, 2), "deg"),
@@ -170,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
         rec["constraint_names"] = list(CONSTRAINT_NAMES)
         print(dumps({**rec, **info}))
     else:
-        text = table(ev, label)
+        text = table(ev, label, papers_stride(args.target))
         if info.get("time_law") is False:
             head, _, rest = text.partition("\n")
             text = f"{head}\n{NO_TIMES}\n{rest}"
