@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from core.analysis.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths, why_infeasible
 from core.analysis.features import FEATURE_NAMES
 from core.analysis.targets import Target
-from core.kinematics.solver import Solution
+from core.kinematics.solver import Solution, worst_transmission
 from studio.tables import INSET
 
 F64 = NDArray[np.float64]
@@ -87,11 +87,9 @@ def shape_error(ev: Evaluation, i: int = 0) -> float:
 
 
 def min_transmission_angle(solution: Solution, i: int = 0) -> float:
-    """Worst transmission angle over the cycle and every dyad: ``min(mu, pi - mu)`` (rad), NaN if none."""
-    lo, hi = solution.mu_min[i], solution.mu_max[i]
-    worst = np.minimum(lo, np.pi - hi)
-    worst = worst[np.isfinite(worst)]
-    return float(worst.min()) if len(worst) else math.nan
+    """Worst transmission angle over the cycle and every dyad: ``min(mu, pi - mu)`` (rad), NaN if none (core's
+    ``worst_transmission``, the metric ``transmission`` a pick can require, in degrees there)."""
+    return float(worst_transmission(solution.mu_min[i : i + 1], solution.mu_max[i : i + 1])[0])
 
 
 def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:

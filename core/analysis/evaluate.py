@@ -26,6 +26,7 @@ from core.analysis.shape import mse_phase_optimal
 from core.analysis.targets import Target, cycloid_target
 from core.kinematics import checks
 from core.kinematics.design import Design
+from core.kinematics.solver import worst_transmission
 
 F64 = NDArray[np.float64]
 Backend = Literal["auto", "numpy", "numba"]
@@ -58,6 +59,10 @@ class Evaluation:
         constraints: ``(pop, 5)`` Eq. 30-31 values, columns ``CONSTRAINT_NAMES`` (<= 0 satisfied).
         crank_margin: the crank loops' exact full-rotation margin (mm, ``Solution.crank_margin``; +inf if the
             crank closes no loop, NaN for paths without a design): how far the design is from a dead point.
+        transmission: the worst transmission angle over the cycle and every dyad, ``min(mu, 180 - mu)`` in
+            **degrees**, the unit of the design rule (40 deg or more is the usual demand, 90 ideal; near 0 a dyad
+            passes close to its dead point and transmits almost no force); over the samples where it closes,
+            NaN where none does and for paths without a design (``solver.worst_transmission``).
     """
 
     feasible: NDArray[np.bool_]
@@ -89,6 +94,7 @@ class Evaluation:
     n_samples: int
     target: str
     crank_margin: F64
+    transmission: F64
 
     @property
     def pop(self) -> int:
@@ -180,7 +186,11 @@ def evaluate(
         phase_optimal=phase_optimal,
         kernel=use_numba,
     )
-    return replace(ev, crank_margin=sol.crank_margin)
+    return replace(ev, crank_margin=sol.crank_margin, transmission=_degrees(worst_transmission(sol.mu_min, sol.mu_max)))
+
+
+def _degrees(rad: F64) -> F64:
+    return np.degrees(rad)
 
 
 def _check_args(
@@ -236,21 +246,29 @@ def _evaluate_fused(
     """
     # Imported here: PARALLEL_MIN_POP is read at call time (tests lower it to run the parallel kernel).
     from core.analysis import kernel as K
-    from core.kinematics.solver import PARALLEL_MIN_POP, assembly_violation, crank_margin_of, prepare, sample_angles
+    from core.kinematics.solver import (
+        PARALLEL_MIN_POP,
+        assembly_violation,
+        crank_margin_of,
+        prepare,
+        sample_angles,
+        transmission_range,
+    )
 
     prep = prepare(design.mechanism, design.params)
     tgt = _default_target(float(period)) if target is None else target
     a, b = float(obstacle[0]), float(obstacle[1])
     out = design.output
     pop = prep.vals.shape[0]
-    mmin, neg, broken, index, pts, tans, S = K.run_designs(
+    mmin, cmin, cmax, neg, broken, index, pts, tans, S = K.run_designs(
         prep.program.ops, prep.vals, sample_angles(n), prep.program.tracked, out.kernel_args(),
         _target_samples(tgt, n), float(period), a, b, *_layouts(float(trunk)), pop >= PARALLEL_MIN_POP,
     )
     crank = crank_margin_of(prep)
     kin = assembly_violation(prep, mmin, neg, broken, crank)
+    mu = _degrees(worst_transmission(*transmission_range(prep.program.ops, cmin, cmax)))
     return _assemble(_kernel_results(index, pts, tans, S, float(period), n), np.full(pop, np.nan), kin, tgt,
-                     period, (a, b), trunk, n, crank)
+                     period, (a, b), trunk, n, crank, mu)
 
 
 def _kernel(
@@ -377,10 +395,10 @@ def _assemble(
     obstacle: tuple[float, float],
     trunk: float,
     n: int,
-    crank: F64 | None = None,
+    crank: F64 | None = None, transmission: F64 | None = None,
 ) -> Evaluation:
-    """The Evaluation from the analysis results (kernel or numpy modules), the kinematic violation and the crank
-    margin (None: paths without a design, NaN)."""
+    """The Evaluation from the analysis results (kernel or numpy modules), the kinematic violation, the crank
+    margin and the worst transmission angle (None: paths without a design, NaN)."""
     fp, h_s, h_m, h_bar, psi2, psi4, step, err, width, y_min = results
     l_s = M.stance_length(fp)
     theta = M.tangent_angles(fp)
@@ -421,6 +439,7 @@ def _assemble(
         n_samples=n,
         target=tgt.name,
         crank_margin=np.full(len(violation), np.nan) if crank is None else np.asarray(crank, dtype=np.float64),
+        transmission=np.full(len(violation), np.nan) if transmission is None else transmission,
     )
 
 

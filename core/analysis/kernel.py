@@ -162,14 +162,14 @@ _fused_serial, _fused_parallel = _fused_runs(_SOLVER_DIGEST)
 def run_designs(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, stage: tuple[float, float, float, float],
     target: F64, period: float, a: float, b: float, offs2: F64, ph2: F64, offs4: F64, ph4: F64, parallel: bool,
-) -> tuple[F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
+) -> tuple[F64, F64, F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
     """Solve every design (``core.kinematics.kernel``) and analyse its path in the same pass.
 
     The results of ``solver_numba.solve_all(..., stage=stage)`` followed by ``run`` on its point,
     leg and dleg, without those ``(pop, n_samples, 2)`` arrays.
 
     Returns:
-        mmin ``(pop, n_steps)`` and neg ``(pop,)`` as ``solver_numba.run``; broken ``(pop,)``
+        mmin, cmin, cmax ``(pop, n_steps)`` and neg ``(pop,)`` as ``solver_numba.run``; broken ``(pop,)``
         True where some sample has a non-finite joint (``~valid.any(1)``); index, pts, tans, S
         as ``run`` fills them.
     """
@@ -193,4 +193,4 @@ def run_designs(
            tuple(float(v) for v in stage), np.ascontiguousarray(target, dtype=np.float64),
            float(period), float(a), float(b), offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken,
            index, pts, tans, S)
-    return mmin, neg, broken, index, pts, tans, S
+    return mmin, cmin, cmax, neg, broken, index, pts, tans, S

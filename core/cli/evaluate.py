@@ -147,6 +147,8 @@ def table(ev: Evaluation, label: str, papers: bool = False) -> str:
     ]
     if np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
+    if np.isfinite(r["transmission"]):  # a design's (a curve has none)
+        rows.append(("worst transmission angle", _fmt(r["transmission"], 1), "deg (90 ideal, 40 the usual minimum)"))
     w = max(len(n) for n, _, _ in rows)
     lines = [f"{label}: {status}; T = {ev.period:g} s, {ev.n_samples} samples, target {ev.target}"]
     lines += [f"  {n:<{w}}  {v:>10}  {u}" for n, v, u in rows]

@@ -206,6 +206,31 @@ def assembly_violation(prep: Prepared, mmin: F64, neg: F64, broken: NDArray[np.b
     return violation
 
 
+def transmission_range(ops: NDArray[np.int64], cmin: F64, cmax: F64) -> tuple[F64, F64]:
+    """``Solution.mu_min, mu_max`` ``(pop, n_dyads)`` (rad) from the interpreters' cosine range ``(pop, n_steps)``
+    of each step's transmission angle; NaN for a dyad that closes at no sample."""
+    dyads = np.flatnonzero(ops[:, 0] == DYAD)
+    lo, hi = cmin[:, dyads], cmax[:, dyads]
+    with np.errstate(invalid="ignore"):
+        mu_min = np.arccos(np.clip(hi, -1.0, 1.0))
+        mu_max = np.arccos(np.clip(lo, -1.0, 1.0))
+    mu_min[~np.isfinite(hi)] = np.nan
+    mu_max[~np.isfinite(lo)] = np.nan
+    never = (hi < -1.0) | (lo > 1.0)  # no sample closes: no angle (it read 180..180)
+    mu_min[never], mu_max[never] = np.nan, np.nan
+    return mu_min, mu_max
+
+
+def worst_transmission(mu_min: F64, mu_max: F64) -> F64:
+    """``(pop,)`` the worst transmission angle over the cycle and every dyad, ``min(mu, pi - mu)`` (rad, in
+    [0, pi/2]; pi/2 is ideal, 0 a dyad at its dead point); NaN where no dyad closes."""
+    worst = np.fmin(mu_min, np.pi - mu_max)
+    out = np.full(worst.shape[0], np.nan)
+    ok = np.isfinite(worst).any(axis=1)
+    out[ok] = np.nanmin(worst[ok], axis=1)
+    return out
+
+
 def solve(
     mechanism: Mechanism,
     params: F64,
@@ -260,13 +285,7 @@ def solve(
     dyads = np.flatnonzero(prog.ops[:, 0] == DYAD)
     crank = _crank_margin(prog.ops, vals)
     violation = assembly_violation(prep, mmin, neg, np.asarray((~valid).any(axis=1), dtype=np.bool_), crank)
-    with np.errstate(invalid="ignore"):
-        mu_min = np.arccos(np.clip(cmax[:, dyads], -1.0, 1.0))
-        mu_max = np.arccos(np.clip(cmin[:, dyads], -1.0, 1.0))
-    mu_min[~np.isfinite(cmax[:, dyads])] = np.nan
-    mu_max[~np.isfinite(cmin[:, dyads])] = np.nan
-    never = (cmax[:, dyads] < -1.0) | (cmin[:, dyads] > 1.0)  # no sample closes: no angle (it read 180..180)
-    mu_min[never], mu_max[never] = np.nan, np.nan
+    mu_min, mu_max = transmission_range(prog.ops, cmin, cmax)
     names = mechanism.joint_names
     return Solution(
         theta=theta,

@@ -50,6 +50,7 @@ LABELS: dict[str, str] = {
     "violation": "violation",
     "violation_mm": "assembly shortfall (mm)",
     "crank_margin": "crank margin (mm)",
+    "transmission": "worst transmission angle (deg)",
 }
 
 
@@ -83,7 +84,8 @@ def shape_metrics(design: Design, target: str = DEFAULT_TARGET, n_samples: int =
 
     Keys: f1, f2, f3 (subtask 1 objectives), mse, width, y_min, h_s, S, I, l_s, theta1,
     theta2, order (Eq. 30 order value, rad), theta1_margin, theta2_margin (15 degrees minus
-    the angle, rad), violation (assembly and path validity, >= 0), crank_margin (mm from a dead point).
+    the angle, rad), violation (assembly and path validity, >= 0), crank_margin (mm from a dead point),
+    transmission (the worst transmission angle, deg).
     """
     tgt = load_target(target)
     ev = evaluate(design, n_samples, target=tgt, period=tgt.period, backend=backend,
@@ -116,6 +118,9 @@ def metrics_of(ev: Evaluation, target: Target) -> Metrics:
         # How far from a dead point (mm): a pick_where / starts.where limit ({crank_margin_min = 1.0}); picks 0.002 mm
         # from one, with transmission angles of 179.9 deg, could not be refused.
         "crank_margin": ev.crank_margin,
+        # The worst transmission angle (deg, 90 ideal): {transmission_min = 40} keeps a pick away from designs that
+        # assemble but transmit almost no force (the paper's X3 reads 21 deg).
+        "transmission": ev.transmission,
     }
 
 

@@ -59,6 +59,13 @@ def _eq30(on: bool) -> tuple[Constraint, ...]:
             Constraint("theta2_margin", upper=0.0))
 
 
+def _transmission(limit: float) -> tuple[Constraint, ...]:
+    """``transmission_min`` (deg): the worst transmission angle at least this (0: no limit, the paper's)."""
+    if not (np.isfinite(limit) and 0.0 <= limit < 90.0):
+        raise ValueError(f"transmission_min must be an angle in degrees in [0, 90), got {limit!r}")
+    return (Constraint("transmission", lower=float(limit)),) if limit > 0.0 else ()
+
+
 def _placement(place: str, target: str, n_samples: int, backend: str) -> dict[str, Any]:
     """A problem's ``repair`` (the Lamarckian placement) and its ``misfit`` (the mechanisms it cannot place)."""
     repair = _placer(place, target, n_samples, backend)
@@ -79,7 +86,7 @@ def _placer(place: str, target: str, n_samples: int, backend: str) -> Any:
 
 @register("subtask1")
 def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-             eq30: bool = False, place: str = "extent") -> ProblemSpec:
+             eq30: bool = False, place: str = "extent", transmission_min: float = 0.0) -> ProblemSpec:
     """Subtask 1 (Eq. 20): overall shape and position, objectives f1, f2, f3.
 
     Args:
@@ -88,42 +95,49 @@ def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
             width and lowest point (f2 = f3 = 0 up to clipping to the box) and is otherwise the
             least-squares fit; ``lsq`` the plain least-squares fit; ``none`` the paper's literal
             search, where the optimizer finds the position itself (much slower).
+        transmission_min: a lower limit on the worst transmission angle (deg; 0, the default, sets none). Every
+            subtask and ``single_level`` take it.
     """
     return ProblemSpec("subtask1", _evaluator(target, n_samples, backend), ("f1", "f2", "f3"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, **_placement(place, target, n_samples, backend))
+                       (ASSEMBLY, *_eq30(eq30), *_transmission(transmission_min)), labels=LABELS,
+                       **_placement(place, target, n_samples, backend))
 
 
 @register("subtask2")
 def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float = EQ22["f1"],
              f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], eq30: bool = False,
-             place: str = "none") -> ProblemSpec:
+             place: str = "none", transmission_min: float = 0.0) -> ProblemSpec:
     """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max))
-    return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
+    return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"),
+                       cons + _eq30(eq30) + _transmission(transmission_min),
                        labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
 @register("subtask3")
 def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float = EQ22["f1"],
              f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], h_s_max: float = EQ23["h_s"],
-             I_max: float = EQ23["I"], eq30: bool = False, place: str = "none") -> ProblemSpec:
+             I_max: float = EQ23["I"], eq30: bool = False, place: str = "none",
+             transmission_min: float = 0.0) -> ProblemSpec:
     """Subtask 3 (Eqs. 21-23): objectives h_s, I under Eq. 22 and f4 <= 6.5, f5 <= 20."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max),
             Constraint("h_s", upper=h_s_max), Constraint("I", upper=I_max))
-    return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"), cons + _eq30(eq30),
+    return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"),
+                       cons + _eq30(eq30) + _transmission(transmission_min),
                        labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
 @register("single_level")
 def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-                 eq30: bool = False, place: str = "none") -> ProblemSpec:
+                 eq30: bool = False, place: str = "none", transmission_min: float = 0.0) -> ProblemSpec:
     """Single-level optimization (§3.4.3): f1 ... f5 at once, subject to assembly.
 
     Args:
         place: as for ``subtask1`` (``none``, the paper's direct search, by default).
     """
     return ProblemSpec("single_level", _evaluator(target, n_samples, backend), ("f1", "f2", "f3", "h_s", "I"),
-                       (ASSEMBLY, *_eq30(eq30)), labels=LABELS, **_placement(place, target, n_samples, backend))
+                       (ASSEMBLY, *_eq30(eq30), *_transmission(transmission_min)), labels=LABELS,
+                       **_placement(place, target, n_samples, backend))
 
 
 @register("predesign")
