@@ -211,3 +211,30 @@ def test_a_finished_cell_whose_result_file_was_deleted_runs_again(tmp_path: Path
     runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
     assert client.sent == ["subtask2/nsga2/3", "subtask2/spea2/2"]  # it, and the cell that failed
     assert (out / "runs" / "subtask2" / "nsga2" / "3.json").is_file()
+
+
+def test_an_edit_of_a_stage_the_case_does_not_run_is_no_change(tmp_path: Path, client: _Client) -> None:
+    from tests.test_study import CONFIG
+
+    text = Path(CONFIG).read_text()
+    config = tmp_path / "c.toml"
+    config.write_text(text)
+    (tmp_path / "s.toml").write_text(STUDY.replace(str(CONFIG), str(config)))
+    out = str(tmp_path / "out")
+    runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)
+    client.sent.clear()
+    # The case runs subtask2 alone: the multi-start block, the predesign's generations and the seed do not
+    # reach its cells (session 24 changed the block, and every subtask cell of an existing study was left out).
+    block = next(line for line in text.splitlines() if line.startswith("starts = "))
+    edited = (text.replace(block, 'starts = {n = 3, until = "probe", select = "best:S"}')
+              .replace("n_gen = 60", "n_gen = 7").replace("seed = 1", "seed = 9"))
+    assert edited != text
+    config.write_text(edited)
+    s = runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)
+    assert client.sent == ["subtask2/spea2/2"]  # only the cell that failed runs again
+    assert s.total == 6
+    # An edit of the stage it runs is a change.
+    head, sep, tail = edited.partition('name = "subtask2"')
+    config.write_text(head + sep + tail.replace('f1_max = [4.0, "start+0.05"]', 'f1_max = [4.5, "start+0.05"]', 1))
+    with pytest.raises(runner.StudyChanged, match="case.config.stages"):
+        runner.run_study(load_study(tmp_path / "s.toml"), out, stream=None, task=fake_task)

@@ -107,17 +107,42 @@ def cell_settings(a: AlgorithmEntry, c: CaseEntry, config: dict[str, Any]) -> st
     return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
 
 
+# Stage keys a cell replaces or drops (core.study.cell.case_config): the budget sets n_gen and max_evals, the
+# cell's algorithm replaces a stage's own, and a study runs no multi-start block.
+CELL_DROPS = ("starts", "algorithm", "n_gen", "max_evals")
+
+
+def case_stages(stages: list[Any], names: list[str]) -> list[dict[str, Any]]:
+    """The config's stages a cell runs, in the case's order (all of them if it names none), without the keys in
+    ``CELL_DROPS``; a name the config lacks is skipped (the study's loader refuses it first)."""
+    tables = [s for s in stages if isinstance(s, dict)]
+    if names:
+        by_name = {s.get("name"): s for s in tables}
+        tables = [by_name[n] for n in names if n in by_name]
+    return [{k: v for k, v in s.items() if k not in CELL_DROPS} for s in tables]
+
+
 def effective_settings(settings: str) -> str:
-    """:func:`cell_settings` with what they leave to the case config filled in (a population not given is the
-    config's, else 100, as ``core.study.cell.case_config`` runs it): two cells that run alike compare equal (a
-    population written out equal to the config's was refused as a change)."""
+    """:func:`cell_settings` reduced to what the cell's run uses, as ``core.study.cell.case_config`` runs it: a
+    population not given is the config's (else 100); of the config, only the case's stages without the keys the
+    cell replaces (``CELL_DROPS``), and neither its seed, its workers, its algorithm (the cell's replaces it) nor
+    its preset when the case starts elsewhere. So two cells that run alike compare equal: a population written out
+    equal to the config's, and an edit of a stage the case does not run (session 24's multi-start block in the
+    Stephenson-I config), were refused as a change, and the report left those cells out."""
     data = json.loads(settings)
     alg = data.get("algorithm") if isinstance(data, dict) else None
     case = data.get("case") if isinstance(data, dict) else None
+    config = case.get("config") if isinstance(case, dict) else None
     if isinstance(alg, dict) and alg.get("pop_size") is None and isinstance(case, dict):
-        config = case.get("config")
         base = config.get("algorithm") if isinstance(config, dict) else None
         alg["pop_size"] = base.get("pop_size", 100) if isinstance(base, dict) else 100
+    if isinstance(case, dict) and isinstance(config, dict):
+        config = dict(config)
+        names = case.get("stages")
+        config["stages"] = case_stages(list(config.get("stages") or []), list(names) if isinstance(names, list) else [])
+        for k in ("seed", "workers", "algorithm", *(("preset",) if case.get("start") else ())):
+            config.pop(k, None)
+        case["config"] = config
     return json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
 
 

@@ -17,7 +17,7 @@ import msgspec
 import numpy as np
 
 from core.formats.config import parse_config
-from core.formats.study import Study
+from core.formats.study import Study, case_stages
 from core.optimize.decision import pareto_front
 from core.optimize.result import dumps
 from core.optimize.run import run_design
@@ -35,19 +35,15 @@ def stage_names(data: dict[str, Any]) -> list[str]:
 def case_config(case: dict[str, Any], algorithm: dict[str, Any], seed: int) -> dict[str, Any]:
     """The case's config narrowed to one cell (plain TOML data, checked later by ``parse_config``)."""
     data = read_config(case["config"])
-    stages = [dict(s) for s in data.get("stages", [])]
-    if case.get("stages"):
-        by_name = {s.get("name"): s for s in stages}
-        missing = [n for n in case["stages"] if n not in by_name]
-        if missing:
-            raise ValueError(f"case {case['name']!r}: no stage {missing[0]!r} in {case['config']} "
-                             f"(stages: {', '.join(stage_names(data))})")
-        stages = [dict(by_name[n]) for n in case["stages"]]
+    missing = [n for n in case.get("stages") or [] if n not in stage_names(data)]
+    if missing:
+        raise ValueError(f"case {case['name']!r}: no stage {missing[0]!r} in {case['config']} "
+                         f"(stages: {', '.join(stage_names(data))})")
+    # The same narrowing as the settings a cell is compared by (core.formats.study.effective_settings).
+    stages = case_stages(list(data.get("stages", [])), list(case.get("stages") or []))
     base = dict(data.get("algorithm", {}))
     pop = int(algorithm.get("pop_size") or base.get("pop_size", 100))
     for s in stages:
-        s.pop("starts", None)
-        s.pop("algorithm", None)
         # The budget is in evaluations, whatever an algorithm spends per generation (N to 3N; CMOES's second
         # stage a varying N + |P2| + |P3|): the stage ends once it is spent. n_gen is only a bound that never binds
         # first (every generation evaluates at least one design).
