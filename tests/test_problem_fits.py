@@ -10,6 +10,7 @@ from core.formats.config import parse_config
 from core.kinematics import presets
 from core.kinematics.mechanisms import get
 from core.optimize import AlgorithmSpec, StageSpec, make_problem
+from core.optimize.problem import Constraint
 from core.optimize.stage import Stage
 from studio.chains import RunSettings, chain_for, find, problems_for
 from studio.state import Session
@@ -69,3 +70,25 @@ def test_run_refuses_a_problem_that_does_not_fit_the_editor_with_its_reason():
     with pytest.raises(ValueError, match="problem 'rtclm1' does not fit the Stephenson-I six-bar"):
         s.study.plan(stage, settings, s.view.design, s.view.target, False, chain)
     assert s.study.pipeline is None and s.study.status.state == "idle"
+
+
+@pytest.mark.parametrize(("preset", "config"), [("stephenson1/X0", "stephenson1_cycloid.toml"),
+                                                ("rtclm/case1", "rtclm_case1.toml")])
+def test_the_studio_chain_starts_with_the_shipped_configs_budgets_and_picks(preset: str, config: str) -> None:
+    # The studio's RTCLM stages ran 50 x 50 where the configs run 100 x 200 / 1500 with the same early stop, and
+    # ended 2.2 mm from h6 and 34 mm from h4 while clm design met both within 0.5 mm.
+    from pathlib import Path
+
+    from core.formats.config import load_config
+
+    cfg = load_config(Path(__file__).resolve().parents[1] / "assets" / "configs" / config)
+    by_name = {s.name: s for s in cfg.stages}
+    chain = chain_for(presets.get(preset).design().mechanism)
+    for stage in chain:
+        c = by_name[stage.name]
+        assert (stage.pop_size, stage.n_gen, stage.pick) == (c.algorithm.pop_size, c.n_gen, c.pick), stage.name
+        assert stage.stop_below == c.stop_below, stage.name
+        if c.pick_where or stage.name != "subtask2":
+            assert stage.pick_where == c.pick_where, stage.name
+        else:  # the config's subtask 2 picks among the members that meet subtask 3's I_max (1 mm/s): the studio says so
+            assert stage.pick_where == (Constraint("I", upper=float(by_name["subtask3"].options["I_max"][0])),)
