@@ -159,8 +159,23 @@ def problems_for(mechanism: Mechanism) -> tuple[str, ...]:
     return tuple(out)
 
 
+@functools.cache
+def takes_heights(name: str) -> bool:
+    """True if the registered problem ``name`` takes the RTCLM's ``h6_target`` and ``h4_target`` options."""
+    try:
+        make_problem(name, h6_target=TargetSpec().h6, h4_target=TargetSpec().h4)
+    except ValueError as exc:
+        if "unknown option" in str(exc):
+            return False
+        raise
+    return True
+
+
 def build_problem(name: str, target: TargetSpec) -> ProblemSpec:
-    """A registered problem against the studio's target (problems without a ``target`` option get none)."""
+    """A registered problem against the studio's target: its curve (``target``) or the RTCLM's heights
+    (``h6_target``, ``h4_target``) for the problems that take them; none for the others."""
+    if takes_heights(name):
+        return make_problem(name, h6_target=float(target.h6), h4_target=float(target.h4))
     try:
         return make_problem(name, target=target.option())
     except ValueError as exc:

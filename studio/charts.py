@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import html
+import math
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -61,6 +62,8 @@ def target_text(settings: object, curve_names: Mapping[str, str] | None = None) 
     problem = settings.get("problem") if isinstance(settings, dict) else None
     options = problem.get("options") if isinstance(problem, dict) else None
     target = options.get("target") if isinstance(options, dict) else None
+    if isinstance(options, dict) and all(_number(options.get(k)) for k in ("h6_target", "h4_target")):
+        return f"h6={options['h6_target']:g} mm, h4={options['h4_target']:g} mm"  # an RTCLM stage's heights
     if not isinstance(target, str) or not target or len(target) >= 200:
         return ""
     if curve_names and target in curve_names:
@@ -70,6 +73,10 @@ def target_text(settings: object, curve_names: Mapping[str, str] | None = None) 
     else:
         text = f"curve {Path(target).name}"
     return html.escape(text, quote=False)  # a chart's title is HTML to plotly: an upload named "<b>" is text
+
+
+def _number(v: object) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def cycloid_text(target: str) -> str:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 import threading
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -30,6 +31,7 @@ from core.kinematics import mechanisms, presets
 from core.kinematics.design import Design
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
+from core.optimize.rtclm import H4_CASES
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
 from studio.session_pack import pack_study, unpack_study
 from studio.study import Branch, Selection, Study
@@ -100,21 +102,23 @@ def preset_target(name: str, period: float = 2.0) -> TargetSpec:
     p = presets.get(name)
     if p.mechanism.name in PAPER_TARGET:
         return TargetSpec(period=period, origin="the paper's")
+    case = re.match(r"rtclm/case(\d)", name)
+    h4 = H4_CASES.get(int(case.group(1)), H4_CASES[1]) if case else H4_CASES[1]  # a case's preset: its h4 (§4.2)
     n = 360
     sol = solve(p.mechanism, p.design().params, n, backend=BACKEND)
     path = sol.point[0]
     if not np.isfinite(path).all():
-        return TargetSpec(period=period, origin="the paper's (the preset's path does not close)")
+        return TargetSpec(period=period, origin="the paper's (the preset's path does not close)", h4=h4)
     span = path.max(axis=0) - path.min(axis=0)
     length, height = max(round(float(span[0])), 1.0), max(round(float(span[1])), 1.0)
     placed = place_cycloid(path, length, height)
     note = f"scaled to the {name} path and placed on it"
     if p.mechanism.name.startswith("rtclm"):
-        note += "; the RTCLM stages optimize their own objectives, not this target"
+        note += "; the RTCLM stages optimize h6 and h4, not this curve"
     times = tuple(float(i * period / n) for i in range(n))
     curve = Curve(f"cycloid {length:g} x {height:g} mm on {name}", tuple((float(x), float(y)) for x, y in placed),
                   times, float(period))
-    return TargetSpec(length, height, period, curve, note)
+    return TargetSpec(length, height, period, curve, note, h4=h4)
 
 
 def place_cycloid(path: NDArray[np.float64], length: float, height: float) -> NDArray[np.float64]:
@@ -502,13 +506,23 @@ class Session:
             v = self.view
             return self._commit(self._rebuild(v.design, v.preset, target))
 
+    def set_heights(self, **changes: float) -> DesignView:
+        """Change the RTCLM's targets (``h6``, ``h4``, mm); ValueError if not positive. The curve stays."""
+        with self.lock:
+            t = self.view.target
+            target = replace(t, h6=changes.get("h6", t.h6), h4=changes.get("h4", t.h4))
+            if target == self.view.target:
+                return self.view
+            v = self.view
+            return self._commit(self._rebuild(v.design, v.preset, target))
+
     def set_curve(self, curve: Curve | None) -> DesignView:
         """Make an uploaded curve the target (None: back to the compound cycloid)."""
         with self.lock:
             v = self.view
             target = v.target.with_curve(curve)
-            if curve is None and v.target.curve is not None:
-                target = TargetSpec(v.target.length, v.target.height)
+            if curve is None and v.target.curve is not None:  # back to the cycloid (the default period), same heights
+                target = TargetSpec(v.target.length, v.target.height, h6=v.target.h6, h4=v.target.h4)
             if target == v.target:
                 return v
             return self._commit(self._rebuild(v.design, v.preset, target))

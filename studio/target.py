@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 
 from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample, scale_note
 from core.kinematics.model import OutputStage
+from core.optimize.rtclm import H4_CASES, H6_TARGET
 
 F64 = NDArray[np.float64]
 
@@ -121,16 +122,19 @@ class Curve:
 @dataclass(frozen=True)
 class TargetSpec:
     """The target: the compound cycloid with step length L (mm), height H (mm), period T (s), or
-    an uploaded ``curve`` (then ``period`` is the curve's)."""
+    an uploaded ``curve`` (then ``period`` is the curve's); and the RTCLM's heights, ``h6`` of the primary
+    mode and ``h4`` of the auxiliary mode (mm, paper §4.2; its stages' ``h6_target`` and ``h4_target``)."""
 
     length: float = 300.0
     height: float = 100.0
     period: float = 2.0
     curve: Curve | None = None
     origin: str = ""  # where it came from, for the Target panel ("the paper's", "scaled to the jansen path")
+    h6: float = H6_TARGET
+    h4: float = H4_CASES[1]
 
     def __post_init__(self) -> None:
-        for name, unit in (("length", "mm"), ("height", "mm"), ("period", "s")):
+        for name, unit in (("length", "mm"), ("height", "mm"), ("period", "s"), ("h6", "mm"), ("h4", "mm")):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"target {name} must be a positive number ({unit}), got {v!r}")
@@ -169,9 +173,13 @@ class TargetSpec:
             return str(curve_file(self.curve))
         return f"cycloid:L={float(self.length)!r},H={float(self.height)!r},T={float(self.period)!r}"
 
+    def heights(self) -> str:
+        """The RTCLM's targets in words."""
+        return f"h6 = {self.h6:g} mm (primary mode), h4 = {self.h4:g} mm (auxiliary mode)"
+
     def with_curve(self, curve: Curve | None) -> TargetSpec:
         period = curve.period if curve is not None else self.period
-        return TargetSpec(self.length, self.height, period, curve, "uploaded" if curve is not None else "")
+        return replace(self, period=period, curve=curve, origin="uploaded" if curve is not None else "")
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"L": float(self.length), "H": float(self.height), "T": float(self.period)}
@@ -179,6 +187,8 @@ class TargetSpec:
             out["curve"] = self.curve.to_dict()
         if self.origin:
             out["origin"] = self.origin
+        if (self.h6, self.h4) != (H6_TARGET, H4_CASES[1]):  # only where they differ: a six-bar's file is unchanged
+            out["h6"], out["h4"] = float(self.h6), float(self.h4)
         return out
 
     @staticmethod
@@ -187,14 +197,15 @@ class TargetSpec:
         from curve objects of this load, by the object's id (targets sharing one curve parse it once)."""
         if not isinstance(data, dict):
             raise ValueError(f"target must be an object {{L, H, T}}, got {data!r}")
-        unknown = [k for k in data if k not in ("L", "H", "T", "curve", "origin")]
+        unknown = [k for k in data if k not in ("L", "H", "T", "curve", "origin", "h6", "h4")]
         if unknown:
-            raise ValueError(f"unknown target key {unknown[0]!r}; expected L, H, T (and curve, origin)")
+            raise ValueError(f"unknown target key {unknown[0]!r}; expected L, H, T (and curve, origin, h6, h4)")
         origin = data.get("origin", "")
         if not isinstance(origin, str) or len(origin) > 200:
             raise ValueError("target origin must be a short text")
         d = TargetSpec()
-        spec = TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period), None, origin)
+        spec = TargetSpec(data.get("L", d.length), data.get("H", d.height), data.get("T", d.period), None, origin,
+                          data.get("h6", d.h6), data.get("h4", d.h4))
         raw = data.get("curve")
         if raw is not None:
             curve = parsed.get(id(raw)) if parsed is not None else None

@@ -155,7 +155,7 @@ def test_each_mechanism_comes_with_a_target_of_its_own_size_and_says_so():
         mse = next(r.value for r in s.view.rows if r.key == "mse")
         assert mse < 0.2 * max(t.length, t.height)  # was 206 and 111 mm against the 300 x 100 mm cycloid
     s.select_mechanism("rtclm_primary")
-    assert "the RTCLM stages optimize their own objectives" in s.view.target.label()
+    assert "the RTCLM stages optimize h6 and h4, not this curve" in s.view.target.label()
     s.select_mechanism("stephenson1")
     assert s.view.target.label().endswith("(the paper's)") and s.view.target.length == 300.0
     # An uploaded curve is the designer's: it stays when the mechanism changes.

@@ -1,4 +1,5 @@
-"""Target panel: L, H and T of the compound-cycloid target (spec §3), or a closed curve uploaded as CSV.
+"""Target panel: L, H and T of the compound-cycloid target (spec §3), or a closed curve uploaded as CSV; for an
+RTCLM design also its h6 and h4 targets (paper §4.2), which its stages optimize.
 
 A CSV holds rows ``x,y`` (a curve without a time law, compared at the best cyclic shift) or
 ``x,y,t`` (uniform in time after resampling), with an optional header (``core.analysis.targets``). A
@@ -23,6 +24,9 @@ if TYPE_CHECKING:
 FRAMES = ("design frame (mechanism view)", "leg frame (bench view)")
 FIELDS = (("length", "L [mm]", "mm", "step length of the arch"), ("height", "H [mm]", "mm", "height of the arch"),
           ("period", "T [s]", "s", "period of one step cycle (one crank revolution)"))
+# The RTCLM's targets (paper §4.2), shown for an RTCLM design only: its stages optimize these, not a curve.
+HEIGHTS = (("h6", "h6 target [mm]", "the primary mode's step height h6, rtclm1's target (held by rtclm2)"),
+           ("h4", "h4 target [mm]", "the auxiliary mode's step height h4, rtclm2's target"))
 
 
 class TargetPanel:
@@ -37,6 +41,10 @@ class TargetPanel:
         self.folder = gui.add_folder("Target", order=order, expand_by_default=False)
         with self.folder:
             self.status = gui.add_markdown("")
+            for key, label, hint in HEIGHTS:
+                self.inputs[key] = self._numbers.add(
+                    key, label, float(getattr(target, key)), form=NumberForm(lo=0.0, lo_open=True, unit="mm"),
+                    apply=self._height(key), current=self._getter(key), what=f"RTCLM {label}", hint=hint)
             for key, label, unit, hint in FIELDS:
                 self.inputs[key] = self._numbers.add(
                     key, label, float(getattr(target, key)), form=NumberForm(lo=0.0, lo_open=True, unit=unit),
@@ -57,6 +65,9 @@ class TargetPanel:
     def _setter(self, key: str) -> Callable[[float], object]:
         return lambda v: self.studio.session.set_target(**{key: v})
 
+    def _height(self, key: str) -> Callable[[float], object]:
+        return lambda v: self.studio.session.set_heights(**{key: v})
+
     def _getter(self, key: str) -> Callable[[], float]:
         return lambda: float(getattr(self.studio.session.view.target, key))
 
@@ -67,16 +78,22 @@ class TargetPanel:
     def show(self, view: DesignView, optimized_by: tuple[str, ...] | None = None) -> None:
         """Mirror the target; ``optimized_by``: the stages of the mechanism that optimize it (None: not known)."""
         t = view.target
+        rtclm = view.design.mechanism.name.startswith("rtclm")
         for key, field in self.inputs.items():
             field.show(float(getattr(t, key)))
+            if key in ("h6", "h4"):
+                field.handle.visible = rtclm
         self.cycloid.disabled = not t.is_curve
         note = "" if t.has_time else " (no times: compared at the best cyclic shift)"
         line = f"Target: {t.label()}{note}, in the design frame."
         if optimized_by is not None:
             mech = view.design.mechanism.title
+            own = "optimize h6 and h4" if rtclm else "have objectives of their own"
             line += (f"  \nOptimized by {', '.join(optimized_by)}." if optimized_by else
-                     f"  \nNot shown: no stage of the {mech} optimizes a target (its stages have objectives of their "
-                     "own); MSE in Metrics is still measured against it.")
+                     f"  \nNot shown: no stage of the {mech} optimizes a target curve (its stages {own}); MSE in "
+                     "Metrics is still measured against it.")
+        if rtclm:
+            line = f"RTCLM targets: {t.heights()}.  \n{line}"
         self.status.content = line
 
     def _on_upload(self, event: viser.GuiEvent[Any]) -> None:

@@ -214,6 +214,12 @@ def test_rtclm_shows_a_target_only_when_a_stage_optimizes_one_and_says_which(pag
     show(page, studio, RTCLM, "rtclm_primary")
     open_target_panel(page)
     expect(page.get_by_text(re.compile(r"Not shown: no stage of the RTCLM.* optimizes a target"))).to_be_visible()
+    # Its own targets, h6 and h4, are there to set (they were fixed at case 1's 50 / 220 mm until session 24).
+    expect(page.get_by_text(re.compile(r"RTCLM targets: h6 = 50 mm .* h4 = 220 mm"))).to_be_visible()
+    field(page, "h4 target [mm]").fill("260")
+    wait_for(lambda: studio.session.view.target.h4 == 260.0, "the h4 target to reach the server")
+    expect(page.get_by_text(re.compile(r"h4 = 260 mm \(auxiliary mode\)"))).to_be_visible()
+    assert studio.session.view.target.h6 == 50.0
     wait_for(lambda: "target" not in {tr["name"] for tr in bench(page)["traces"]}, "the chart without a target")
     assert len(studio.scene.frames.target) == 0 and len(studio.scene.frames.leg_target) == 0
     # Running a target-matching problem in the first stage's place: now the target is optimized, and shown.
@@ -221,6 +227,8 @@ def test_rtclm_shows_a_target_only_when_a_stage_optimizes_one_and_says_which(pag
     expect(page.get_by_text("Optimized by rtclm1.")).to_be_visible()
     wait_for(lambda: "target" in {tr["name"] for tr in bench(page)["traces"]}, "the chart with its target")
     assert len(studio.scene.frames.leg_target) > 0
+    show(page, studio, "Stephenson-I six-bar", "stephenson1")  # a six-bar has no heights to set
+    expect(field(page, "h4 target [mm]")).to_be_hidden()
 
 
 def flat_session(tmp_path: Path) -> Path:
