@@ -24,7 +24,7 @@ from core.kinematics.memory import keep_freed_memory
 from studio.address import exposure_warning, url_for
 from studio.app import Studio
 from studio.gate import Gate, check_token, new_token
-from studio.session_file import load_session, save_session
+from studio.session_file import SessionLock, load_session, save_session
 from studio.state import Session
 
 
@@ -71,9 +71,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     studio: Studio | None = None
     gate: Gate | None = None
+    lock: SessionLock | None = None
     try:  # Ctrl-C from here on stops the studio cleanly, whenever it comes (even while the address is printed)
         try:
             token = None if args.token is None else check_token(args.token) if args.token else new_token()
+            if args.session is not None:
+                lock = SessionLock(args.session)  # one studio per session file
             if args.session is not None and args.session.exists():
                 session = load_session(args.session)
             else:
@@ -96,6 +99,8 @@ def main(argv: list[str] | None = None) -> int:
         warning = exposure_warning(args.host, port, token is not None)
         if warning is not None:
             print(warning, file=sys.stderr, flush=True)
+        if lock is not None:
+            lock.note(url_for(args.host, port, None))  # the address without the token: the lock file is not secret
         print(f"CLM Studio: {url_for(args.host, port, token)}  (Ctrl-C to stop)", flush=True)
         # A timed wait: Ctrl-C's KeyboardInterrupt is raised in this thread, but the kernel may deliver SIGINT to
         # any of the server's threads, and then an untimed wait here never wakes (1 in 8 stops hung so).
@@ -109,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
             gate.close()
         if studio is not None:
             studio.close()
+        if lock is not None:
+            lock.release()
     print("CLM Studio stopped.", flush=True)
     return 0
 

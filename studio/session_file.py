@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import fcntl
+import hashlib
 import json
 import os
 from pathlib import Path
+from typing import IO
 
 from core.formats.session import MAX_SESSION_BYTES, parse_json
 from studio.state import Session
@@ -33,3 +36,50 @@ def load_session(path: Path) -> Session:
         return Session.from_dict(parse_json(path.read_bytes()))
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
+
+
+# Where studios note which session files they hold: in the user's cache, not beside the session (no litter there).
+LOCK_DIR = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "clm-studio" / "sessions"
+
+
+class SessionLock:
+    """One studio per session file. Two studios on one file each saved after every change and the last save won:
+    a second one's topology switch and its branch were lost. The lock is an flock on a file named after the
+    session's path (the session itself is replaced on every save, so it cannot carry the lock); it goes with the
+    process, however it ends."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        key = hashlib.sha256(str(path.resolve()).encode("utf-8")).hexdigest()[:20]
+        try:
+            LOCK_DIR.mkdir(parents=True, exist_ok=True)
+            self._file: IO[str] | None = open(LOCK_DIR / f"{key}.lock", "a+")  # noqa: SIM115 - held until release()
+        except OSError:  # no writable cache (a read-only home): the studio still runs, unguarded
+            self._file = None
+            return
+        try:
+            fcntl.flock(self._file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._file.seek(0)
+            who = self._file.read().strip() or "?"
+            self._file.close()
+            self._file = None
+            pid, _, url = who.partition(" ")
+            at = f", {url}" if url else ""
+            raise ValueError(f"{path} is open in another clm-studio (process {pid}{at}); use that one, stop it "
+                             "first, or give another --session") from None
+        self.note("")
+
+    def note(self, url: str) -> None:
+        """Say who holds it (this process, at ``url``), for the message a second studio gets."""
+        if self._file is not None:
+            self._file.seek(0)
+            self._file.truncate()
+            self._file.write(f"{os.getpid()} {url}".strip())
+            self._file.flush()
+
+    def release(self) -> None:
+        if self._file is not None:
+            fcntl.flock(self._file, fcntl.LOCK_UN)
+            self._file.close()
+            self._file = None

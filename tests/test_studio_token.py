@@ -251,3 +251,32 @@ print("closed")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and run.stdout.strip() == "closed", run.stderr
     assert "Traceback" not in run.stderr and "CancelledError" not in run.stderr, run.stderr
+
+
+def test_a_second_studio_on_the_same_session_file_is_refused_and_says_where_the_first_is(tmp_path):
+    # Two studios on one file each saved after every change, and the last save won: one's work was lost.
+    from studio.session_file import SessionLock
+
+    session = tmp_path / "s.json"
+    proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0", "--session", str(session)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=sigint_as_in_a_terminal)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert "CLM Studio:" in line
+        url = line.split("CLM Studio: ", 1)[1].split()[0]
+        # In its own process, with a timeout: without the lock it would serve (and this test would wait forever).
+        second = subprocess.run([sys.executable, "-m", "studio", "--port", "0", "--session", str(session)], cwd=ROOT,
+                                capture_output=True, text=True, timeout=60)
+        assert second.returncode == 2
+        err = second.stderr
+        assert err.startswith(f"clm-studio: error: {session} is open in another clm-studio (process {proc.pid}, ")
+        assert url.rstrip("/") in err and "\n" not in err.strip()
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=15)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    SessionLock(session).release()  # free again once the first has stopped
