@@ -329,3 +329,16 @@ def test_a_row_with_no_coupling_solution_gets_the_derive_violation_not_nan(backe
     assert not np.isfinite(p.mechanism.compile().operands(internal)).all()
     assert not sol.valid.any()
     assert sol.violation[0] == pytest.approx(float(derive_viol[0])) and 0.0 < sol.violation[0] < np.inf
+
+
+def test_the_tiered_violations_are_not_labelled_as_millimetres() -> None:
+    # The Pick panel read "primary assembly (mm) 1001" for case 4's preset, which assembles: 1000 is the tier and 1
+    # an extra turn of its figure-eight path (docs/rtclm.md), neither a length.
+    from core.kinematics.presets import get
+    from core.optimize.problem import make_problem
+
+    p = make_problem("rtclm2")
+    m = p.evaluate_metrics(get("rtclm/case4").design())
+    assert float(m["violation"][0]) == 1001.0
+    for k in ("violation", "aux_violation"):
+        assert "(mm)" not in p.labels[k] and "1000" in p.labels[k]

@@ -54,8 +54,10 @@ LABELS: dict[str, str] = {
     "h4": "h4, auxiliary h_m (mm)",
     "crank1": "Eq. 29 crank AB (mm)",
     "crank2": "Eq. 29 crank HF (mm)",
-    "violation": "primary assembly (mm)",
-    "aux_violation": "auxiliary assembly (mm)",
+    # Tiered (objectives.tiered), so not mm: 0 when the mode assembles with a valid path, else 1000 + the shortfall
+    # (mm, and 1 per extra turn of a crossing path). "(mm)" made a case-4 preset that assembles read "1001 mm".
+    "violation": "primary mode violation (0 ok, 1000+ not)",
+    "aux_violation": "auxiliary mode violation (0 ok, 1000+ not)",
 }
 
 
