@@ -134,6 +134,20 @@ def test_compare_names_the_run_of_rows_alike_and_stars_an_infeasible_one(outputs
     assert capsys.readouterr().out.splitlines()[1].startswith("tiny: subtask2 pick  ")
 
 
+def test_compare_names_the_folder_of_rows_still_alike(outputs: tuple[Path, Path, str], tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    # Copies of one config with other targets (an RTCLM case file with h4 = 300) gave rows no one could tell apart.
+    h, _, _ = outputs
+    data = (h / "result.json").read_text()
+    for d in ("h4_220", "h4_300"):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "result.json").write_text(data)
+    assert main(["compare", str(tmp_path / "h4_220"), str(tmp_path / "h4_300")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].startswith(f"tiny: subtask2 pick (nsga2, seed 4) in {tmp_path / 'h4_220'}")
+    assert out[2].startswith(f"tiny: subtask2 pick (nsga2, seed 4) in {tmp_path / 'h4_300'}")
+
+
 def test_compare_refuses_a_directory_without_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["compare", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("clm: error: ")

@@ -93,15 +93,16 @@ def infeasible(row: dict[str, Any]) -> bool:
 def run(args: argparse.Namespace) -> int:
     rows: list[dict[str, Any]] = []
     for p in args.runs:
-        rows += load_rows(p)
+        rows += [{**r, "source": str(p)} for r in load_rows(p)]
     extra = [k for k in ("h6", "h4") if any(k in r for r in rows)]
     header = ["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)"] + [f"{k} (mm)" for k in extra]
     out = []
     labels = [r["label"] for r in rows]
-    for r in rows:
-        label = r["label"]
-        if labels.count(label) > 1 and r.get("run"):  # runs of one config (a study's cells): which is which
-            label += f" ({r['run']})"
+    named = [f"{r['label']} ({r['run']})" if labels.count(r["label"]) > 1 and r.get("run") else r["label"]
+             for r in rows]  # runs of one config (a study's cells): which is which
+    for r, label in zip(rows, named, strict=True):
+        if named.count(label) > 1:  # still alike (copies of one config with other targets): the run's folder
+            label += f" in {r['source']}"
         label += "" if r.get("status", "complete") == "complete" else f" [{r['status']}]"
         label += " *" if infeasible(r) else ""
         out.append([label, r.get("time", float("nan"))] + [r.get(k, float("nan")) for k in ("mse", "S", "I", *extra)])
