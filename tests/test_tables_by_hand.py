@@ -95,7 +95,10 @@ def test_why_not_names_the_first_reason_that_applies():
     assert why_infeasible(evaluation()) == ""
     off = np.array([False])
     assert why_infeasible(evaluation(feasible=off, kinematic_violation=np.array([1.5]))).startswith(
-        "does not assemble over the whole cycle (shortfall 1.50 mm)")
+        "does not assemble over the whole cycle (shortfall 1.5 mm)")
+    # A small shortfall keeps its digits: "0.00 mm" beside "does not assemble" read as a contradiction.
+    assert why_infeasible(evaluation(feasible=off, kinematic_violation=np.array([4.171e-05]))).startswith(
+        "does not assemble over the whole cycle (shortfall 4.17e-05 mm)")
     assert why_infeasible(evaluation(feasible=off, path_violation=np.array([np.inf]))) == "the foot path is not finite"
     assert why_infeasible(evaluation(feasible=off)) == (
         "no single landing/take-off pair, or the foot path crosses itself")

@@ -448,7 +448,7 @@ def why_infeasible(ev: Evaluation, i: int = 0) -> str:
     if ev.feasible[i]:
         return ""
     if ev.kinematic_violation[i] > 0.0:
-        return f"does not assemble over the whole cycle (shortfall {ev.kinematic_violation[i]:.2f} mm)"
+        return f"does not assemble over the whole cycle (shortfall {ev.kinematic_violation[i]:.3g} mm)"  # not "0.00"
     if not np.isfinite(ev.path_violation[i]):
         return "the foot path is not finite"
     return "no single landing/take-off pair, or the foot path crosses itself"

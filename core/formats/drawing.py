@@ -80,7 +80,10 @@ def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
     assert sol.joints is not None
     joints = np.asarray(sol.joints[0, i], dtype=np.float64)
     if not np.isfinite(joints).all() or sol.violation[0] > 0:
-        raise ValueError(f"the design does not assemble (violation {sol.violation[0]:.3g} mm): nothing to draw")
+        # The shortfall is measured at the samples solved (clm simulate and evaluate take 360; the RTCLM is drawn
+        # from N_FINE), so the figures differ a little: say how many.
+        raise ValueError(f"the design does not assemble over the whole cycle (violation {sol.violation[0]:.3g} mm "
+                         f"over {sol.theta.shape[0]} crank samples): nothing to draw")
     grounds = {s.name for s in m.steps if isinstance(s, Ground)}
     links = tuple(b for b in m.bodies() if not set(b) <= grounds)
     # m.pivots(): the RTCLM's auxiliary mode locks A..D (its primary mode draws them).
