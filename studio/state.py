@@ -29,6 +29,7 @@ from core.formats.design import check_params, design_from_dict, design_to_dict, 
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
 from core.kinematics.design import Design
+from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from core.optimize.rtclm import H4_CASES
@@ -66,6 +67,24 @@ def presets_for(mechanism: str) -> tuple[str, ...]:
 
 
 @functools.cache
+def other_mode(a: Mechanism, b: Mechanism) -> bool:
+    """``a`` and ``b`` are the RTCLM's two modes: one leg, the same parameter vector, locked two ways (paper §4)."""
+    return (a.name != b.name and a.name.startswith("rtclm") and b.name.startswith("rtclm")
+            and a.param_names == b.param_names)
+
+
+def mode_preset(preset: str | None, mechanism: str) -> str | None:
+    """The preset of the same paper row in ``mechanism``'s mode (``rtclm/case4`` <-> ``rtclm/case4/auxiliary``),
+    None if there is none."""
+    if preset is None:
+        return None
+    base = preset.removesuffix("/auxiliary")
+    for name in (base, f"{base}/auxiliary"):
+        if name in presets.PRESETS and presets.get(name).mechanism.name == mechanism:
+            return name
+    return None
+
+
 def opening_preset(mechanism: str) -> str:
     """The preset a topology opens on: its first whose evaluation is feasible (the Metrics panel's "Feasible:
     yes": it assembles and its foot path gives every metric), else its first that assembles, else its first. The
@@ -340,7 +359,8 @@ class Session:
                              f"before {what}")
         pipe = self.study.pipeline
         kept = None
-        if new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name:
+        if (new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name
+                and not other_mode(pipe.start.mechanism, new)):  # the RTCLM's other mode: the same leg's stages
             before = len(self.study.branches)
             self.study.start_over(f"before switching to {new.title}")
             kept = self.study.branches[-1] if len(self.study.branches) > before else None
@@ -444,11 +464,16 @@ class Session:
         return preset_target(preset, v.target.period)
 
     def select_mechanism(self, name: str) -> DesignView:
-        """Switch topology: loads the mechanism's opening preset (``opening_preset``)."""
+        """Switch topology: loads the mechanism's opening preset (``opening_preset``); from one of the RTCLM's
+        modes to the other, the same leg in that mode (its design, target and stages stay)."""
         mech = mechanisms.get(name)
         with self.lock:
-            if mech.name == self.view.design.mechanism.name:
-                return self.view
+            v = self.view
+            if mech.name == v.design.mechanism.name:
+                return v
+            if other_mode(v.design.mechanism, mech):  # it loaded a preset, and the leg's stages went to a branch
+                design = Design(mech, v.design.params, v.design.output)
+                return self._commit(self._rebuild(design, mode_preset(v.preset, mech.name), v.target))
             if not presets_for(mech.name):
                 raise ValueError(f"{mech.title} has no preset yet; there is no design to start from")
             return self.load_preset(opening_preset(mech.name))

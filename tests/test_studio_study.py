@@ -751,3 +751,29 @@ def test_a_stage_keeps_its_metric_pick_rule_for_its_own_problem_only() -> None:
     assert s3.pick == "best:S"  # S is a metric subtask 3 reports, not one of its objectives
     assert stage_spec(s3, RunSettings("subtask3"), TargetSpec()).pick == "best:S"
     assert stage_spec(s3, RunSettings("subtask2"), TargetSpec()).pick == "knee"  # another problem in the slot
+
+
+def test_the_rtclms_other_mode_is_the_same_leg_and_keeps_its_stages() -> None:
+    # Switching to "RTCLM, auxiliary mode" loaded another preset and sent the leg's stages to a branch: an optimized
+    # leg's auxiliary mode (its h4) could not be seen in the studio.
+    from core.kinematics.design import Design
+    from core.kinematics.mechanisms import get as mechanism
+    from core.optimize.problem import make_problem
+
+    s = Session.default()
+    s.load_preset("rtclm/case4")
+    tiny(s.study, "rtclm1", pop=20, gens=3, seed=1)
+    run(s, "rtclm1", from_pick=False)
+    pipe, branches = s.study.pipeline, len(s.study.branches)
+    primary = s.view.design
+    v = s.select_mechanism("rtclm_auxiliary")
+    assert v.design.mechanism.name == "rtclm_auxiliary" and (v.design.params == primary.params).all()
+    assert v.preset == "rtclm/case4/auxiliary" and v.target == s.undone[-1].view.target
+    assert s.study.pipeline is pipe and len(s.study.branches) == branches  # its stages stay
+    # What the editor shows in this mode is the h4 the RTCLM stages measure for the same leg.
+    h4 = make_problem("rtclm2").evaluate_metrics(Design(mechanism("rtclm_primary"), primary.params))["h4"][0]
+    assert np.isfinite(h4) and v.evaluation.h_m[0] == pytest.approx(float(h4), rel=1e-9)
+    back = s.select_mechanism("rtclm_primary")
+    assert back.preset == "rtclm/case4" and (back.design.params == primary.params).all()
+    s.select_mechanism("stephenson1")  # another topology still starts over, keeping the stages as a branch
+    assert len(s.study.branches) == branches + 1
