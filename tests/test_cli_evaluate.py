@@ -135,7 +135,7 @@ def test_an_unassemblable_design_is_a_result(tmp_path: Path, capsys: pytest.Capt
     # The table says why (it said "INFEASIBLE (violation 1)" and the reason was only in the JSON's components).
     _, out, _ = run(capsys, "evaluate", "--design", str(f))
     assert out.startswith(f"{f}: INFEASIBLE (violation {data['violation']:.4g}: does not assemble over the whole "
-                          f"cycle (shortfall {data['kinematic_violation']:.2f} mm))")
+                          f"cycle (shortfall {data['kinematic_violation']:.3g} mm))")
 
 
 def test_the_period_is_the_time_law_s_unless_given(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

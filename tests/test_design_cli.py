@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -189,6 +190,20 @@ def test_design_says_what_a_screen_kept_and_where_each_chain_stopped(tmp_path: P
     assert all(r[r.index("dropped") + 2 : r.index("dropped") + 4] == ["subtask1", "-"] for r in dropped)
     k = kept[0]
     assert k[k.index("complete") + 2] == "subtask2" and k[k.index("complete") + 3] in ("yes", "no")
+
+
+def test_design_notes_a_stop_not_reached_and_an_infeasible_pick(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    # An impossible target (an RTCLM h4 of 5000 mm) ended "complete", and nothing but compare's star said so.
+    text = TINY.replace('pick = "best:f1"', 'pick = "best:f1"\nstop_below = [0.0, 0.0, 0.0]', 1)
+    (tmp_path / "m.toml").write_text(text.replace('f1_max = "start+1.0"', "f1_max = 0.001"))
+    assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "note: subtask1 used all 3 generations without reaching its stop_below [0, 0, 0] (its pick: f1 " in out
+    assert re.search(r"note: subtask2's pick #\d+ misses the stage's constraints \(0 of 12 members meet them\)", out)
+    (tmp_path / "n.toml").write_text(TINY)
+    assert main(["design", str(tmp_path / "n.toml"), "--out", str(tmp_path / "p"), "--quiet"]) == 0
+    assert "note:" not in capsys.readouterr().out
 
 
 def test_an_earlier_run_in_out_is_kept_unless_overwrite_replaces_it_whole(tmp_path: Path,

@@ -218,7 +218,26 @@ def summary(run_: DesignRun) -> str:
     lines.append(table(header, rows))
     for block in run_.multistart:
         lines.append(chains_table(block, show))
+    lines += notes(run_)
     return "\n".join(lines)
+
+
+def notes(run_: DesignRun) -> list[str]:
+    """A line for each stage that ran out of generations short of its early stop, or picked an infeasible member:
+    an impossible target (an RTCLM h4 of 5000 mm) ended "complete" with nothing to say so."""
+    out = []
+    stops = {s.name: s.stop_below for s in run_.config.stages}
+    for r in run_.results:
+        i, stop = r.picked, stops.get(r.name)
+        if r.status == "complete" and stop is not None and i is not None:
+            got = ", ".join(f"{k} {float(r.F[i, j]):.4g}" for j, k in enumerate(r.objectives))
+            limits = ", ".join(f"{v:g}" for v in stop)
+            out.append(f"note: {r.name} used all {r.generation} generations without reaching its stop_below "
+                       f"[{limits}] (its pick: {got}): the target may be out of reach")
+        if i is not None and not r.feasible[i]:
+            out.append(f"note: {r.name}'s pick #{i} misses the stage's constraints ({int(r.feasible.sum())} of "
+                       f"{r.pop} members meet them)")
+    return out
 
 
 def _limits(where: Sequence[Constraint]) -> str:
