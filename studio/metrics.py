@@ -97,9 +97,17 @@ def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:
     return tuple(n for n, v in zip(CONSTRAINT_NAMES, ev.constraints[i], strict=True) if not v <= 0.0)
 
 
-def metric_rows(solution: Solution, ev: Evaluation, i: int = 0) -> tuple[Row, ...]:
-    """The Metrics table of member i: the paper's metrics, then the kinematic facts."""
+def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
+                height: tuple[str, float] | None = None) -> tuple[Row, ...]:
+    """The Metrics table of member i: the paper's metrics, then the kinematic facts. ``height``: the RTCLM mode's
+    name for h_m and its target (``("h6", 50.0)``), which the crossing-height row then names."""
     deg = math.degrees
+    h_m = float(ev.h_m[i])
+    h_label, h_note = "Crossing height hₘ", "max swing height, walking trajectory"
+    if height is not None:
+        name, goal = height
+        h_label = f"{name} (crossing height hₘ)"
+        h_note = f"the RTCLM's {name}: target {goal:g} mm, off by {abs(h_m - goal):.3g} mm (Target panel)"
     unmet = unmet_constraints(ev, i)
     why = why_infeasible(ev, i)
     margin = solution.dyad_margin[i]
@@ -115,7 +123,7 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0) -> tuple[Row, ..
         Row("theta1", "Landing angle θ₁", deg(float(ev.theta1[i])), "deg", 1),
         Row("theta2", "Take-off angle θ₂", deg(float(ev.theta2[i])), "deg", 1),
         Row("l_s", "Stance length lₛ", float(ev.l_s[i]), "mm"),
-        Row("h_m", "Crossing height hₘ", float(ev.h_m[i]), "mm", note="max swing height, walking trajectory"),
+        Row("h_m", h_label, h_m, "mm", note=h_note),
         Row("h_bar", "Mean swing height h̄", float(ev.h_bar[i]), "mm"),
         Row("psi2", f"ψ₂({ev.obstacle[0]:g}, {ev.obstacle[1]:g})", 100.0 * float(ev.psi2[i]), "%", 1,
             note="obstacle crossing probability, biped module"),

@@ -114,6 +114,12 @@ def preset_label(name: str) -> str:
 PAPER_TARGET = ("stephenson1", "stephenson3", "watt1")
 
 
+def case_h4(preset: str | None) -> float | None:
+    """The h4 target of the RTCLM case a preset is a row of (``rtclm/case3...``: 260 mm, paper §4.2), else None."""
+    case = re.match(r"rtclm/case(\d)", preset or "")
+    return H4_CASES.get(int(case.group(1))) if case else None
+
+
 def preset_target(name: str, period: float = 2.0) -> TargetSpec:
     """The target a preset is shown against: the paper's cycloid for the paper's mechanisms; else a compound
     cycloid as long and as high as the preset's own foot path (rounded to 1 mm), placed on it (the shift,
@@ -121,8 +127,7 @@ def preset_target(name: str, period: float = 2.0) -> TargetSpec:
     p = presets.get(name)
     if p.mechanism.name in PAPER_TARGET:
         return TargetSpec(period=period, origin="the paper's")
-    case = re.match(r"rtclm/case(\d)", name)
-    h4 = H4_CASES.get(int(case.group(1)), H4_CASES[1]) if case else H4_CASES[1]  # a case's preset: its h4 (§4.2)
+    h4 = case_h4(name) or H4_CASES[1]
     n = 360
     sol = solve(p.mechanism, p.design().params, n, backend=BACKEND)
     path = sol.point[0]
@@ -224,7 +229,9 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     ev = evaluate_solution(sol, target.target(), target.period, walk.obstacle)
     assert sol.dleg is not None
     walking = build_walk(sol.leg[0], sol.dleg[0], target.period, walk) if ev.feasible[0] else None
-    return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev),
+    name = design.mechanism.name
+    height = ("h6", target.h6) if name == "rtclm_primary" else ("h4", target.h4) if name == "rtclm_auxiliary" else None
+    return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev, 0, height),
                       stance_mask(ev, n_samples), feature_labels(ev), walk, walking)
 
 
@@ -331,8 +338,11 @@ class Session:
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
-        """A session on a preset (the paper's Stephenson-I X3 by default), animating."""
-        return cls(build_view(presets.get(preset).design(), preset, target or TargetSpec()))
+        """A session on a preset (the paper's Stephenson-I X3 by default), animating; an RTCLM case's preset with
+        that case's h4."""
+        if target is None:
+            target = TargetSpec(h4=case_h4(preset) or H4_CASES[1])
+        return cls(build_view(presets.get(preset).design(), preset, target))
 
     def _rebuild(self, design: Design, preset: str | None, target: TargetSpec | None = None,
                  walk: WalkSpec | None = None) -> DesignView:
@@ -457,9 +467,13 @@ class Session:
 
     def _target_for(self, mechanism: str, preset: str) -> TargetSpec | None:
         """The target a design of ``mechanism`` brings into the editor: None (the current one stays) within the
-        editor's mechanism or when the designer uploaded the target, else ``preset``'s own (``preset_target``)."""
+        editor's mechanism or when the designer uploaded the target, else ``preset``'s own (``preset_target``).
+        Between two RTCLM cases' presets the h4 follows the case unless the designer set it by hand."""
         v = self.view
         if mechanism == v.design.mechanism.name or v.target.origin == "uploaded":
+            now, then = case_h4(v.preset), case_h4(preset)
+            if now is not None and then is not None and v.target.h4 == now:  # a case's h4, not one set by hand
+                return replace(v.target, h4=then)
             return None
         return preset_target(preset, v.target.period)
 

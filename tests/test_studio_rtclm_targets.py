@@ -56,12 +56,28 @@ def test_the_rtclm_problems_get_the_heights_and_the_others_the_curve() -> None:
     assert target_text(settings) == "h6=60 mm, h4=260 mm"
 
 
-def test_a_case_preset_brings_its_own_h4_from_another_mechanism() -> None:
+def test_a_case_preset_brings_its_own_h4_unless_the_designer_set_one() -> None:
     assert preset_target("rtclm/case3").h4 == 260.0 and preset_target("rtclm/case5").h4 == 300.0
     assert preset_target("stephenson1/X3").h4 == 220.0
     s = Session.default()
     s.load_preset("rtclm/case4")
     assert s.view.target.h4 == 280.0
+    assert Session.default("rtclm/case4").view.target.h4 == 280.0
+    s.load_preset("rtclm/case2")  # another case: its h4
+    assert s.view.target.h4 == 240.0
+    s.set_heights(h4=233.0)
+    s.load_preset("rtclm/case5")  # set by hand: it stays
+    assert s.view.target.h4 == 233.0
+
+
+def test_the_metrics_name_the_modes_height_and_how_far_it_is_from_its_target() -> None:
+    s = Session.default("rtclm/case4")
+    row = next(r for r in s.view.rows if r.key == "h_m")
+    assert row.label == "h6 (crossing height hₘ)" and f"off by {abs(row.value - 50.0):.3g} mm" in row.note
+    s.select_mechanism("rtclm_auxiliary")
+    row = next(r for r in s.view.rows if r.key == "h_m")
+    assert row.label.startswith("h4") and "target 280 mm" in row.note
+    assert next(r for r in Session.default().view.rows if r.key == "h_m").label == "Crossing height hₘ"
 
 
 def test_the_stages_run_to_the_heights_set_and_the_session_keeps_them(tmp_path: Path) -> None:
