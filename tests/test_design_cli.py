@@ -13,6 +13,8 @@ import pytest
 from core.cli import main
 from core.optimize.pipeline import Pipeline
 
+ROOT = Path(__file__).resolve().parents[1]
+
 TINY = """
 name = "tiny"
 preset = "stephenson1/X0"
@@ -147,6 +149,22 @@ def test_compare_names_the_folder_of_rows_still_alike(outputs: tuple[Path, Path,
     out = capsys.readouterr().out.splitlines()
     assert out[1].startswith(f"tiny: subtask2 pick (nsga2, seed 4) in {tmp_path / 'h4_220'}")
     assert out[2].startswith(f"tiny: subtask2 pick (nsga2, seed 4) in {tmp_path / 'h4_300'}")
+
+
+def test_compare_paper_appends_the_rtclm_cases_for_rtclm_runs(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    # It appended the Stephenson-I baselines of Appendix B-5, which have no h6 or h4 to compare with.
+    text = (ROOT / "assets" / "configs" / "rtclm_case1.toml").read_text()
+    (tmp_path / "r.toml").write_text(text.replace("n_gen = 1500", "n_gen = 3").replace("n_gen = 200", "n_gen = 3")
+                                     .replace("pop_size = 100", "pop_size = 12"))
+    assert main(["design", str(tmp_path / "r.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "o"), "--paper"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[-4:] == ["h6", "(mm)", "h4", "(mm)"] and "h_s/300" not in out[0]
+    assert out[2].startswith("paper: RTCLM case 1 (printed)")
+    assert out[2].split()[-6:] == ["798", "-", "-", "-", "50.1", "220.1"]
+    assert len([x for x in out if x.startswith("paper: ")]) == 5 and not any("DP+SQP" in x for x in out)
 
 
 def test_compare_refuses_a_directory_without_a_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
