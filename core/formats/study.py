@@ -122,13 +122,14 @@ def case_stages(stages: list[Any], names: list[str]) -> list[dict[str, Any]]:
     return [{k: v for k, v in s.items() if k not in CELL_DROPS} for s in tables]
 
 
-def effective_settings(settings: str) -> str:
+def effective_settings(settings: str, narrow: bool = True) -> str:
     """:func:`cell_settings` reduced to what the cell's run uses, as ``core.study.cell.case_config`` runs it: a
     population not given is the config's (else 100); of the config, only the case's stages without the keys the
     cell replaces (``CELL_DROPS``), and neither its seed, its workers, its algorithm (the cell's replaces it) nor
     its preset when the case starts elsewhere. So two cells that run alike compare equal: a population written out
     equal to the config's, and an edit of a stage the case does not run (session 24's multi-start block in the
-    Stephenson-I config), were refused as a change, and the report left those cells out."""
+    Stephenson-I config), were refused as a change, and the report left those cells out. ``narrow=False``: the
+    settings as compared before session 24 (the population filled in only), whose digests older studies keep."""
     data = json.loads(settings)
     alg = data.get("algorithm") if isinstance(data, dict) else None
     case = data.get("case") if isinstance(data, dict) else None
@@ -136,7 +137,7 @@ def effective_settings(settings: str) -> str:
     if isinstance(alg, dict) and alg.get("pop_size") is None and isinstance(case, dict):
         base = config.get("algorithm") if isinstance(config, dict) else None
         alg["pop_size"] = base.get("pop_size", 100) if isinstance(base, dict) else 100
-    if isinstance(case, dict) and isinstance(config, dict):
+    if narrow and isinstance(case, dict) and isinstance(config, dict):
         config = dict(config)
         names = case.get("stages")
         config["stages"] = case_stages(list(config.get("stages") or []), list(names) if isinstance(names, list) else [])

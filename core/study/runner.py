@@ -19,7 +19,7 @@ from typing import Any, TextIO
 from core.formats.study import Study, effective_settings, settings_change
 from core.optimize.workers import connect
 from core.study.cell import check_cells, run_cell, warm_cells, warm_up
-from core.study.store import Store, settings_digest, study_lock
+from core.study.store import DIGEST, Store, settings_digest, study_lock
 
 
 class StudyChanged(ValueError):
@@ -142,7 +142,8 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
                                  "cases": [c.name for c in study.cases], "seeds": list(study.seeds),
                                  "best": {c.name: c.best for c in study.cases},
                                  # The cells the report covers: rows of removed seeds or old settings are not.
-                                 "cells": {c["key"]: settings_digest(c["settings"]) for c in cells}})
+                                 "cells": {c["key"]: settings_digest(c["settings"]) for c in cells},
+                                 "digest": DIGEST})
         finished = set(kept) - {c["key"] for c in changed}
         waiting = [dict(c, threads=1) for c in cells if c["key"] not in finished]
         skipped = len(cells) - len(waiting)  # finished before this invocation (not those ``limit`` leaves waiting)

@@ -62,9 +62,14 @@ def study_lock(directory: str | Path) -> Iterator[None]:
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-def settings_digest(settings: str) -> str:
+# The digest scheme ``meta["study"]["digest"]`` names: 2 since session 24 (settings narrowed to what the cell runs);
+# a study written before has no such key and digests of the settings as they were compared then.
+DIGEST = 2
+
+
+def settings_digest(settings: str, scheme: int = DIGEST) -> str:
     """A cell's effective settings (a JSON text, which holds its case config's contents) in 16 hex digits."""
-    return hashlib.sha256(effective_settings(settings).encode("utf-8")).hexdigest()[:16]
+    return hashlib.sha256(effective_settings(settings, narrow=scheme >= 2).encode("utf-8")).hexdigest()[:16]
 
 
 def current_rows(meta: dict[str, Any] | None, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -74,8 +79,9 @@ def current_rows(meta: dict[str, Any] | None, rows: list[dict[str, Any]]) -> lis
     meta = meta or {}
     cells = meta.get("cells")
     if cells is not None:
+        scheme = int(meta.get("digest", 1))  # an older study's digests: its report kept every row otherwise dropped
         return [r for r in rows if r["key"] in cells
-                and (r.get("settings") is None or settings_digest(r["settings"]) == cells[r["key"]])]
+                and (r.get("settings") is None or settings_digest(r["settings"], scheme) == cells[r["key"]])]
     seeds = set(meta.get("seeds", [r["seed"] for r in rows]))
     return [r for r in rows if r["seed"] in seeds]
 
