@@ -109,3 +109,17 @@ def test_clm_evaluate_prints_it_for_a_design_and_not_for_a_curve(tmp_path, capsy
     assert "transmission" not in capsys.readouterr().out
     assert main(["evaluate", "--preset", "stephenson1/X3", "--json"]) == 0
     assert '"transmission":21.35' in capsys.readouterr().out.replace(" ", "")
+
+
+def test_best_transmission_takes_the_largest_angle_in_picks_and_chains() -> None:
+    # Every best:<metric> kept the smallest value: best:transmission chose the design nearest a dead point.
+    from core.optimize.multistart import rank_chains
+    from core.optimize.result import best_metric
+
+    values = np.array([60.0, 5.0, np.nan, 45.0])
+    mask = np.array([True, True, True, True])
+    assert best_metric(values, mask, "transmission") == 0 and best_metric(values, mask, "crank_margin") == 0
+    assert best_metric(values, mask, "S") == 1  # the others: the smallest
+    picks = [{"transmission": 60.0}, {"transmission": 5.0}]
+    assert rank_chains(picks, [True, True], "best:transmission") == [0, 1]
+    assert rank_chains([{"S": 2.0}, {"S": 1.0}], [True, True], "best:S") == [1, 0]

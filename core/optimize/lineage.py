@@ -100,7 +100,7 @@ def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None =
         if name in result.objectives:
             j = decision.best_per_objective(F, cv)[result.objectives.index(name)]
             return int(idx[j])
-        best = best_metric(result.metrics[name], mask & result.feasible) if name in result.metrics else None
+        best = best_metric(result.metrics[name], mask & result.feasible, name) if name in result.metrics else None
         return best if best is not None else result.choose(rule)
     sl = decision.shortlist(F, cv)
     k = int(rule.split(":", 1)[1]) if isinstance(rule, str) and ":" in rule else 0

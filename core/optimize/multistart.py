@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from core.optimize.problem import Constraint
-from core.optimize.result import decode_float
+from core.optimize.result import LARGER_IS_BETTER, decode_float
 
 # Seed offset between chains: far enough apart that chain j's stages never reuse chain 0's seeds.
 SEED_STRIDE = 1000
@@ -74,8 +74,10 @@ def rank_chains(picks: Sequence[Mapping[str, float]], feasible: Sequence[bool], 
         raise ValueError(f"select rule {select!r}: use 'best:<metric>'")
     name = select[5:]
 
+    sign = -1.0 if name in LARGER_IS_BETTER else 1.0  # best:transmission: the largest
+
     def key(j: int) -> tuple[bool, tuple[float, ...], float, int]:
-        v = float(picks[j].get(name, math.nan))
+        v = sign * float(picks[j].get(name, math.nan))
         return (not feasible[j], shortfalls(picks[j], where), v if math.isfinite(v) else math.inf, j)
 
     return sorted(range(len(picks)), key=key)
@@ -88,7 +90,8 @@ def select_chain(picks: Sequence[Mapping[str, float]], feasible: Sequence[bool],
     Ranking key per chain (smallest wins): feasible pick first, then the relative shortfalls
     under the ``where`` limits compared limit by limit in the order given (all 0 for a chain
     that meets them: the first limit is the most important, and if no chain meets it, the one
-    missing it least goes on), then the ``select`` metric (NaN last), then the chain index.
+    missing it least goes on), then the ``select`` metric (its best first: the smallest, the largest for one in
+    ``result.LARGER_IS_BETTER``; NaN last), then the chain index.
 
     Args:
         picks: per chain, the metrics of its pick at the block's last stage.

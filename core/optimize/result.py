@@ -252,7 +252,7 @@ class StageResult:
                 if sl.best:
                     return sl.best[self.objectives.index(name)]
             elif name in self.metrics:
-                i = best_metric(self.metrics[name], self.feasible)
+                i = best_metric(self.metrics[name], self.feasible, name)
                 if i is not None:
                     return i
             else:
@@ -378,13 +378,21 @@ class StageResult:
         return cls.from_dict(json.loads(text))
 
 
-def best_metric(values: F64, mask: NDArray[np.bool_]) -> int | None:
-    """Index of the smallest finite value among ``mask`` (ties: lowest index); None if there is none.
+# Metrics whose best value is the largest (``best:<metric>`` takes it): the worst transmission angle (90 deg
+# ideal) and the crank margin. "best:transmission" picked the design nearest a dead point.
+LARGER_IS_BETTER = frozenset({"transmission", "crank_margin"})
+
+
+def best_metric(values: F64, mask: NDArray[np.bool_], name: str = "") -> int | None:
+    """Index of the best finite value among ``mask`` (ties: lowest index): the smallest, or the largest for a metric
+    ``name`` in ``LARGER_IS_BETTER``; None if there is none.
 
     Args:
         values: ``(pop,)`` one metric.
         mask: ``(pop,)`` candidate members.
+        name: the metric's name.
     """
+    values = -np.asarray(values) if name in LARGER_IS_BETTER else values
     ok = np.flatnonzero(mask & np.isfinite(values))
     return int(ok[np.argmin(values[ok])]) if ok.size else None
 
