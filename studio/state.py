@@ -465,17 +465,23 @@ class Session:
             self.study.from_pick = False
             self.study.touch()
 
-    def _target_for(self, mechanism: str, preset: str) -> TargetSpec | None:
-        """The target a design of ``mechanism`` brings into the editor: None (the current one stays) within the
-        editor's mechanism or when the designer uploaded the target, else ``preset``'s own (``preset_target``).
-        Between two RTCLM cases' presets the h4 follows the case unless the designer set it by hand."""
+    def _target_for(self, mechanism: str, preset: str) -> TargetSpec:
+        """The target a design of ``mechanism`` brings into the editor: the current one within the editor's
+        mechanism (or its other RTCLM mode) or when the designer uploaded the target, else ``preset``'s own
+        (``preset_target``).
+        For the RTCLM the h4 follows a case's preset unless the designer set it by hand, and an h6 set stays."""
         v = self.view
-        if mechanism == v.design.mechanism.name or v.target.origin == "uploaded":
-            now, then = case_h4(v.preset), case_h4(preset)
-            if now is not None and then is not None and v.target.h4 == now:  # a case's h4, not one set by hand
-                return replace(v.target, h4=then)
-            return None
-        return preset_target(preset, v.target.period)
+        old = v.design.mechanism
+        keep = (mechanism == old.name or v.target.origin == "uploaded"
+                or other_mode(old, mechanisms.get(mechanism)))  # the same leg in its other mode: its target
+        t = v.target if keep else preset_target(preset, v.target.period)
+        if mechanism.startswith("rtclm"):  # the heights: a case's h4 unless the designer set one; a typed h6 stays
+            was = old.name.startswith("rtclm")
+            untouched = not was or v.target.h4 == (case_h4(v.preset) or H4_CASES[1])
+            case = case_h4(preset)
+            h4 = case if untouched and case is not None else (v.target.h4 if was else t.h4)
+            t = replace(t, h6=v.target.h6 if was else t.h6, h4=h4)
+        return t
 
     def select_mechanism(self, name: str) -> DesignView:
         """Switch topology: loads the mechanism's opening preset (``opening_preset``); from one of the RTCLM's
@@ -537,7 +543,7 @@ class Session:
         """
         with self.lock:
             target = replace(self.view.target, curve=None, origin="set by hand", **changes)
-            paper = TargetSpec(origin="the paper's")
+            paper = TargetSpec(origin="the paper's", h6=target.h6, h4=target.h4)  # the heights are not the curve's
             if replace(target, origin=paper.origin) == paper and self.view.design.mechanism.name in PAPER_TARGET:
                 target = paper  # typed back to the paper's values: it is the paper's again, not "set by hand"
             if target == self.view.target:

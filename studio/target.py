@@ -177,6 +177,13 @@ class TargetSpec:
         """The RTCLM's targets in words."""
         return f"h6 = {self.h6:g} mm (primary mode), h4 = {self.h4:g} mm (auxiliary mode)"
 
+    def changed_from(self, ran: TargetSpec, rtclm: bool) -> str:
+        """What ``ran`` (a run's target) was, in words, if it differs from this one where a mechanism's stages look:
+        the heights for an RTCLM, the curve for the others; "" if it does not."""
+        if rtclm:
+            return "" if (ran.h6, ran.h4) == (self.h6, self.h4) else ran.heights()
+        return "" if replace(ran, h6=self.h6, h4=self.h4) == self else ran.label()
+
     def with_curve(self, curve: Curve | None) -> TargetSpec:
         period = curve.period if curve is not None else self.period
         return replace(self, period=period, curve=curve, origin="uploaded" if curve is not None else "")

@@ -106,3 +106,30 @@ def test_the_stages_run_to_the_heights_set_and_the_session_keeps_them(tmp_path: 
     assert (data["target"]["h6"], data["target"]["h4"]) == (60.0, 260.0)
     back = load_session(path)
     assert (back.view.target.h6, back.view.target.h4) == (60.0, 260.0)
+
+
+def test_the_heights_follow_the_rtclm_presets_from_anywhere_and_a_typed_h6_stays() -> None:
+    # From a six-bar with an uploaded curve, rtclm/case3 kept case 1's 220 mm; the other mode's preset reset h6.
+    s = Session.default()
+    s.set_curve(Curve.from_target(TargetSpec(length=200.0).target()))
+    s.load_preset("rtclm/case3")
+    assert s.view.target.h4 == 260.0 and s.view.target.curve is not None
+    s.load_preset("rtclm/case4")
+    s.set_heights(h6=60.0)
+    s.load_preset("rtclm/case4/auxiliary")
+    assert (s.view.target.h6, s.view.target.h4) == (60.0, 280.0)
+
+
+def test_what_changed_since_a_run_is_said_where_the_stages_look() -> None:
+    now = TargetSpec(h4=260.0)
+    assert now.changed_from(TargetSpec(), rtclm=True) == "h6 = 50 mm (primary mode), h4 = 220 mm (auxiliary mode)"
+    assert now.changed_from(TargetSpec(), rtclm=False) == ""  # a six-bar's stages do not look at the heights
+    assert now.changed_from(TargetSpec(length=280.0), rtclm=False).startswith("compound cycloid L = 280 mm")
+    # Typing the paper's cycloid back makes it the paper's again, whatever heights the target carries.
+    s = Session.default()
+    s.set_curve(Curve.from_target(TargetSpec(length=200.0).target()))
+    s.load_preset("rtclm/case3")
+    s.select_mechanism("stephenson1")
+    s.set_target(length=299.0)
+    s.set_target(length=300.0)
+    assert s.view.target.origin == "the paper's"

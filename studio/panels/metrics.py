@@ -36,7 +36,8 @@ class MetricsPanel:
         same = (r is not None and i is not None and 0 <= i < r.pop and view.design.mechanism == r.mechanism
                 and np.allclose(view.design.params[0], r.X[i], rtol=0.0, atol=1e-9))
         ran = sv.run_target
-        other = ran.label() if ran is not None and ran != view.target else ""  # a target changed since the run
+        rtclm = view.design.mechanism.name.startswith("rtclm")
+        other = view.target.changed_from(ran, rtclm) if ran is not None else ""  # a target changed since the run
         content = verdict_html(r, i, sv.viewing or "", other) if same and r is not None and i is not None else ""
         if self.stage.content != content:
             self.stage.content = content
