@@ -78,9 +78,11 @@ def stephenson(config: DesignConfig, seeds: list[int]) -> list[dict[str, float]]
                 if block.stages[-1] != r.name:
                     continue
                 for c in block.chains:
-                    x = c.last
+                    last = c.last_pick()
+                    x = last[1] if last is not None else {}
                     label = f"{'*' if c.index == block.chosen else ' '}chain {c.index}"
-                    at = "" if c.status == "complete" else f"  ({c.status} at {block.stages[len(c.metrics) - 1]})"
+                    stage = block.stages[last[0]] if last is not None else "-"
+                    at = "" if c.status == "complete" else f"  ({c.status}, pick at {stage})"
                     print(f"{'':>4} {label:<10} {c.time:8.2f} {'':>9} "
                           + " ".join(fmt(float(x.get(k, float("nan")))) for k in ("mse", "S", "I", "h_s")) + at)
         fin = run.final()

@@ -41,8 +41,8 @@ from studio.walking import WalkFrames, WalkSpec, build_walk
 
 F64 = NDArray[np.float64]
 
-SESSION_VERSION = 4  # 3: stage results stored once by hash, arrays packed (studio.session_pack); 4: branches
-# keep the target their stages ran against and the study's state, curves stored once
+SESSION_VERSION = 5  # 3: stage results stored once by hash, arrays packed (studio.session_pack); 4: branches
+# keep the target their stages ran against and the study's state, curves stored once; 5: RTCLM heights in targets
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0

@@ -217,7 +217,8 @@ def test_design_notes_a_stop_not_reached_and_an_infeasible_pick(tmp_path: Path,
     (tmp_path / "m.toml").write_text(text.replace('f1_max = "start+1.0"', "f1_max = 0.001"))
     assert main(["design", str(tmp_path / "m.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
     out = capsys.readouterr().out
-    assert "note: subtask1 used all 3 generations without reaching its stop_below [0, 0, 0] (its pick: f1 " in out
+    assert ("note: subtask1 spent its budget (3 generations, 36 evaluations) without reaching its stop_below "
+            "[0, 0, 0] (its pick: f1 ") in out
     assert re.search(r"note: subtask2's pick #\d+ misses the stage's constraints \(0 of 12 members meet them\)", out)
     (tmp_path / "n.toml").write_text(TINY)
     assert main(["design", str(tmp_path / "n.toml"), "--out", str(tmp_path / "p"), "--quiet"]) == 0

@@ -295,3 +295,11 @@ def test_choose_by_any_metric_with_a_where_filter(run: DesignRun) -> None:
     assert r.metrics["S"][i] == np.min(r.metrics["S"][ok])
     # A limit nobody meets is ignored.
     assert choose(r, "best:S", None, (Constraint("I", upper=-1.0),)) == r.choose("best:S")
+
+
+def test_a_chains_last_pick_skips_a_stage_a_cancel_left_without_one() -> None:
+    # The chain table read "pick at subtask2" with every metric blank for a chain cancelled inside subtask 2.
+    m = {"S": 2.0}
+    c = Chain(1, (1, 2, 3, 4), "cancelled", (1, 1, 1, None), (m, m, {"S": 2.5}, {}), ({}, {}, {}, {}), False, 5.0)
+    assert c.last_pick() == (2, {"S": 2.5})
+    assert Chain(0, (1,), "cancelled", (None,), ({},), ({},), False, 0.0).last_pick() is None

@@ -232,8 +232,9 @@ def notes(run_: DesignRun) -> list[str]:
         if r.status == "complete" and stop is not None and i is not None:
             got = ", ".join(f"{k} {float(r.F[i, j]):.4g}" for j, k in enumerate(r.objectives))
             limits = ", ".join(f"{v:g}" for v in stop)
-            out.append(f"note: {r.name} used all {r.generation} generations without reaching its stop_below "
-                       f"[{limits}] (its pick: {got}): the target may be out of reach")
+            # Its budget: the generations, or max_evals (a study cell's), whichever ended it.
+            out.append(f"note: {r.name} spent its budget ({r.generation} generations, {r.n_evals} evaluations) "
+                       f"without reaching its stop_below [{limits}] (its pick: {got}): the target may be out of reach")
         if i is not None and not r.feasible[i]:
             out.append(f"note: {r.name}'s pick #{i} misses the stage's constraints ({int(r.feasible.sum())} of "
                        f"{r.pop} members meet them)")
@@ -254,8 +255,8 @@ def chains_table(block: MultiStart, show: list[str]) -> str:
         head += f"; after {sc.after} the {sc.keep} best by {sc.by}{_limits(sc.where)} went on"
     rows = []
     for c in block.chains:
-        m = c.last
-        at = names[len(c.metrics) - 1] if c.metrics else "-"
+        last = c.last_pick()
+        at, m = (names[last[0]], last[1]) if last is not None else ("-", {})
         feasible = ("yes" if c.feasible else "no") if c.status == "complete" else "-"
         rows.append([("* " if c.index == block.chosen else "  ") + str(c.index), c.status, c.time, at, feasible,
                      *[float(m.get(k, float("nan"))) for k in show]])

@@ -194,6 +194,15 @@ class Chain:
         """The metrics of the pick at the block's last stage."""
         return self.metrics[-1] if self.metrics else {}
 
+    def last_pick(self) -> tuple[int, Mapping[str, float]] | None:
+        """The block stage (its index in the block) of the chain's last pick and that pick's metrics: the block's
+        last stage for a complete chain, the screen's for a dropped one, the stage before a cancel's; None
+        without a pick."""
+        for k in range(len(self.picks) - 1, -1, -1):
+            if self.picks[k] is not None:
+                return k, self.metrics[k]
+        return None
+
     def to_dict(self) -> dict[str, Any]:
         return {"index": self.index, "seeds": list(self.seeds), "status": self.status, "picks": list(self.picks),
                 "metrics": [dict(m) for m in self.metrics], "params": [dict(p) for p in self.params],
