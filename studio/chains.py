@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 from core.kinematics.model import Mechanism
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
@@ -133,16 +134,27 @@ def default_settings(stage: ChainStage) -> RunSettings:
     return RunSettings(stage.name, pop_size=stage.pop_size, n_gen=stage.n_gen)
 
 
-@functools.cache
-def takes_target(name: str) -> bool:
-    """True if the registered problem ``name`` optimizes against a target (takes a ``target`` option)."""
+def _takes(name: str, **options: Any) -> bool:
+    """True if the registered problem ``name`` takes these options (an unknown one is its ValueError)."""
     try:
-        make_problem(name, target=TargetSpec().option())
+        make_problem(name, **options)
     except ValueError as exc:
-        if "unknown option 'target'" in str(exc):
+        if "unknown option" in str(exc):
             return False
         raise
     return True
+
+
+@functools.cache
+def takes_target(name: str) -> bool:
+    """True if the registered problem ``name`` optimizes against a target (takes a ``target`` option)."""
+    return _takes(name, target=TargetSpec().option())
+
+
+@functools.cache
+def takes_heights(name: str) -> bool:
+    """True if the registered problem ``name`` takes the RTCLM's ``h6_target`` and ``h4_target`` options."""
+    return _takes(name, h6_target=TargetSpec().h6, h4_target=TargetSpec().h4)
 
 
 @functools.cache
@@ -157,18 +169,6 @@ def problems_for(mechanism: Mechanism) -> tuple[str, ...]:
         if name not in EXAMPLES and (misfit is None or misfit(mechanism) is None):
             out.append(name)
     return tuple(out)
-
-
-@functools.cache
-def takes_heights(name: str) -> bool:
-    """True if the registered problem ``name`` takes the RTCLM's ``h6_target`` and ``h4_target`` options."""
-    try:
-        make_problem(name, h6_target=TargetSpec().h6, h4_target=TargetSpec().h4)
-    except ValueError as exc:
-        if "unknown option" in str(exc):
-            return False
-        raise
-    return True
 
 
 def build_problem(name: str, target: TargetSpec) -> ProblemSpec:
