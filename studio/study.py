@@ -171,6 +171,13 @@ def status_text(r: StageResult) -> str:
         text = f"target reached at generation {r.generation}"
     else:
         text = r.status
+    settings = getattr(r, "settings", None)
+    stop = settings.get("stop_below") if isinstance(settings, dict) else None
+    if r.status == "complete" and isinstance(stop, list) and stop and r.picked is not None:
+        # It ran out of generations short of its target (an RTCLM stage stalled in a pocket, an h4 out of reach):
+        # "complete" alone read as done.
+        got = ", ".join(f"{k} {float(r.F[r.picked, j]):.3g}" for j, k in enumerate(r.objectives))
+        text += f" — its early stop [{', '.join(f'{float(v):g}' for v in stop)}] not reached (pick: {got})"
     if r.pop and not r.feasible.any():
         i = int(np.argmin(np.where(np.isnan(r.cv), np.inf, r.cv)))
         unmet = "; ".join(r.unmet(i))

@@ -777,3 +777,17 @@ def test_the_rtclms_other_mode_is_the_same_leg_and_keeps_its_stages() -> None:
     assert back.preset == "rtclm/case4" and (back.design.params == primary.params).all()
     s.select_mechanism("stephenson1")  # another topology still starts over, keeping the stages as a branch
     assert len(s.study.branches) == branches + 1
+
+
+def test_a_stage_that_runs_out_of_generations_short_of_its_stop_says_so() -> None:
+    # An RTCLM stage that stalled read "Last run: rtclm2 complete" beside an h4 94 mm off its target.
+    from studio.study import status_text
+
+    s = Session.default()
+    s.select_mechanism("rtclm_primary")
+    tiny(s.study, "rtclm1", pop=12, gens=1, seed=1)
+    run(s, "rtclm1", from_pick=False)
+    r = s.study.result("rtclm1")
+    assert r.status == "complete" and r.picked is not None and float(r.F[r.picked, 0]) > 0.5
+    dh6 = float(r.F[r.picked, 0])
+    assert status_text(r).startswith(f"complete — its early stop [0.5] not reached (pick: dh6 {dh6:.3g})")
