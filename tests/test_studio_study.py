@@ -448,12 +448,19 @@ def test_the_stage_panel_names_the_pick_the_next_box_is_built_around(session: Se
     assert sv.viewing == sv.names[0]  # nothing chosen to view: the pipeline's first stage
 
 
-def test_a_stage_that_stops_early_on_its_target_gets_its_automatic_pick() -> None:
+def rtclm1_run(pop: int, gens: int) -> StageResult:
+    """RTCLM subtask 1 from the RTCLM's opening design, seed 1, to the end."""
     s = Session.default()
     s.select_mechanism("rtclm_primary")
-    tiny(s.study, "rtclm1", pop=40, gens=40, seed=1)
+    tiny(s.study, "rtclm1", pop=pop, gens=gens, seed=1)
     run(s, "rtclm1", from_pick=False)
     r = s.study.result("rtclm1")
+    assert r is not None
+    return r
+
+
+def test_a_stage_that_stops_early_on_its_target_gets_its_automatic_pick() -> None:
+    r = rtclm1_run(40, 40)
     assert r.status == "stopped" and r.generation < 40  # |h6 - h6_t| reached: an early stop, not a Stop click
     assert r.picked is not None and r.feasible[r.picked]
 
@@ -783,11 +790,7 @@ def test_a_stage_that_runs_out_of_generations_short_of_its_stop_says_so() -> Non
     # An RTCLM stage that stalled read "Last run: rtclm2 complete" beside an h4 94 mm off its target.
     from studio.study import status_text
 
-    s = Session.default()
-    s.select_mechanism("rtclm_primary")
-    tiny(s.study, "rtclm1", pop=12, gens=1, seed=1)
-    run(s, "rtclm1", from_pick=False)
-    r = s.study.result("rtclm1")
+    r = rtclm1_run(12, 1)
     assert r.status == "complete" and r.picked is not None and float(r.F[r.picked, 0]) > 0.5
     dh6 = float(r.F[r.picked, 0])
     assert status_text(r).startswith(f"complete — its early stop [0.5] not reached (pick: dh6 {dh6:.3g})")
