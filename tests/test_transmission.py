@@ -123,3 +123,22 @@ def test_best_transmission_takes_the_largest_angle_in_picks_and_chains() -> None
     picks = [{"transmission": 60.0}, {"transmission": 5.0}]
     assert rank_chains(picks, [True, True], "best:transmission") == [0, 1]
     assert rank_chains([{"S": 2.0}, {"S": 1.0}], [True, True], "best:S") == [1, 0]
+
+
+def test_the_rtclm_measures_each_modes_angle_and_can_require_it() -> None:
+    # An RTCLM pick assembled with a 0-degree transmission angle in its auxiliary mode (an exploratory walk).
+    from core.kinematics.mechanisms import get as mechanism
+    from core.optimize.result import best_metric
+
+    params = get("rtclm/case4").design().params
+    m = make_problem("rtclm2").evaluate_metrics(Design(mechanism("rtclm_primary"), params))
+    for suffix, mode in (("6", "rtclm_primary"), ("4", "rtclm_auxiliary")):
+        want = evaluate(Design(mechanism(mode), params), 360, backend="numpy").transmission[0]
+        assert m[f"transmission_{suffix}"][0] == pytest.approx(want, rel=1e-9)
+    cons = make_problem("rtclm2", transmission_min=30.0).constraints
+    assert Constraint("transmission_6", lower=30.0) in cons and Constraint("transmission_4", lower=30.0) in cons
+    assert [c.metric for c in make_problem("rtclm1", transmission_min=30.0).constraints][-1] == "transmission_6"
+    assert not any(c.metric.startswith("transmission") for c in make_problem("rtclm2").constraints)
+    with pytest.raises(ValueError, match="transmission_min must be an angle"):
+        make_problem("rtclm1", transmission_min=-1.0)
+    assert best_metric(np.array([10.0, 50.0]), np.array([True, True]), "transmission_4") == 1

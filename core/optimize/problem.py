@@ -75,6 +75,14 @@ class Constraint:
 ASSEMBLY = Constraint("violation", upper=0.0)
 
 
+def transmission_limits(limit: float, metrics: tuple[str, ...] = ("transmission",)) -> tuple[Constraint, ...]:
+    """A problem's ``transmission_min`` option (deg): each worst transmission angle in ``metrics`` at least this
+    (0: no limit, the paper's); ValueError for an angle outside [0, 90)."""
+    if not (np.isfinite(limit) and 0.0 <= limit < 90.0):
+        raise ValueError(f"transmission_min must be an angle in degrees in [0, 90), got {limit!r}")
+    return tuple(Constraint(m, lower=float(limit)) for m in metrics) if limit > 0.0 else ()
+
+
 @dataclass(frozen=True)
 class ProblemSpec:
     """What a stage optimizes.

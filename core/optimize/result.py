@@ -380,7 +380,7 @@ class StageResult:
 
 # Metrics whose best value is the largest (``best:<metric>`` takes it): the worst transmission angle (90 deg
 # ideal) and the crank margin. "best:transmission" picked the design nearest a dead point.
-LARGER_IS_BETTER = frozenset({"transmission", "crank_margin"})
+LARGER_IS_BETTER = frozenset({"transmission", "crank_margin", "transmission_6", "transmission_4"})
 
 
 def best_metric(values: F64, mask: NDArray[np.bool_], name: str = "") -> int | None:

@@ -34,7 +34,7 @@ from core.kinematics.design import Design
 from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions
 from core.kinematics.model import Mechanism
 from core.optimize.objectives import ASSEMBLY_TIER, quantize_all, tiered
-from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
+from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register, transmission_limits
 
 F64 = NDArray[np.float64]
 
@@ -56,6 +56,8 @@ LABELS: dict[str, str] = {
     "crank2": "Eq. 29 crank HF (mm)",
     # Tiered (objectives.tiered), so not mm: 0 when the mode assembles with a valid path, else 1000 + the shortfall
     # (mm, and 1 per extra turn of a crossing path). "(mm)" made a case-4 preset that assembles read "1001 mm".
+    "transmission_6": "primary mode's worst transmission angle (deg)",
+    "transmission_4": "auxiliary mode's worst transmission angle (deg)",
     "violation": "primary mode violation (0 ok, 1000+ not)",
     "aux_violation": "auxiliary mode violation (0 ok, 1000+ not)",
 }
@@ -80,6 +82,7 @@ def mode_metrics(ev: Evaluation, suffix: str) -> Metrics:
         f"eq31_psi2_{suffix}": c[:, 4],
         f"S_{suffix}": ev.S,
         f"I_{suffix}": ev.I,
+        f"transmission_{suffix}": ev.transmission,
     }
 
 
@@ -133,28 +136,35 @@ def _rtclm_only(m: Mechanism) -> str | None:
 
 @register("rtclm1")
 def rtclm1(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], n_samples: int = 360,
-           backend: str = "auto", eq30: bool = True, auxiliary: bool = False) -> ProblemSpec:
+           backend: str = "auto", eq30: bool = True, auxiliary: bool = False,
+           transmission_min: float = 0.0) -> ProblemSpec:
     """RTCLM subtask 1: drive the primary-mode height h6 to its target (objective dh6).
 
     Args:
         auxiliary: also require the auxiliary mode to work (assembly, crank HF, its Eq. 30); by
             default subtask 1 holds only the primary mode's constraints (Eq. 29 crank AB, Eq. 30),
             which leaves subtask 2 a wider search (measured: it then reaches h4 far more often).
+        transmission_min: a lower limit (deg) on the worst transmission angle of each mode it holds (0: none,
+            the paper's).
     """
 
     def ev(design: Design) -> Metrics:
         return rtclm_metrics(design.params, h6_target, h4_target, n_samples, backend, auxiliary=auxiliary)
 
-    return ProblemSpec("rtclm1", ev, ("dh6",), _eq29_30(eq30, auxiliary), labels=LABELS, misfit=_rtclm_only)
+    angles = transmission_limits(transmission_min, ("transmission_6", "transmission_4")[: 1 + auxiliary])
+    return ProblemSpec("rtclm1", ev, ("dh6",), _eq29_30(eq30, auxiliary) + angles, labels=LABELS,
+                       misfit=_rtclm_only)
 
 
 @register("rtclm2")
 def rtclm2(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], h6_tol: float = H6_HOLD,
-           n_samples: int = 360, backend: str = "auto", eq30: bool = True, eq31: bool = True) -> ProblemSpec:
+           n_samples: int = 360, backend: str = "auto", eq30: bool = True, eq31: bool = True,
+           transmission_min: float = 0.0) -> ProblemSpec:
     """RTCLM subtask 2: drive the auxiliary-mode height h4 (objectives dh4, dh6) under Eqs. 29-31.
 
     Args:
         h6_tol: the subtask-1 result held as a constraint, ``|h6 - h6_target| <= h6_tol`` (mm).
+        transmission_min: a lower limit (deg) on both modes' worst transmission angles (0: none, the paper's).
     """
 
     def ev(design: Design) -> Metrics:
@@ -163,4 +173,5 @@ def rtclm2(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], h6_tol:
     cons = _eq29_30(eq30) + (Constraint("dh6", upper=h6_tol),)
     if eq31:
         cons += (Constraint("eq31_height_4", upper=0.0), Constraint("eq31_psi2_4", upper=0.0))
+    cons += transmission_limits(transmission_min, ("transmission_6", "transmission_4"))
     return ProblemSpec("rtclm2", ev, ("dh4", "dh6"), cons, labels=LABELS, misfit=_rtclm_only)

@@ -39,7 +39,7 @@ from core.optimize.objectives import (
 )
 from core.optimize.predesign import place as place_designs
 from core.optimize.predesign import placement_misfit, predesign_problem
-from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register
+from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register, transmission_limits
 
 F64 = NDArray[np.float64]
 
@@ -57,13 +57,6 @@ def _eq30(on: bool) -> tuple[Constraint, ...]:
         return ()
     return (Constraint("order", upper=0.0), Constraint("theta1_margin", upper=0.0),
             Constraint("theta2_margin", upper=0.0))
-
-
-def _transmission(limit: float) -> tuple[Constraint, ...]:
-    """``transmission_min`` (deg): the worst transmission angle at least this (0: no limit, the paper's)."""
-    if not (np.isfinite(limit) and 0.0 <= limit < 90.0):
-        raise ValueError(f"transmission_min must be an angle in degrees in [0, 90), got {limit!r}")
-    return (Constraint("transmission", lower=float(limit)),) if limit > 0.0 else ()
 
 
 def _placement(place: str, target: str, n_samples: int, backend: str) -> dict[str, Any]:
@@ -99,7 +92,7 @@ def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
             subtask and ``single_level`` take it.
     """
     return ProblemSpec("subtask1", _evaluator(target, n_samples, backend), ("f1", "f2", "f3"),
-                       (ASSEMBLY, *_eq30(eq30), *_transmission(transmission_min)), labels=LABELS,
+                       (ASSEMBLY, *_eq30(eq30), *transmission_limits(transmission_min)), labels=LABELS,
                        **_placement(place, target, n_samples, backend))
 
 
@@ -110,7 +103,7 @@ def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints."""
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max))
     return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"),
-                       cons + _eq30(eq30) + _transmission(transmission_min),
+                       cons + _eq30(eq30) + transmission_limits(transmission_min),
                        labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
@@ -123,7 +116,7 @@ def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max),
             Constraint("h_s", upper=h_s_max), Constraint("I", upper=I_max))
     return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"),
-                       cons + _eq30(eq30) + _transmission(transmission_min),
+                       cons + _eq30(eq30) + transmission_limits(transmission_min),
                        labels=LABELS, **_placement(place, target, n_samples, backend))
 
 
@@ -136,7 +129,7 @@ def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: st
         place: as for ``subtask1`` (``none``, the paper's direct search, by default).
     """
     return ProblemSpec("single_level", _evaluator(target, n_samples, backend), ("f1", "f2", "f3", "h_s", "I"),
-                       (ASSEMBLY, *_eq30(eq30), *_transmission(transmission_min)), labels=LABELS,
+                       (ASSEMBLY, *_eq30(eq30), *transmission_limits(transmission_min)), labels=LABELS,
                        **_placement(place, target, n_samples, backend))
 
 
