@@ -338,3 +338,24 @@ def test_a_stage_that_fails_keeps_the_stages_finished_before_it(tmp_path: Path, 
     # clm compare reads it and marks it.
     assert main(["compare", str(tmp_path / "o")]) == 0
     assert "tiny: subtask1 pick [failed]" in capsys.readouterr().out
+
+
+def test_an_rtclm_runs_auxiliary_mode_can_be_evaluated_simulated_and_drawn(tmp_path: Path,
+                                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    # Its h4 needed a hand-edited design JSON: --design RUN took the primary mode only.
+    text = (ROOT / "assets" / "configs" / "rtclm_case1.toml").read_text()
+    (tmp_path / "r.toml").write_text(text.replace("n_gen = 1500", "n_gen = 3").replace("n_gen = 200", "n_gen = 3")
+                                     .replace("pop_size = 100", "pop_size = 12"))
+    assert main(["design", str(tmp_path / "r.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    h4 = json.loads((tmp_path / "o" / "result.json").read_text())["rows"][-1]["h4"]
+    capsys.readouterr()
+    assert main(["evaluate", "--design", str(tmp_path / "o"), "--mode", "auxiliary", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["mechanism"] == "rtclm_auxiliary" and data["h_m"] == pytest.approx(h4, abs=1e-5)
+    assert main(["simulate", "--design", str(tmp_path / "o"), "--mode", "auxiliary", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["mechanism"] == "rtclm_auxiliary"
+    assert main(["evaluate", "--preset", "rtclm/case4/auxiliary", "--mode", "primary", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["mechanism"] == "rtclm_primary"
+    assert main(["simulate", "--preset", "stephenson1/X3", "--mode", "auxiliary"]) == 2
+    assert capsys.readouterr().err.strip() == ("clm: error: --mode auxiliary: stephenson1 has no modes; only the RTCLM "
+                                               "(rtclm_primary, rtclm_auxiliary) has")

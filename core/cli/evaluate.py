@@ -59,6 +59,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--backend", choices=("numpy", "numba", "auto"), default="numpy",
                    help="solver; numpy (default) needs no compilation, which suits one design")
+    from core.cli.simulate import add_mode
+
+    add_mode(p)
     p.set_defaults(func=run)
 
 

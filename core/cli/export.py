@@ -27,6 +27,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dxf", type=Path, metavar="OUT", help="DXF file to write")
     p.add_argument("--svg", type=Path, metavar="OUT", help="SVG file to write")
     p.add_argument("--angle", type=float, default=0.0, help="crank angle in degrees from the crank phase (default 0)")
+    from core.cli.simulate import add_mode
+
+    add_mode(p)
     p.set_defaults(func=run)
 
 

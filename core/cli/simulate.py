@@ -42,11 +42,34 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="numpy",
         help="solver; numpy (default) needs no compilation, which suits one design",
     )
+    add_mode(p)
     p.set_defaults(func=run)
 
 
+MODES = {"primary": "rtclm_primary", "auxiliary": "rtclm_auxiliary"}
+
+
+def add_mode(p: argparse.ArgumentParser) -> None:
+    """``--mode``: the RTCLM's other mode of the same design vector (a run's pick is in its primary mode)."""
+    p.add_argument("--mode", choices=tuple(MODES),
+                   help="for an RTCLM design: this mode of the same leg (its 13 parameters lock it either way)")
+
+
 def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
-    """The design named by ``--preset`` or read from ``--design``, checked; and the preset name."""
+    """The design named by ``--preset`` or read from ``--design``, checked, in ``--mode``; and the preset name."""
+    design, preset = _load(args)
+    mode = getattr(args, "mode", None)
+    if mode is None or design.mechanism.name == MODES[mode]:
+        return design, preset
+    if not design.mechanism.name.startswith("rtclm"):
+        raise CLIError(f"--mode {mode}: {design.mechanism.name} has no modes; only the RTCLM (rtclm_primary, "
+                       "rtclm_auxiliary) has")
+    from core.kinematics import mechanisms
+
+    return Design(mechanisms.get(MODES[mode]), design.params, design.output), None
+
+
+def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
     if args.preset is not None:
         return check_design(presets.get(args.preset).design()), args.preset
     path: Path = args.design
