@@ -133,3 +133,9 @@ def test_what_changed_since_a_run_is_said_where_the_stages_look() -> None:
     s.set_target(length=299.0)
     s.set_target(length=300.0)
     assert s.view.target.origin == "the paper's"
+
+
+def test_the_rtclms_shape_error_says_its_stages_do_not_use_that_curve() -> None:
+    row = next(r for r in Session.default("rtclm/case4").view.rows if r.key == "mse")
+    assert "the RTCLM stages do not use" in row.note
+    assert "the RTCLM" not in next(r for r in Session.default().view.rows if r.key == "mse").note
