@@ -151,13 +151,19 @@ def test_compare_names_the_folder_of_rows_still_alike(outputs: tuple[Path, Path,
     assert out[2].startswith(f"tiny: subtask2 pick (nsga2, seed 4) in {tmp_path / 'h4_300'}")
 
 
+def tiny_rtclm_run(out: Path) -> None:
+    """RTCLM case 1's config, 12 members and 3 generations a stage, designed into ``out``."""
+    text = (ROOT / "assets" / "configs" / "rtclm_case1.toml").read_text()
+    config = out.parent / "rtclm_tiny.toml"
+    config.write_text(text.replace("n_gen = 1500", "n_gen = 3").replace("n_gen = 200", "n_gen = 3")
+                      .replace("pop_size = 100", "pop_size = 12"))
+    assert main(["design", str(config), "--out", str(out), "--quiet"]) == 0
+
+
 def test_compare_paper_appends_the_rtclm_cases_for_rtclm_runs(tmp_path: Path,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
     # It appended the Stephenson-I baselines of Appendix B-5, which have no h6 or h4 to compare with.
-    text = (ROOT / "assets" / "configs" / "rtclm_case1.toml").read_text()
-    (tmp_path / "r.toml").write_text(text.replace("n_gen = 1500", "n_gen = 3").replace("n_gen = 200", "n_gen = 3")
-                                     .replace("pop_size = 100", "pop_size = 12"))
-    assert main(["design", str(tmp_path / "r.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    tiny_rtclm_run(tmp_path / "o")
     capsys.readouterr()
     assert main(["compare", str(tmp_path / "o"), "--paper"]) == 0
     out = capsys.readouterr().out.splitlines()
@@ -343,10 +349,7 @@ def test_a_stage_that_fails_keeps_the_stages_finished_before_it(tmp_path: Path, 
 def test_an_rtclm_runs_auxiliary_mode_can_be_evaluated_simulated_and_drawn(tmp_path: Path,
                                                                            capsys: pytest.CaptureFixture[str]) -> None:
     # Its h4 needed a hand-edited design JSON: --design RUN took the primary mode only.
-    text = (ROOT / "assets" / "configs" / "rtclm_case1.toml").read_text()
-    (tmp_path / "r.toml").write_text(text.replace("n_gen = 1500", "n_gen = 3").replace("n_gen = 200", "n_gen = 3")
-                                     .replace("pop_size = 100", "pop_size = 12"))
-    assert main(["design", str(tmp_path / "r.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    tiny_rtclm_run(tmp_path / "o")
     h4 = json.loads((tmp_path / "o" / "result.json").read_text())["rows"][-1]["h4"]
     capsys.readouterr()
     assert main(["evaluate", "--design", str(tmp_path / "o"), "--mode", "auxiliary", "--json"]) == 0
