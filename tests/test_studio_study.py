@@ -449,9 +449,8 @@ def test_the_stage_panel_names_the_pick_the_next_box_is_built_around(session: Se
 
 
 def rtclm1_run(pop: int, gens: int) -> StageResult:
-    """RTCLM subtask 1 from the RTCLM's opening design, seed 1, to the end."""
-    s = Session.default()
-    s.select_mechanism("rtclm_primary")
+    """RTCLM subtask 1 from a paper row far from h6 (159 mm for 50), seed 1, to the end."""
+    s = Session.default("rtclm/case1-CMOES")
     tiny(s.study, "rtclm1", pop=pop, gens=gens, seed=1)
     run(s, "rtclm1", from_pick=False)
     r = s.study.result("rtclm1")
