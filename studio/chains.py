@@ -18,6 +18,7 @@ from core.kinematics.model import Mechanism
 from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.problem import Constraint, ProblemSpec, make_problem, problem_names
+from core.optimize.rtclm import is_rtclm
 from core.optimize.stage import StageSpec
 from studio.target import TargetSpec
 
@@ -81,7 +82,7 @@ RTCLM = (
 
 def chain_for(mechanism: Mechanism) -> tuple[ChainStage, ...]:
     """The stages offered for a mechanism whose problems are registered (in order)."""
-    chain = RTCLM if mechanism.name.startswith("rtclm") else SIX_BAR
+    chain = RTCLM if is_rtclm(mechanism.name) else SIX_BAR
     known = set(problem_names())
     return tuple(c for c in chain if c.name in known)
 

@@ -22,6 +22,7 @@ from core.analysis.targets import cycloid_params
 from core.formats.files import atomic_write, chart_file, read_design_result
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
+from core.optimize.rtclm import is_rtclm
 from studio.figures import make_pareto_figure, with_title_wrapped
 from studio.study import status_text
 
@@ -43,7 +44,7 @@ def chart_title(r: StageResult, state: str, target: str = "") -> str:
     the target (``target_text``)."""
     # The RTCLM's stages measure both modes: its mechanism's title ("RTCLM, primary mode (...)") read wrong over
     # rtclm2, the auxiliary-mode stage.
-    mech = "RTCLM" if r.mechanism.name.startswith("rtclm") else r.mechanism.title
+    mech = "RTCLM" if is_rtclm(r.mechanism.name) else r.mechanism.title
     return (f"{mech} · {r.name} · {state} · {int(r.feasible.sum())} feasible of {r.pop} · "
             f"front {len(set(r.front))}" + (f" · target {target}" if target else ""))
 

@@ -32,7 +32,7 @@ from core.kinematics.design import Design
 from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
-from core.optimize.rtclm import H4_CASES
+from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, is_rtclm
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
 from studio.session_pack import pack_study, unpack_study
 from studio.study import Branch, Selection, Study
@@ -69,8 +69,7 @@ def presets_for(mechanism: str) -> tuple[str, ...]:
 @functools.cache
 def other_mode(a: Mechanism, b: Mechanism) -> bool:
     """``a`` and ``b`` are the RTCLM's two modes: one leg, the same parameter vector, locked two ways (paper §4)."""
-    return (a.name != b.name and a.name.startswith("rtclm") and b.name.startswith("rtclm")
-            and a.param_names == b.param_names)
+    return a.name != b.name and is_rtclm(a.name) and is_rtclm(b.name)
 
 
 def mode_preset(preset: str | None, mechanism: str) -> str | None:
@@ -95,9 +94,10 @@ def opening_preset(mechanism: str) -> str:
     names = presets_for(mechanism)
     if not names:
         raise ValueError(f"{mechanism} has no preset")
-    own = {"rtclm_primary": "rtclm/clm-case1", "rtclm_auxiliary": "rtclm/clm-case1/auxiliary"}.get(mechanism)
-    if own in names:
-        return own
+    if is_rtclm(mechanism):  # our own design, in this mode
+        own = mode_preset("rtclm/clm-case1", mechanism)
+        if own is not None:
+            return own
     assembles = None
     for name in names:
         design = presets.get(name).design()
@@ -142,7 +142,7 @@ def preset_target(name: str, period: float = 2.0) -> TargetSpec:
     length, height = max(round(float(span[0])), 1.0), max(round(float(span[1])), 1.0)
     placed = place_cycloid(path, length, height)
     note = f"scaled to the {name} path and placed on it"
-    if p.mechanism.name.startswith("rtclm"):
+    if is_rtclm(p.mechanism.name):
         note += "; the RTCLM stages optimize h6 and h4, not this curve"
     times = tuple(float(i * period / n) for i in range(n))
     curve = Curve(f"cycloid {length:g} x {height:g} mm on {name}", tuple((float(x), float(y)) for x, y in placed),
@@ -234,8 +234,8 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     ev = evaluate_solution(sol, target.target(), target.period, walk.obstacle)
     assert sol.dleg is not None
     walking = build_walk(sol.leg[0], sol.dleg[0], target.period, walk) if ev.feasible[0] else None
-    name = design.mechanism.name
-    height = ("h6", target.h6) if name == "rtclm_primary" else ("h4", target.h4) if name == "rtclm_auxiliary" else None
+    mode = MODE_HEIGHT.get(design.mechanism.name)  # an RTCLM mode: the height its h_m is, and that target
+    height = None if mode is None else (mode, float(getattr(target, mode)))
     return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev, 0, height),
                       stance_mask(ev, n_samples), feature_labels(ev), walk, walking)
 
@@ -480,8 +480,8 @@ class Session:
         keep = (mechanism == old.name or v.target.origin == "uploaded"
                 or other_mode(old, mechanisms.get(mechanism)))  # the same leg in its other mode: its target
         t = v.target if keep else preset_target(preset, v.target.period)
-        if mechanism.startswith("rtclm"):  # the heights: a case's h4 unless the designer set one; a typed h6 stays
-            was = old.name.startswith("rtclm")
+        if is_rtclm(mechanism):  # the heights: a case's h4 unless the designer set one; a typed h6 stays
+            was = is_rtclm(old.name)
             untouched = not was or v.target.h4 == (case_h4(v.preset) or H4_CASES[1])
             case = case_h4(preset)
             h4 = case if untouched and case is not None else (v.target.h4 if was else t.h4)

@@ -186,11 +186,8 @@ def evaluate(
         phase_optimal=phase_optimal,
         kernel=use_numba,
     )
-    return replace(ev, crank_margin=sol.crank_margin, transmission=_degrees(worst_transmission(sol.mu_min, sol.mu_max)))
-
-
-def _degrees(rad: F64) -> F64:
-    return np.degrees(rad)
+    mu = np.degrees(worst_transmission(sol.mu_min, sol.mu_max))
+    return replace(ev, crank_margin=sol.crank_margin, transmission=mu)
 
 
 def _check_args(
@@ -266,7 +263,7 @@ def _evaluate_fused(
     )
     crank = crank_margin_of(prep)
     kin = assembly_violation(prep, mmin, neg, broken, crank)
-    mu = _degrees(worst_transmission(*transmission_range(prep.program.ops, cmin, cmax)))
+    mu = np.degrees(worst_transmission(*transmission_range(prep.program.ops, cmin, cmax)))
     return _assemble(_kernel_results(index, pts, tans, S, float(period), n), np.full(pop, np.nan), kin, tgt,
                      period, (a, b), trunk, n, crank, mu)
 

@@ -17,7 +17,9 @@ from core.formats.typed import unique_keys
 from core.kinematics import presets
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.design import Design
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
 from core.kinematics.solver import Solution
+from core.optimize.rtclm import is_rtclm
 
 # Guards memory: joints alone take n_samples * n_joints * 32 bytes, and JSON text ~10x that.
 MAX_DESIGN_BYTES = 1_000_000
@@ -46,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-MODES = {"primary": "rtclm_primary", "auxiliary": "rtclm_auxiliary"}
+MODES = {"primary": RTCLM_PRIMARY.name, "auxiliary": RTCLM_AUXILIARY.name}
 
 
 def add_mode(p: argparse.ArgumentParser) -> None:
@@ -61,7 +63,7 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
     mode = getattr(args, "mode", None)
     if mode is None or design.mechanism.name == MODES[mode]:
         return design, preset
-    if not design.mechanism.name.startswith("rtclm"):
+    if not is_rtclm(design.mechanism.name):
         raise CLIError(f"--mode {mode}: {design.mechanism.name} has no modes; only the RTCLM (rtclm_primary, "
                        "rtclm_auxiliary) has")
     from core.kinematics import mechanisms

@@ -38,6 +38,8 @@ from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, re
 
 F64 = NDArray[np.float64]
 
+# The RTCLM's two modes (one 13-parameter leg locked two ways) and the height each one's h_m is (paper §4.2).
+MODE_HEIGHT = {RTCLM_PRIMARY.name: "h6", RTCLM_AUXILIARY.name: "h4"}
 H6_TARGET = 50.0  # mm, paper §4.2.3
 H4_CASES = {1: 220.0, 2: 240.0, 3: 260.0, 4: 280.0, 5: 300.0}  # mm, cases 1-5
 STOP = (0.5, 0.5)  # mm, the paper's early-stop threshold
@@ -127,9 +129,14 @@ def _eq29_30(eq30: bool, auxiliary: bool = True) -> tuple[Constraint, ...]:
     return cons + (_eq30("6") + _eq30("4") if eq30 else ())
 
 
+def is_rtclm(mechanism: str) -> bool:
+    """Whether the mechanism named is one of the RTCLM's modes."""
+    return mechanism in MODE_HEIGHT
+
+
 def _rtclm_only(m: Mechanism) -> str | None:
     """The RTCLM problems evaluate both modes of one 13-parameter design: the RTCLM's alone."""
-    if m.name in (RTCLM_PRIMARY.name, RTCLM_AUXILIARY.name):
+    if is_rtclm(m.name):
         return None
     return "it measures the reconfigurable leg's two modes (h6 and h4), so it optimizes the RTCLM alone"
 

@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from core.optimize.rtclm import is_rtclm
 from studio.metrics import metrics_html
 from studio.state import DesignView
 from studio.study_view import StudyView
@@ -36,7 +37,7 @@ class MetricsPanel:
         same = (r is not None and i is not None and 0 <= i < r.pop and view.design.mechanism == r.mechanism
                 and np.allclose(view.design.params[0], r.X[i], rtol=0.0, atol=1e-9))
         ran = sv.run_target
-        rtclm = view.design.mechanism.name.startswith("rtclm")
+        rtclm = is_rtclm(view.design.mechanism.name)
         other = view.target.changed_from(ran, rtclm) if ran is not None else ""  # a target changed since the run
         content = verdict_html(r, i, sv.viewing or "", other) if same and r is not None and i is not None else ""
         if self.stage.content != content:

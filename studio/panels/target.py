@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 from core.kinematics.model import OutputStage
+from core.optimize.rtclm import is_rtclm
 from studio.panels._inputs import NumberField, NumberFields, NumberForm
 from studio.state import DesignView
 from studio.target import Curve
@@ -78,7 +79,7 @@ class TargetPanel:
     def show(self, view: DesignView, optimized_by: tuple[str, ...] | None = None) -> None:
         """Mirror the target; ``optimized_by``: the stages of the mechanism that optimize it (None: not known)."""
         t = view.target
-        rtclm = view.design.mechanism.name.startswith("rtclm")
+        rtclm = is_rtclm(view.design.mechanism.name)
         for key, field in self.inputs.items():
             field.show(float(getattr(t, key)))
             if key in ("h6", "h4"):
