@@ -41,8 +41,10 @@ from core.optimize.baselines import DP_METHODS, BaselineSettings
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.design_config import PAPER_OUTPUT, DesignConfig, StageConfig, placeholder
 from core.optimize.multistart import Screen, Starts
+from core.optimize.objectives import target_scale
 from core.optimize.problem import Constraint, ProblemSpec, make_problem
 from core.optimize.result import PickRule
+from core.optimize.scale import sized_bounds
 from core.optimize.subtasks import LIMIT_METRICS, parse_relative
 
 
@@ -110,16 +112,18 @@ def _bounds(mech: Mechanism, table: dict[str, Any]) -> Mechanism:
             raise _fail(key, f"impossible bounds: lower {lo:g} is not below upper {hi:g}")
         if p.kind == "length" and lo <= 0.0:
             raise _fail(key, f"a length must stay > 0 mm, got lower bound {lo:g}")
-        params.append(replace(p, lo=lo, hi=hi))
+        params.append(replace(p, lo=lo, hi=hi, sized=False))
     return replace(mech, params=tuple(params))
 
 
-def _output(o: Output | None, preset: Design | None, mech: Mechanism) -> OutputStage:
+def _output(o: Output | None, preset: Design | None, mech: Mechanism, k: float) -> OutputStage:
     if o is None:
         if preset is not None:
             return preset.output
-        # The paper's leg inverts its design-frame path by a pantograph (spec §2); RTCLM needs none.
-        return IDENTITY if mech.derive is not None else PAPER_OUTPUT
+        # The paper's leg inverts its design-frame path by a pantograph (spec §2) about a point sized with the leg;
+        # RTCLM needs none.
+        return IDENTITY if mech.derive is not None else replace(PAPER_OUTPUT, ox=PAPER_OUTPUT.ox * k,
+                                                                oy=PAPER_OUTPUT.oy * k)
     if o.k == 0.0:
         raise _fail("output.k", "must be non-zero")
     if not isinstance(o.mirror, bool):
@@ -237,7 +241,7 @@ Limit = NonNeg | str | list[NonNeg | str]
 
 def _option_type(name: str, default: Any) -> Any:
     if name in LIMIT_METRICS:
-        return Limit if isinstance(default, float) else (float | str | list[float | str])
+        return Limit if default is None or isinstance(default, float) else (float | str | list[float | str])
     if isinstance(default, bool):
         return bool
     if isinstance(default, int):
@@ -291,6 +295,8 @@ def _stage(i: int, t: Stage, shared: dict[str, Any], algorithm: AlgorithmSpec, m
     except ValueError as e:
         raise _fail(f"{key}.problem", str(e)) from None
     s, d = _box(t.box, f"{key}.box")
+    if isinstance(t.box, str):  # the paper's subtask steps (20, 10, 5 mm) follow the leg's size; a typed d is kept
+        d *= spec.scale
     pick = _pick(t.pick, f"{key}.pick", spec)
     pick_where = _where(t.pick_where, f"{key}.pick_where", spec) if t.pick_where is not None else ()
     stop = None
@@ -377,14 +383,17 @@ def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | No
     f = decode(dict(data), ConfigFile)
     mech, preset = _mechanism(f)
     mech = _bounds(mech, f.bounds)
-    output = _output(f.output, preset, mech)
-    center = preset.params[0] if preset is not None else 0.5 * (mech.lower + mech.upper)
-    start = Design(mech, center[None], output)
     if f.n_samples % 2:
         raise _fail("n_samples", f"must be even (t + T/2 must fall on a sample), got {f.n_samples}")
     shared: dict[str, Any] = {"n_samples": f.n_samples, "backend": f.backend}
+    k = 1.0  # the leg's size against the paper's (core.optimize.scale)
     if f.target is not None or mech.derive is None:
         shared["target"] = _target(f.target or Target(), Path(base))
+        k = target_scale(shared["target"], f.n_samples)
+    output = _output(f.output, preset, mech, k)
+    lo, hi = sized_bounds(mech, k)
+    center = preset.params[0] if preset is not None else 0.5 * (lo + hi)
+    start = Design(mech, center[None], output)
     if f.rtclm is not None:
         if mech.derive is None:  # it was silently ignored: the run optimized the shape target instead
             raise _fail("rtclm", f"the h6/h4 targets are for the reconfigurable leg (mechanism rtclm), not "

@@ -19,6 +19,9 @@ class Param:
             (a coordinate) or ``angle`` (periodic, rad).
         lo, hi: global search bounds (mm or rad).
         doc: what the parameter is, in one line.
+        sized: the bounds are sized for the paper's 300 mm stride, and a stage for a leg of another size
+            multiplies them by its scale (``core.optimize.scale``; angles never scale). False for bounds a
+            user typed (a configuration's ``[bounds]``), which are kept as typed.
     """
 
     name: str
@@ -26,6 +29,7 @@ class Param:
     lo: float
     hi: float
     doc: str = ""
+    sized: bool = True
 
     @property
     def unit(self) -> str:

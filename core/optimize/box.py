@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.kinematics.model import Mechanism
+from core.optimize.scale import sized_bounds
 
 F64 = NDArray[np.float64]
 TWO_PI = 2.0 * np.pi
@@ -154,8 +155,8 @@ def _fixed_mask(mechanism: Mechanism, fixed: Iterable[str]) -> NDArray[np.bool_]
     return mask
 
 
-def _center(mechanism: Mechanism, center: F64 | None) -> F64:
-    lo, hi, per = mechanism.lower, mechanism.upper, periodic_mask(mechanism)
+def _center(mechanism: Mechanism, center: F64 | None, lo: F64, hi: F64) -> F64:
+    per = periodic_mask(mechanism)
     if center is None:
         c = 0.5 * (lo + hi)
     else:
@@ -168,7 +169,7 @@ def _center(mechanism: Mechanism, center: F64 | None) -> F64:
     return np.where(per, wrap(c, lo), np.clip(c, lo, hi))
 
 
-def global_box(mechanism: Mechanism, center: F64 | None = None, fixed: Iterable[str] = ()) -> Box:
+def global_box(mechanism: Mechanism, center: F64 | None = None, fixed: Iterable[str] = (), scale: float = 1.0) -> Box:
     """The mechanism's global bounds (predesign, single-level runs).
 
     Args:
@@ -176,9 +177,11 @@ def global_box(mechanism: Mechanism, center: F64 | None = None, fixed: Iterable[
         center: ``(n_params,)`` values of the fixed parameters (and the reference point);
             default the middle of the bounds.
         fixed: names of parameters held at ``center``.
+        scale: the leg's size relative to the paper's 300 mm stride; sized bounds are multiplied by it
+            (``core.optimize.scale``).
     """
-    lo, hi = mechanism.lower, mechanism.upper
-    return Box(mechanism.param_names, lo, hi, _center(mechanism, center), lo, hi, periodic_mask(mechanism),
+    lo, hi = sized_bounds(mechanism, scale)
+    return Box(mechanism.param_names, lo, hi, _center(mechanism, center, lo, hi), lo, hi, periodic_mask(mechanism),
                _fixed_mask(mechanism, fixed))
 
 
@@ -189,7 +192,8 @@ def half_widths(mechanism: Mechanism, center: F64, s: float, d: float) -> F64:
     return np.maximum(s * np.abs(np.asarray(center, dtype=np.float64)), dd)
 
 
-def search_box(mechanism: Mechanism, center: F64, s: float, d: float, fixed: Iterable[str] = ()) -> Box:
+def search_box(mechanism: Mechanism, center: F64, s: float, d: float, fixed: Iterable[str] = (),
+               scale: float = 1.0) -> Box:
     """The box ``x ± max(s|x|, d)`` around a pick, clipped to the global bounds (spec §6).
 
     Args:
@@ -198,11 +202,13 @@ def search_box(mechanism: Mechanism, center: F64, s: float, d: float, fixed: Ite
         s: relative half-width (0.2 for subtask 1).
         d: absolute minimum half-width (mm; 20 for subtask 1); angles use ``s·π``.
         fixed: names of parameters held at the centre.
+        scale: as for ``global_box`` (the clipping bounds; ``d`` is taken as given).
     """
     if not (0.0 < s < np.inf and 0.0 < d < np.inf):
         raise ValueError(f"box scale s and width d must be finite and > 0, got s={s}, d={d}")
-    lo, hi, per = mechanism.lower, mechanism.upper, periodic_mask(mechanism)
-    c = _center(mechanism, center)
+    lo, hi = sized_bounds(mechanism, scale)
+    per = periodic_mask(mechanism)
+    c = _center(mechanism, center, lo, hi)
     h = half_widths(mechanism, c, s, d)
     lower = np.where(per, c - np.minimum(h, np.pi), np.maximum(c - h, lo))
     upper = np.where(per, c + np.minimum(h, np.pi), np.minimum(c + h, hi))

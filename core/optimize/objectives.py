@@ -14,6 +14,7 @@ from core.analysis.evaluate import Backend, Evaluation, evaluate
 from core.analysis.targets import Target, parse_target
 from core.kinematics.design import Design
 from core.optimize.problem import Metrics
+from core.optimize.scale import PAPER_STRIDE, stride_scale
 
 F64 = NDArray[np.float64]
 
@@ -25,7 +26,7 @@ DEFAULT_TARGET = "cycloid"
 # to such degenerate designs. With it: feasible < assembled but over a threshold < unassembled,
 # and inside each tier the measure stays continuous (the shortfall in mm).
 ASSEMBLY_TIER = 1000.0
-WIDTH_BAND = 10.0  # mm: Eq. 20's 290 < l < 310 around L = 300
+WIDTH_BAND = 10.0  # mm: Eq. 20's 290 < l < 310 around L = 300 (scaled with the target's width)
 WIDTH_STEEP = 5.0  # Eq. 20's factor outside the band
 # Eq. 22 and Eq. 23 thresholds.
 EQ22 = {"f1": 6.0, "f2": 5.0, "f3": 5.0}
@@ -78,6 +79,11 @@ def target_extent(target: Target, n_samples: int) -> tuple[float, float]:
     return float(pts[:, 0].max() - pts[:, 0].min()), float(pts[:, 1].min())
 
 
+def target_scale(target: str, n_samples: int) -> float:
+    """The leg's size relative to the paper's: the target's width / 300 mm (``core.optimize.scale``)."""
+    return stride_scale(target_extent(load_target(target), n_samples)[0])
+
+
 def shape_metrics(design: Design, target: str = DEFAULT_TARGET, n_samples: int = 360,
                   backend: Backend = "auto") -> Metrics:
     """Every metric the shape-target problems use, ``{name: (pop,)}``.
@@ -99,7 +105,7 @@ def metrics_of(ev: Evaluation, target: Target) -> Metrics:
     f1 = ev.mse if target.has_time else ev.mse_phase
     return {
         "f1": f1,
-        "f2": width_penalty(ev.width, width0),
+        "f2": width_penalty(ev.width, width0, WIDTH_BAND * width0 / PAPER_STRIDE),
         "f3": (ev.y_min - ymin0) ** 2,
         "mse": f1,
         "width": ev.width,

@@ -30,7 +30,7 @@ from core.analysis import fourier
 from core.analysis.evaluate import Backend
 from core.kinematics.design import Design
 from core.kinematics.model import Crank, Dyad, Ground, Mechanism, Operand
-from core.optimize.objectives import DEFAULT_TARGET, LABELS, load_target, quantize, shape_metrics
+from core.optimize.objectives import DEFAULT_TARGET, LABELS, load_target, quantize, shape_metrics, target_scale
 from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec
 
 F64 = NDArray[np.float64]
@@ -265,4 +265,4 @@ def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backen
 
     return ProblemSpec("predesign", evaluate, ("fd", "f1"), (ASSEMBLY,),
                        labels={**LABELS, "fd": "Fourier-descriptor distance (-)"}, repair=repair,
-                       misfit=placement_misfit)
+                       misfit=placement_misfit, scale=target_scale(target, n_samples))

@@ -100,6 +100,8 @@ class ProblemSpec:
             shift, phase so the matched shape lands on the target) belongs here.
         misfit: ``Mechanism -> reason | None``: why the problem cannot optimize that mechanism (the RTCLM
             problems any other; an analytic placement a mechanism with derived values); None: any mechanism.
+        scale: the leg's size relative to the paper's 300 mm stride (``core.optimize.scale``): a stage's box
+            multiplies the mechanism's sized bounds by it. 1 for problems without a shape target.
     """
 
     name: str
@@ -110,6 +112,7 @@ class ProblemSpec:
     labels: Mapping[str, str] = field(default_factory=dict)
     repair: Callable[[Design], F64] | None = field(default=None, compare=False, repr=False)
     misfit: Callable[[Mechanism], str | None] | None = field(default=None, compare=False, repr=False)
+    scale: float = 1.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "objectives", tuple(self.objectives))
@@ -301,7 +304,9 @@ def make_problem(name: str, **options: Any) -> ProblemSpec:
     for key, value in bound.arguments.items():
         bound.arguments[key] = _option(name, key, sig.parameters[key].annotation, value)
     spec = factory(**bound.arguments)
-    return replace(spec, name=name, options=dict(bound.arguments))
+    # An option left None means "the factory's choice" (a limit sized to the target): it records the value it took.
+    resolved = {k: v for k, v in spec.options.items() if k in bound.arguments and bound.arguments[k] is None}
+    return replace(spec, name=name, options=dict(bound.arguments) | resolved)
 
 
 def _option(problem: str, key: str, annotation: Any, value: Any) -> Any:
@@ -315,6 +320,8 @@ def _option(problem: str, key: str, annotation: Any, value: Any) -> Any:
         return checks.backend(value)
     if kind == "float":
         return checks.real(value, where)
+    if kind == "float | None":
+        return None if value is None else checks.real(value, where)
     if kind == "int":  # the registry's int options are counts (points, harmonics)
         return checks.samples(value, minimum=1, name=where)
     if kind == "bool":

@@ -113,9 +113,10 @@ class StageSpec:
     def box(self, start: Design) -> Box:
         """The search box around a one-member start design."""
         center = np.asarray(start.params[0])
+        k = self.problem.scale
         if self.s is None:
-            return global_box(start.mechanism, center, self.fixed)
-        return search_box(start.mechanism, center, self.s, self.d, self.fixed)
+            return global_box(start.mechanism, center, self.fixed, scale=k)
+        return search_box(start.mechanism, center, self.s, self.d, self.fixed, scale=k)
 
     def to_dict(self) -> dict[str, Any]:
         return {

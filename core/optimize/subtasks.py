@@ -8,6 +8,9 @@ metrics (see :func:`shape_metrics`):
 - ``subtask2``: minimise f4 = h_s (mm) and f5 = I (mm/s) subject to assembly and Eq. 22
   (f1 <= 6, f2 <= 5, f3 <= 5).
 - ``subtask3``: as subtask 2, plus Eq. 23 (f4 <= 6.5, f5 <= 20).
+
+The thresholds are the paper's for its 300 mm stride. A limit left out (None) is the paper's, sized to the
+target (``core.optimize.scale``: x k for mm and mm/s, x k^2 for mm^2); the spec records the number it took.
 - ``single_level``: all five objectives at once, subject to assembly (paper §3.4.3).
 
 Decisions where the paper is silent or misprinted (docs/optimization.md):
@@ -36,10 +39,12 @@ from core.optimize.objectives import (
     LABELS,
     load_target,
     shape_metrics,
+    target_scale,
 )
 from core.optimize.predesign import place as place_designs
 from core.optimize.predesign import placement_misfit, predesign_problem
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register, transmission_limits
+from core.optimize.scale import scaled_limit
 
 F64 = NDArray[np.float64]
 
@@ -50,6 +55,14 @@ def _evaluator(target: str, n_samples: int, backend: str) -> Any:
         return shape_metrics(design, target, n_samples, backend)  # type: ignore[arg-type]
 
     return ev
+
+
+def _limits(target: str, n_samples: int, **given: float | None) -> tuple[float, dict[str, float]]:
+    """The target's scale and every limit in ``given`` (``f1_max=None``: Eq. 22/23's, sized to the target)."""
+    k = target_scale(target, n_samples)
+    paper = {"f1_max": EQ22["f1"], "f2_max": EQ22["f2"], "f3_max": EQ22["f3"], "h_s_max": EQ23["h_s"],
+             "I_max": EQ23["I"]}
+    return k, {key: float(v) if v is not None else scaled_limit(key[:-4], paper[key], k) for key, v in given.items()}
 
 
 def _eq30(on: bool) -> tuple[Constraint, ...]:
@@ -93,31 +106,41 @@ def subtask1(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = 
     """
     return ProblemSpec("subtask1", _evaluator(target, n_samples, backend), ("f1", "f2", "f3"),
                        (ASSEMBLY, *_eq30(eq30), *transmission_limits(transmission_min)), labels=LABELS,
-                       **_placement(place, target, n_samples, backend))
+                       **_placement(place, target, n_samples, backend), scale=target_scale(target, n_samples))
 
 
 @register("subtask2")
-def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float = EQ22["f1"],
-             f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], eq30: bool = False,
+def subtask2(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float | None = None,
+             f2_max: float | None = None, f3_max: float | None = None, eq30: bool = False,
              place: str = "none", transmission_min: float = 0.0) -> ProblemSpec:
-    """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints."""
-    cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max))
+    """Subtask 2 (Eqs. 21-22): objectives h_s, I; the subtask-1 objectives become constraints.
+
+    Limits left None are Eq. 22's 6 mm, 5 mm^2, 5 mm^2 sized to the target (module doc).
+    """
+    k, lim = _limits(target, n_samples, f1_max=f1_max, f2_max=f2_max, f3_max=f3_max)
+    cons = (ASSEMBLY, Constraint("f1", upper=lim["f1_max"]), Constraint("f2", upper=lim["f2_max"]),
+            Constraint("f3", upper=lim["f3_max"]))
     return ProblemSpec("subtask2", _evaluator(target, n_samples, backend), ("h_s", "I"),
-                       cons + _eq30(eq30) + transmission_limits(transmission_min),
-                       labels=LABELS, **_placement(place, target, n_samples, backend))
+                       cons + _eq30(eq30) + transmission_limits(transmission_min), options=lim,
+                       labels=LABELS, **_placement(place, target, n_samples, backend), scale=k)
 
 
 @register("subtask3")
-def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float = EQ22["f1"],
-             f2_max: float = EQ22["f2"], f3_max: float = EQ22["f3"], h_s_max: float = EQ23["h_s"],
-             I_max: float = EQ23["I"], eq30: bool = False, place: str = "none",
+def subtask3(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto", f1_max: float | None = None,
+             f2_max: float | None = None, f3_max: float | None = None, h_s_max: float | None = None,
+             I_max: float | None = None, eq30: bool = False, place: str = "none",
              transmission_min: float = 0.0) -> ProblemSpec:
-    """Subtask 3 (Eqs. 21-23): objectives h_s, I under Eq. 22 and f4 <= 6.5, f5 <= 20."""
-    cons = (ASSEMBLY, Constraint("f1", upper=f1_max), Constraint("f2", upper=f2_max), Constraint("f3", upper=f3_max),
-            Constraint("h_s", upper=h_s_max), Constraint("I", upper=I_max))
+    """Subtask 3 (Eqs. 21-23): objectives h_s, I under Eq. 22 and f4 <= 6.5, f5 <= 20.
+
+    Limits left None are the paper's sized to the target (module doc).
+    """
+    k, lim = _limits(target, n_samples, f1_max=f1_max, f2_max=f2_max, f3_max=f3_max, h_s_max=h_s_max, I_max=I_max)
+    cons = (ASSEMBLY, Constraint("f1", upper=lim["f1_max"]), Constraint("f2", upper=lim["f2_max"]),
+            Constraint("f3", upper=lim["f3_max"]), Constraint("h_s", upper=lim["h_s_max"]),
+            Constraint("I", upper=lim["I_max"]))
     return ProblemSpec("subtask3", _evaluator(target, n_samples, backend), ("h_s", "I"),
-                       cons + _eq30(eq30) + transmission_limits(transmission_min),
-                       labels=LABELS, **_placement(place, target, n_samples, backend))
+                       cons + _eq30(eq30) + transmission_limits(transmission_min), options=lim,
+                       labels=LABELS, **_placement(place, target, n_samples, backend), scale=k)
 
 
 @register("single_level")
@@ -130,7 +153,7 @@ def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: st
     """
     return ProblemSpec("single_level", _evaluator(target, n_samples, backend), ("f1", "f2", "f3", "h_s", "I"),
                        (ASSEMBLY, *_eq30(eq30), *transmission_limits(transmission_min)), labels=LABELS,
-                       **_placement(place, target, n_samples, backend))
+                       **_placement(place, target, n_samples, backend), scale=target_scale(target, n_samples))
 
 
 @register("predesign")
