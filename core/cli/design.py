@@ -34,6 +34,7 @@ from core.optimize.multistart import MultiStart, where_name
 from core.optimize.problem import Constraint
 from core.optimize.result import StageResult, dumps
 from core.optimize.run import DesignRun, StageFailed, run_design
+from core.optimize.scale import PAPER_STRIDE
 from core.optimize.stage import Progress
 
 BAR = 24
@@ -224,8 +225,13 @@ def summary(run_: DesignRun) -> str:
 
 def notes(run_: DesignRun) -> list[str]:
     """A line for each stage that ran out of generations short of its early stop, or picked an infeasible member:
-    an impossible target (an RTCLM h4 of 5000 mm) ended "complete" with nothing to say so."""
+    an impossible target (an RTCLM h4 of 5000 mm) ended "complete" with nothing to say so; and one for a leg sized
+    other than the paper's."""
     out = []
+    k = max((s.problem_spec().scale for s in run_.config.stages), key=lambda v: abs(v - 1.0), default=1.0)
+    if k != 1.0:
+        out.append(f"note: the target is {PAPER_STRIDE * k:.4g} mm wide: the built-in bounds, box steps and limits "
+                   f"were the paper's x {k:.3g} (typed ones as typed; docs/optimization.md, \"Legs of other sizes\")")
     stops = {s.name: s.stop_below for s in run_.config.stages}
     for r in run_.results:
         i, stop = r.picked, stops.get(r.name)
