@@ -19,6 +19,7 @@ from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.problem import Constraint, ProblemSpec, make_problem, problem_names
 from core.optimize.rtclm import is_rtclm
+from core.optimize.scale import scaled_limit
 from core.optimize.stage import StageSpec
 from studio.target import TargetSpec
 
@@ -195,5 +196,12 @@ def stage_spec(stage: ChainStage, settings: RunSettings, target: TargetSpec) -> 
     if pick.startswith("best:") and pick[5:] not in problem.objectives and settings.problem != stage.name:
         pick = "knee"  # another problem in this slot: the stage's rule names a metric it may not report
     algorithm = AlgorithmSpec(settings.algorithm, settings.pop_size)
-    return StageSpec(stage.name, problem, s=stage.s, d=stage.d, algorithm=algorithm, n_gen=settings.n_gen,
-                     seed=settings.seed, stop_below=stop, pick=pick)
+    # The chain's steps (20, 10, 5 mm) are the paper's, for its 300 mm stride: they follow the leg's size.
+    return StageSpec(stage.name, problem, s=stage.s, d=stage.d * problem.scale, algorithm=algorithm,
+                     n_gen=settings.n_gen, seed=settings.seed, stop_below=stop, pick=pick)
+
+
+def sized_where(where: tuple[Constraint, ...], k: float) -> tuple[Constraint, ...]:
+    """A chain's ``pick_where`` limits (the paper's, for its 300 mm stride) for a leg of scale ``k``."""
+    return tuple(Constraint(c.metric, upper=None if c.upper is None else scaled_limit(c.metric, c.upper, k),
+                            lower=None if c.lower is None else scaled_limit(c.metric, c.lower, k)) for c in where)

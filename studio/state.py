@@ -32,7 +32,9 @@ from core.kinematics.design import Design
 from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
+from core.optimize.objectives import target_scale
 from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, is_rtclm
+from core.optimize.scale import entry_bounds
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
 from studio.session_pack import pack_study, unpack_study
 from studio.study import Branch, Selection, Study
@@ -257,10 +259,22 @@ def assembly_reason(view: DesignView) -> str | None:
     )
 
 
-def check_value(param: Param, value: object) -> float:
+def leg_scale(mechanism: Mechanism, target: TargetSpec) -> float:
+    """The leg's size against the paper's 300 mm stride (``core.optimize.scale``): the target's width / 300 mm;
+    1 for the RTCLM (its targets are heights) or a target that cannot be read."""
+    if mechanism.derive is not None:
+        return 1.0
+    try:
+        return target_scale(target.option(), 360)
+    except (OSError, ValueError):
+        return 1.0
+
+
+def check_value(param: Param, value: object, k: float = 1.0) -> float:
     """A typed value for one parameter, or ValueError with the reason (name, unit, bounds).
 
-    Lengths must be > 0; every non-angle must lie within the parameter's global bounds;
+    Lengths must be > 0; every non-angle must lie within the parameter's global bounds (for a leg of scale
+    ``k``, ``core.optimize.scale.entry_bounds``);
     angles are periodic and need only be finite and within +-1e6 rad (the design files' limit: a session
     holding more would not load back).
     """
@@ -270,10 +284,9 @@ def check_value(param: Param, value: object) -> float:
     problem = value_problem(param, v)  # what any design file refuses too
     if problem is not None:
         raise ValueError(problem)
-    if param.kind != "angle" and not param.lo <= v <= param.hi:
-        raise ValueError(
-            f"{param.name} = {v:g} {param.unit} is outside its bounds [{param.lo:g}, {param.hi:g}] {param.unit}"
-        )
+    lo, hi = entry_bounds(param, k)
+    if param.kind != "angle" and not lo <= v <= hi:
+        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds [{lo:g}, {hi:g}] {param.unit}")
     return v
 
 
@@ -521,7 +534,8 @@ class Session:
             names = design.mechanism.param_names
             if name not in names:
                 raise ValueError(f"{design.mechanism.name} has no parameter {name!r}; it has {', '.join(names)}")
-            v = check_value(design.mechanism.params[names.index(name)], value)
+            v = check_value(design.mechanism.params[names.index(name)], value,
+                            leg_scale(design.mechanism, self.view.target))
             if v == design.named(0)[name]:
                 return self.view
             new = design.replace(**{name: v})

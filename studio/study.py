@@ -37,7 +37,7 @@ from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
 from core.optimize.stage import Progress, StageSpec
-from studio.chains import ChainStage, RunSettings, default_settings, stage_spec
+from studio.chains import ChainStage, RunSettings, default_settings, sized_where, stage_spec
 from studio.study_targets import _pipeline_from, _retarget
 from studio.target import CURVE_DIR, Curve, TargetSpec, curve_file
 
@@ -115,7 +115,8 @@ def studio_pick(result: StageResult, plan: RunPlan) -> int:
     next stage's constraints, narrowed by its ``pick_where`` (the limits on metrics this problem reports)."""
     pipe, k = plan.pipeline, plan.index
     nxt = pipe.stages[k + 1].problem if k + 1 < pipe.n_stages else None
-    where = tuple(c for c in plan.stage.pick_where if c.metric in result.metrics)
+    sized = sized_where(plan.stage.pick_where, pipe.stages[k].problem.scale)  # the chain's I limits are the paper's
+    where = tuple(c for c in sized if c.metric in result.metrics)
     try:
         return auto_pick(result, plan.spec.pick, plan.spec.stop_below, nxt, where)
     except ValueError:  # a rule naming a metric another problem in this slot does not report

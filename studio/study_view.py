@@ -6,9 +6,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from core.kinematics.design import Design
-from core.optimize.box import Box, global_box, search_box
+from core.optimize.box import Box
 from core.optimize.problem import Constraint
 from core.optimize.result import StageResult
+from core.optimize.scale import PAPER_STRIDE
 from core.optimize.stage import StageSpec
 from studio.chains import ChainStage, RunSettings, problems_for, stage_spec
 from studio.study import RunStatus, Study
@@ -82,12 +83,16 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
             else:
                 note = "no previous pick in this pipeline: run the previous stage, or start from the editor's design"
         else:
-            center = editor.params[0]
-            box = (global_box(editor.mechanism, center) if stage.s is None
-                   else search_box(editor.mechanism, center, stage.s, stage.d))
+            try:
+                spec: StageSpec | None = stage_spec(stage, study.settings_for(stage), target)
+            except ValueError:  # a problem that cannot be built here says so when run
+                spec = None
+            box = None if spec is None else spec.box(editor)
             note = "global bounds" if stage.s is None else "around the design in the editor"
-            if stage.s is not None:
-                note += f" (±max({100 * stage.s:g} %, {stage.d:g} mm))"
+            if spec is not None and spec.s is not None:
+                note += f" (±max({100 * spec.s:g} %, {spec.d:.3g} mm))"
+            if spec is not None and spec.problem.scale != 1.0:
+                note += f"; sized for a {PAPER_STRIDE * spec.problem.scale:.4g} mm stride"
     viewing = study.viewing if study.viewing in names else (names[0] if names else None)
     return StudyView(
         key=(id(study), study.version),

@@ -82,7 +82,9 @@ def test_a_stage_spec_searches_the_studio_target_with_the_chosen_settings() -> N
     target = TargetSpec(280.0, 90.0, 1.5)
     stage = find(chain_for(X3.mechanism), "subtask2")
     spec = stage_spec(stage, RunSettings("subtask2", "nsga3", 12, 5, 9), target)
-    assert (spec.s, spec.d, spec.n_gen, spec.seed) == (0.1, 10.0, 5, 9)
+    # The chain's 10 mm step is the paper's for its 300 mm stride: a 280 mm target sizes it to 28/3 mm.
+    assert (spec.s, spec.d, spec.n_gen, spec.seed) == (0.1, pytest.approx(10.0 * 280.0 / 300.0), 5, 9)
+    assert spec.problem.scale == pytest.approx(280.0 / 300.0)
     assert spec.algorithm.name == "nsga3" and spec.algorithm.pop_size == 12
     assert spec.pick == "best:h_s"
     t = parse_target(spec.problem.options["target"])

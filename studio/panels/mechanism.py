@@ -15,8 +15,9 @@ import viser
 from core.kinematics import mechanisms, presets
 from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
+from core.optimize.scale import entry_bounds
 from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
-from studio.state import DesignView, assembly_reason, preset_label, presets_for
+from studio.state import DesignView, assembly_reason, leg_scale, preset_label, presets_for
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -38,12 +39,14 @@ def param_label(name: str, unit: str) -> str:
     return f"{name} [{unit}]"
 
 
-def param_form(p: Param) -> NumberForm:
-    """What a parameter's field takes; the model checks the bounds (``studio.state.check_value``) and assembly."""
+def param_form(p: Param, k: float = 1.0) -> NumberForm:
+    """What a parameter's field takes on a leg of scale ``k``; the model checks the bounds
+    (``studio.state.check_value``) and assembly."""
     if p.kind == "angle":
         return NumberForm(text=f"an angle in {p.unit} (any number within ±1e6; angles are periodic)")
     what = "a length" if p.kind == "length" else "a number"
-    return NumberForm(text=f"{what} in {p.unit} within its bounds [{p.lo:g}, {p.hi:g}] that keeps the design assembled")
+    lo, hi = entry_bounds(p, k)
+    return NumberForm(text=f"{what} in {p.unit} within its bounds [{lo:g}, {hi:g}] that keeps the design assembled")
 
 
 class MechanismPanel:
@@ -57,6 +60,7 @@ class MechanismPanel:
         self._numbers = NumberFields(studio)
         self._mechanism: Mechanism | None = None
         self._inputs: dict[str, NumberField] = {}
+        self._scale = 1.0  # the leg's size the inputs' bounds were stated for
         self._running = False
         self.folder = gui.add_folder("Mechanism", order=order)
         with self.folder:
@@ -94,17 +98,18 @@ class MechanismPanel:
                 return name
         return None
 
-    def _build_inputs(self, mech: Mechanism, values: dict[str, float]) -> None:
+    def _build_inputs(self, mech: Mechanism, values: dict[str, float], k: float) -> None:
         self._numbers.clear()
         gui = self.studio.server.gui
         self.params_folder.remove()
         with self.folder:
             self.params_folder = gui.add_folder("Parameters")
         self._inputs = {}
+        self._scale = k
         with self.params_folder:
             for p in mech.params:
                 self._inputs[p.name] = self._numbers.add(
-                    p.name, param_label(p.name, p.unit), float(values[p.name]), form=param_form(p), hint=p.doc,
+                    p.name, param_label(p.name, p.unit), float(values[p.name]), form=param_form(p, k), hint=p.doc,
                     apply=self._setter(p.name), current=self._getter(p.name), disabled=self._running)
         self._mechanism = mech
 
@@ -122,8 +127,9 @@ class MechanismPanel:
         """Mirror a design view into the controls (programmatic updates; callbacks ignore them)."""
         mech = view.design.mechanism
         values = view.values
-        if mech != self._mechanism:
-            self._build_inputs(mech, values)
+        k = leg_scale(mech, view.target)
+        if mech != self._mechanism or k != self._scale:  # the bounds the inputs' hints state follow the leg's size
+            self._build_inputs(mech, values, k)
         set_value(self.topology, mech.title)
         options = self._preset_options(view)
         if tuple(self.preset.options) != options:
