@@ -23,7 +23,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from core.analysis.targets import Target, compound_cycloid, curve_from_rows, cycloid_target, resample, scale_note
+from core.analysis.targets import (
+    Target,
+    compound_cycloid,
+    curve_from_rows,
+    cycloid_target,
+    path_note,
+    resample,
+    scale_note,
+)
 from core.kinematics.model import OutputStage
 from core.optimize.rtclm import H4_CASES, H6_TARGET
 
@@ -59,6 +67,11 @@ class Curve:
         """A word on the curve's size if it is far from a leg's (a file written in m or um is read as mm: 300 m
         across drew nothing at all, 0.3 mm a dot), else "" (``core.analysis.targets.scale_note``)."""
         return scale_note(self.points)
+
+    def path_note(self, output: OutputStage) -> str:
+        """A word on the curve if, mapped to the leg frame by ``output``, it would make a leg walk wrongly (drawn
+        clockwise, or with its flat part at the top), else "" (``core.analysis.targets.path_note``)."""
+        return path_note(output.apply(np.asarray(self.points, dtype=np.float64)))
 
     @staticmethod
     def from_target(t: Target) -> Curve:

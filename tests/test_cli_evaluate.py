@@ -174,16 +174,37 @@ def ellipse_csv(path, rx: float, ry: float, cy: float):
 def test_a_target_curve_in_metres_is_evaluated_with_a_warning(tmp_path, capsys):
     # Read as mm, a 0.18 m path became a 0.18 mm target: the studio said so, the CLI went on without a word.
     from core.cli import main
-    from core.cli.design import _warn_scale
+    from core.cli.design import _warn_target
+    from core.kinematics.presets.preset import PAPER_PANTOGRAPH
 
     path = ellipse_csv(tmp_path / "foot_m.csv", 0.09, 0.03, 0.0)
     assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(path)]) == 0
     err = capsys.readouterr().err
     assert err.startswith("clm: warning: target foot_m.csv: it spans 0.18 mm") and err.count("\n") == 1
-    _warn_scale(str(path))  # what clm design says of its config's target
+    _warn_target(str(path), PAPER_PANTOGRAPH)  # what clm design says of its config's target
     assert "needs scaling" in capsys.readouterr().err
-    _warn_scale("cycloid:L=300.0,H=100.0,T=2.0")
+    _warn_target("cycloid:L=300.0,H=100.0,T=2.0", PAPER_PANTOGRAPH)
     assert capsys.readouterr().err == ""
+
+
+def test_a_target_that_would_walk_wrongly_in_the_leg_frame_gets_a_warning(tmp_path, capsys):
+    # A path drawn clockwise, or a cycloid without the pantograph that puts its flat part at the bottom, was
+    # optimized as given: the leg then pushes backward on the ground, or stands on its swing.
+    from core.cli import main
+    from core.cli.design import _warn_target
+    from core.kinematics.model import IDENTITY
+
+    cw = tmp_path / "cw.csv"
+    lines = ellipse_csv(tmp_path / "ccw.csv", 150.0, 40.0, -150.0).read_text().splitlines()
+    cw.write_text("\n".join(lines[::-1]) + "\n")
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(tmp_path / "ccw.csv")]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(cw)]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("clm: warning: target cw.csv in the design's leg frame: it runs clockwise") \
+        and err.count("\n") == 1
+    _warn_target("cycloid", IDENTITY)
+    assert "its flat part is at the top in the leg frame" in capsys.readouterr().err
 
 
 def test_a_target_without_times_gets_the_optimizers_shape_error_and_only_the_papers_stride_its_s(tmp_path, capsys):

@@ -107,6 +107,17 @@ def test_a_curve_far_from_a_leg_s_size_is_loaded_with_a_word_on_its_units_and_st
     assert studio.server.initial_camera.far >= 1000.0
 
 
+def test_a_curve_drawn_clockwise_is_loaded_with_a_word_on_its_direction(studio):
+    # The rows of CURVE in reverse: in the leg frame (X3's pantograph turns it half a turn) its bottom runs toward -x.
+    c = Client()
+    rows = CURVE.splitlines()
+    press(studio.target.upload, c, upload(b"\n".join([rows[0], *rows[:0:-1]]) + b"\n", "cw.csv"))
+    assert studio.session.view.target.is_curve  # loaded as drawn: nothing the designer made is lost
+    assert [(n[0], n[2]) for n in c.notes] == [("Target curve loaded: check its direction", "yellow")]
+    assert c.notes[0][1].startswith("cw.csv: it runs clockwise in the leg frame")
+    press(studio.target.cycloid, c)
+
+
 def test_a_malformed_curve_upload_is_one_red_notification_and_the_target_stays(studio):
     c = Client()
     before = studio.session.view.target.label()

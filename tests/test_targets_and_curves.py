@@ -110,3 +110,19 @@ def test_missing_file_and_target_specs() -> None:
     for bad in ("cycloid:L=abc", "cycloid:Q=3", "cycloid:H=-1"):
         with pytest.raises(ValueError):
             parse_target(bad)
+
+
+def test_a_path_that_would_walk_wrongly_gets_a_word_the_paper_s_does_not() -> None:
+    from core.analysis.targets import path_note
+    from core.kinematics.presets.preset import PAPER_PANTOGRAPH
+
+    leg = PAPER_PANTOGRAPH.apply(parse_target("cycloid").sample(360))  # stance at the bottom, moving +x
+    assert path_note(leg) == ""
+    assert path_note(leg[::-1]).startswith("it runs clockwise in the leg frame")
+    # Without the pantograph the cycloid's flat part is on top: the foot would stand on the swing's lowest point.
+    assert path_note(PAPER_PANTOGRAPH.apply(leg)).startswith("its flat part is at the top in the leg frame")
+    assert path_note(leg * [1.0, -1.0]).startswith("its flat part is at the top and it runs clockwise")
+    # A clockwise path has a negative signed area whatever it is: a diamond has no flat part either way.
+    diamond = np.array([[-100.0, -80.0], [0.0, -120.0], [100.0, -80.0], [0.0, -60.0]])
+    assert path_note(diamond) == "" and path_note(diamond[::-1]).startswith("it runs clockwise")
+    assert path_note(np.zeros((5, 2))) == "" and path_note(np.full((5, 2), np.nan)) == ""

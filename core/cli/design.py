@@ -28,6 +28,7 @@ from core.cli import CLIError
 from core.formats.config import load_config
 from core.formats.files import atomic_write, chart_file, check_out_dir, read_design_result, stage_file
 from core.formats.typed import MAX_SEED
+from core.kinematics.model import OutputStage
 from core.optimize.baselines import DP_METHODS
 from core.optimize.design_config import DesignConfig
 from core.optimize.multistart import MultiStart, where_name
@@ -287,7 +288,8 @@ def run(args: argparse.Namespace) -> int:
         if not any(st.starts for st in config.stages):  # not contacted at all: say so rather than seem to use it
             print(f"clm: note: --scheduler is not used: {args.config} has no multi-start block "
                   "(only a block's chains run on Dask)", file=sys.stderr)
-    _warn_scale(config.baseline.target)
+    if config.start.mechanism.derive is None:  # the RTCLM's targets are heights, not a curve
+        _warn_target(config.baseline.target, config.start.output)
     check_out_dir(args.out_text, output_names(config))
     previous: list[str] = []
     if (args.out / "result.json").exists():
@@ -350,14 +352,19 @@ def run(args: argparse.Namespace) -> int:
     return 143 if terminated else 130
 
 
-def _warn_scale(target: str) -> None:
+def _warn_target(target: str, output: OutputStage) -> None:
     """A word on stderr when the config's target curve is far from a leg's size (a CSV in m or um is read as mm: the
-    run went on to a confident nonsense, where the studio warned about the same file)."""
-    from core.analysis.targets import load_curve, scale_note
+    run went on to a confident nonsense, where the studio warned about the same file), or would make the leg walk
+    wrongly once the output stage maps it to the leg frame (drawn clockwise, or stance up)."""
+    from core.analysis.targets import load_curve, path_note, scale_note
+    from core.optimize.objectives import load_target
 
-    if target.split(":", 1)[0] == "cycloid":
-        return
-    note = scale_note(load_curve(target).points)
+    cycloid = target.split(":", 1)[0] == "cycloid"
+    note = "" if cycloid else scale_note(load_curve(target).points)
     if note:
         print(f"clm: warning: target {Path(target).name}: {note}", file=sys.stderr)
+    note = path_note(output.apply(load_target(target).sample(360)))
+    if note:
+        print(f"clm: warning: target {target if cycloid else Path(target).name} with output "
+              f"{output.describe()}: {note}", file=sys.stderr)
 

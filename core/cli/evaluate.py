@@ -22,7 +22,7 @@ from core.analysis.evaluate import (
 )
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
-from core.analysis.targets import cycloid_params, load_curve, parse_target, scale_note
+from core.analysis.targets import cycloid_params, load_curve, parse_target, path_note, scale_note
 from core.cli import CLIError, dumps
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.presets import PAPER_PANTOGRAPH
@@ -105,6 +105,10 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     from core.cli.simulate import load_design
 
     design, preset = load_design(args)
+    if target is not None and args.target is not None and args.target.split(":", 1)[0] != "cycloid":
+        note = path_note(design.output.apply(target.sample(args.samples)))
+        if note:  # a curve drawn clockwise or stance up: the design may match it, and walk wrongly
+            print(f"clm: warning: target {Path(args.target).name} in the design's leg frame: {note}", file=sys.stderr)
     ev = evaluate(design, args.samples, backend=args.backend, **kw)
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
             "output": design.output.to_dict()}

@@ -124,6 +124,10 @@ class TargetPanel:
         if note:  # loaded (nothing is lost), with a word on its units
             self.studio.notify(event.client, "Target curve loaded: check its units", f"{name}: {note}.",
                                color="yellow")
+        note = curve.path_note(output)
+        if note:  # loaded as drawn: a leg matching it would walk backward or stand on its swing
+            self.studio.notify(event.client, "Target curve loaded: check its direction", f"{name}: {note}.",
+                               color="yellow")
         if leg:
             self.studio.notify(event.client, "Target curve read in the leg frame",
                                f"{name}: mapped to the design frame by the design's output stage "
