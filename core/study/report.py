@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from core.formats.files import atomic_write
-from core.study.stats import HIGHER_IS_BETTER, run_values, summary, verdict
+from core.study.stats import higher_is_better, run_values, summary, verdict
 from core.study.store import Store, current_rows
 
 FRONT_METRICS = ("hv", "igd_plus", "feasible_ratio")
@@ -64,7 +64,7 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
         ref = [v.get(m, np.nan) for _, v in per_alg.get(reference, [])]
         table[m] = {a: {**summary([v.get(m, np.nan) for _, v in per_alg[a]]),
                         "verdict": "" if a == reference else verdict([v.get(m, np.nan) for _, v in per_alg[a]], ref,
-                                                                   HIGHER_IS_BETTER.get(m))}
+                                                                   higher_is_better(m))}
                     for a in algorithms}
     key = best_metric([v for _, v in pairs], best)
     best_rows: dict[str, Any] = {}

@@ -18,14 +18,20 @@ from pymoo.indicators.igd_plus import IGDPlus
 from scipy.stats import ranksums
 
 from core.optimize.decision import pareto_front
+from core.optimize.result import LARGER_IS_BETTER
 
 F64 = NDArray[np.float64]
 HV_REF = 1.1
 ALPHA = 0.05
-# Metrics per run and whether larger is better.
-HIGHER_IS_BETTER = {"hv": True, "igd_plus": False, "feasible_ratio": True, "mse": False, "S": False, "I": False,
-                    "h_s": False, "h6": None, "h4": None, "dh6": False, "dh4": False, "wall_time": False,
+# Run-level metrics and whether larger is better (None: neither, a height the case sets). A pick's design metrics
+# (mse, S, I, h_s, dh6, ...) follow ``core.optimize.result.LARGER_IS_BETTER``, as the picks themselves do.
+HIGHER_IS_BETTER = {"hv": True, "igd_plus": False, "feasible_ratio": True, "h6": None, "h4": None, "wall_time": False,
                     "n_eval": None}
+
+
+def higher_is_better(metric: str) -> bool | None:
+    """Whether a larger value of a study metric is better: the run-level table, else the design metrics' rule."""
+    return HIGHER_IS_BETTER[metric] if metric in HIGHER_IS_BETTER else metric in LARGER_IS_BETTER
 
 
 @dataclass(frozen=True)
