@@ -4,7 +4,6 @@ directory, size-capped. Pure functions of the files (no viser), tested without a
 from __future__ import annotations
 
 import json
-import sqlite3
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -12,7 +11,7 @@ from typing import Any
 from core.analysis.targets import read_user_file
 from core.kinematics.design import Design
 from core.optimize.pipeline import Pipeline
-from core.study.store import current_rows
+from core.study.store import current_rows, read_study
 
 MAX_RUN_BYTES = 256 * 2**20
 MAX_STUDIES = 200
@@ -49,31 +48,13 @@ def find_studies(folder: Path) -> list[Path]:
 
 
 def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
-    """(study name, the rows of its current cells) from ``study.sqlite``, opened read-only; ValueError if it is not
-    a study."""
-    db_path = directory / "study.sqlite"
-    if not db_path.is_file():
-        raise ValueError(f"{directory} holds no study.sqlite")
-    try:
-        db = sqlite3.connect(f"file:{db_path}?mode=ro", uri=True)
-        try:
-            meta = dict(db.execute("SELECT name, value FROM meta").fetchall())
-            has_settings = "settings" in {row[1] for row in db.execute("PRAGMA table_info(runs)")}
-            cur = db.execute("SELECT key, case_name, algorithm, seed, status, metrics, result_path, "
-                             f"{'settings' if has_settings else 'NULL'} FROM runs ORDER BY case_name, algorithm, seed")
-            rows = [dict(zip(("key", "case", "algorithm", "seed", "status", "metrics", "result_path", "settings"), r,
-                             strict=True)) for r in cur]
-        finally:
-            db.close()
-    except sqlite3.Error as exc:
-        raise ValueError(f"{db_path}: not a readable study ({exc})") from None
-    study = json.loads(meta["study"]) if "study" in meta else {}  # clm study keeps its name in meta "study"
+    """(study name, the rows of its current cells) from ``study.sqlite``, opened read-only
+    (``core.study.store.read_study``); ValueError if it is not a study."""
+    meta, rows = read_study(directory)
+    study = meta.get("study")  # clm study keeps its name in meta "study"
     name = study.get("name") if isinstance(study, dict) and isinstance(study.get("name"), str) else directory.name
     # The study as its file last ran, as its report counts it: not the runs of removed seeds or changed settings.
-    rows = current_rows(study if isinstance(study, dict) else None, rows)
-    for r in rows:
-        r["metrics"] = json.loads(r["metrics"]) if r["metrics"] else {}
-    return str(name), rows
+    return str(name), current_rows(study if isinstance(study, dict) else None, rows)
 
 
 def flat_metrics(m: dict[str, Any]) -> dict[str, float]:

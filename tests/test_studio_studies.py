@@ -47,6 +47,32 @@ def test_studies_are_found_and_read_without_writing(studies):
         study_rows(studies / "not-a-study")
 
 
+def test_an_older_study_is_read_without_migrating_it_and_a_broken_one_is_refused(tmp_path):
+    import sqlite3
+
+    old = tmp_path / "old"
+    old.mkdir()
+    db = sqlite3.connect(old / "study.sqlite")  # the schema before cells kept their settings
+    db.executescript("CREATE TABLE runs (key TEXT PRIMARY KEY, case_name TEXT NOT NULL, algorithm TEXT NOT NULL, "
+                     "seed INTEGER NOT NULL, status TEXT NOT NULL, error TEXT, metrics TEXT, result_path TEXT, "
+                     "task_time REAL, attempts INTEGER NOT NULL DEFAULT 1);"
+                     "CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);"
+                     "INSERT INTO meta VALUES ('study', '{\"name\": \"old one\"}');"
+                     "INSERT INTO runs VALUES ('k', 'c', 'nsga2', 1, 'done', NULL, '{\"mse\": 4.1}', 'runs/k.json', "
+                     "1.0, 1);")
+    db.commit()
+    db.close()
+    name, rows = study_rows(old)
+    assert name == "old one" and rows[0]["settings"] is None and rows[0]["metrics"] == {"mse": 4.1}
+    columns = [r[1] for r in sqlite3.connect(old / "study.sqlite").execute("PRAGMA table_info(runs)")]
+    assert "settings" not in columns  # read, not migrated
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "study.sqlite").write_bytes(b"not a database, but a file by that name" * 100)
+    with pytest.raises(ValueError, match="not a readable study"):
+        study_rows(broken)
+
+
 def test_a_runs_picked_design_comes_back_exactly(studies):
     _, rows = study_rows(studies / "tiny_dir")
     run = finished_runs(rows)[0]

@@ -136,14 +136,42 @@ class Store:
 
     def rows(self) -> list[dict[str, Any]]:
         """Every row, ordered by case, algorithm and seed, metrics decoded."""
-        cur = self.db.execute(
-            "SELECT key, case_name, algorithm, seed, status, error, metrics, result_path, task_time, attempts, "
-            "settings FROM runs ORDER BY case_name, algorithm, seed")
-        names = ("key", "case", "algorithm", "seed", "status", "error", "metrics", "result_path", "task_time",
-                 "attempts", "settings")
-        out = []
-        for row in cur:
-            d = dict(zip(names, row, strict=True))
-            d["metrics"] = json.loads(d["metrics"]) if d["metrics"] else None
-            out.append(d)
-        return out
+        return _rows(self.db)
+
+
+def _rows(db: sqlite3.Connection) -> list[dict[str, Any]]:
+    # A study begun before cells kept their settings has no such column when read without migrating it.
+    has_settings = "settings" in {row[1] for row in db.execute("PRAGMA table_info(runs)")}
+    cur = db.execute(
+        "SELECT key, case_name, algorithm, seed, status, error, metrics, result_path, task_time, attempts, "
+        f"{'settings' if has_settings else 'NULL'} FROM runs ORDER BY case_name, algorithm, seed")
+    names = ("key", "case", "algorithm", "seed", "status", "error", "metrics", "result_path", "task_time",
+             "attempts", "settings")
+    out = []
+    for row in cur:
+        d = dict(zip(names, row, strict=True))
+        d["metrics"] = json.loads(d["metrics"]) if d["metrics"] else None
+        out.append(d)
+    return out
+
+
+def read_study(directory: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """A study's meta (decoded) and rows (as ``Store.rows``), opened read-only: nothing is created or migrated, so
+    a study another process writes, or one on a read-only disk, can be read (the studio's Studies panel).
+
+    Raises:
+        ValueError: the directory holds no ``study.sqlite``, or it is not a readable study.
+    """
+    db_path = Path(directory) / "study.sqlite"
+    if not db_path.is_file():
+        raise ValueError(f"{directory} holds no study.sqlite")
+    try:
+        db = sqlite3.connect(f"file:{db_path}?mode=ro", uri=True)
+        try:
+            meta = {name: json.loads(value) for name, value in db.execute("SELECT name, value FROM meta")}
+            rows = _rows(db)
+        finally:
+            db.close()
+    except (sqlite3.Error, json.JSONDecodeError) as exc:
+        raise ValueError(f"{db_path}: not a readable study ({exc})") from None
+    return meta, rows
