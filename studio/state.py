@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import functools
 import math
-import re
 import threading
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -122,9 +121,10 @@ PAPER_TARGET = ("stephenson1", "stephenson3", "watt1")
 
 
 def case_h4(preset: str | None) -> float | None:
-    """The h4 target of the RTCLM case a preset is a row of (``rtclm/case3...``: 260 mm, paper §4.2), else None."""
-    case = re.match(r"rtclm/case(\d)", preset or "")
-    return H4_CASES.get(int(case.group(1))) if case else None
+    """The h4 target of the RTCLM case a preset was made for (``Preset.case``; case 3: 260 mm, paper §4.2), else
+    None."""
+    p = presets.PRESETS.get(preset) if preset is not None else None
+    return H4_CASES.get(p.case) if p is not None and p.case is not None else None
 
 
 def preset_target(name: str, period: float = 2.0) -> TargetSpec:

@@ -20,6 +20,7 @@ class Preset:
     values: tuple[float, ...]
     output: OutputStage = field(default=IDENTITY)
     source: str = ""
+    case: int | None = None  # the RTCLM case (paper §4.2, 1-5) whose h6/h4 targets the design was made for
 
     def design(self) -> Design:
         return Design(self.mechanism, np.array([self.values]), self.output)

@@ -16,6 +16,7 @@ auxiliary mode. ``OURS`` adds designs of our own (``rtclm/clm-case1``), which th
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Literal
 
@@ -211,9 +212,13 @@ def _presets() -> dict[str, Preset]:
     rows = {k: (row.values(), row.source()) for k, row in PAPER_ROWS.items()} | OURS
     for key, (values, source) in rows.items():
         name = f"rtclm/{key}"
-        out[name] = Preset(name, RTCLM_PRIMARY, values, source=source + "; primary mode")
+        case = re.fullmatch(r"(?:clm-)?case([1-5])(?:-.+)?", key)  # every row is of a case: a new one must say which
+        if case is None:
+            raise ValueError(f"RTCLM preset {key!r} does not name its case (case1 ... case5)")
+        n = int(case.group(1))
+        out[name] = Preset(name, RTCLM_PRIMARY, values, source=source + "; primary mode", case=n)
         out[f"{name}/auxiliary"] = Preset(f"{name}/auxiliary", RTCLM_AUXILIARY, values,
-                                          source=source + "; auxiliary mode")
+                                          source=source + "; auxiliary mode", case=n)
     return out
 
 
