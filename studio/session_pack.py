@@ -19,6 +19,7 @@ import base64
 import binascii
 import hashlib
 import json
+import threading
 from typing import Any
 
 import numpy as np
@@ -64,9 +65,19 @@ def _content(result: dict[str, Any]) -> dict[str, Any]:
     return blob
 
 
+# Each result dict's packed content and hash, by the dict's identity: a study's results are the same dicts from one
+# save to the next (``study.result_json``, a branch's data), and packing them again was most of a save. Kept for the
+# dicts the last pack saw (each entry holds its dict, so an id is never another's).
+_PACKED: dict[int, tuple[dict[str, Any], str, dict[str, Any]]] = {}
+_PACKED_LOCK = threading.Lock()
+
+
 def pack_study(study: dict[str, Any]) -> dict[str, Any]:
     """A study from ``Study.to_dict`` with its results stored once, by hash (a new dict)."""
+    global _PACKED
     table: dict[str, Any] = {}
+    with _PACKED_LOCK:
+        cache, seen = _PACKED, {}
 
     def pack_pipeline(p: Any) -> Any:
         if not isinstance(p, dict):
@@ -76,8 +87,13 @@ def pack_study(study: dict[str, Any]) -> dict[str, Any]:
             if r is None:
                 refs.append(None)
                 continue
-            blob = _content(r)
-            key = hashlib.sha256(json.dumps(blob, sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:20]
+            hit = cache.get(id(r))
+            if hit is not None and hit[0] is r:
+                key, blob = hit[1], hit[2]
+            else:
+                blob = _content(r)
+                key = hashlib.sha256(json.dumps(blob, sort_keys=True, separators=(",", ":")).encode()).hexdigest()[:20]
+            seen[id(r)] = (r, key, blob)
             table.setdefault(key, blob)
             refs.append(key)
         return {**p, "results": refs}
@@ -107,6 +123,8 @@ def pack_study(study: dict[str, Any]) -> dict[str, Any]:
     out["results"] = table
     if curves:
         out["curves"] = curves
+    with _PACKED_LOCK:
+        _PACKED = seen
     return out
 
 

@@ -35,7 +35,7 @@ from core.optimize.algorithms import make_algorithm
 from core.optimize.box import Box
 from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
-from core.optimize.result import StageResult
+from core.optimize.result import StageResult, dumps
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, sized_where, stage_spec
 from studio.study_targets import _pipeline_from, _retarget
@@ -72,6 +72,31 @@ class RunStatus:
     @property
     def fraction(self) -> float:
         return self.generation / self.n_gen if self.n_gen else 0.0
+
+
+# Each result's JSON data, made once per result object (results are immutable): a session is saved after every change
+# and every SAVE_PERIOD s of a run, and encoding every population of every stage again was most of a save.
+_RESULT_JSON: dict[int, tuple[weakref.ref[StageResult], dict[str, Any]]] = {}
+
+
+def result_json(r: StageResult) -> dict[str, Any]:
+    """``r`` as ``Pipeline.to_json`` writes it, read back (a shared dict: do not change it)."""
+    key = id(r)
+    hit = _RESULT_JSON.get(key)
+    if hit is not None and hit[0]() is r:
+        return hit[1]
+    data = json.loads(dumps(r.to_dict(), None))
+    _RESULT_JSON[key] = (weakref.ref(r, lambda _: _RESULT_JSON.pop(key, None)), data)
+    return data
+
+
+def pipeline_json(p: Pipeline) -> dict[str, Any]:
+    """``json.loads(p.to_json())``, its results from ``result_json``."""
+    head = json.loads(dumps(p.to_dict(results=False), None))
+    out = {k: v for k, v in head.items() if k not in ("picks", "versions")}
+    out["results"] = [None if r is None else result_json(r) for r in p.results]
+    out["picks"], out["versions"] = head["picks"], head["versions"]
+    return out
 
 
 @dataclass(frozen=True)
@@ -514,7 +539,7 @@ class Study:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "pipeline": None if self.pipeline is None else json.loads(self.pipeline.to_json(indent=None)),
+            "pipeline": None if self.pipeline is None else pipeline_json(self.pipeline),
             "branches": [b.to_dict() for b in self.branches],
             **({} if self.target is None else {"target": self.target.to_dict()}),
             "viewing": self.viewing,

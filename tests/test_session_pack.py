@@ -75,6 +75,25 @@ def test_packing_is_a_pure_function_of_the_study(session):
         session.study.result("subtask1").picked
 
 
+def test_saving_again_reuses_each_results_data_and_gives_the_same_file(session):
+    # A save encoded and packed every population of every stage again: 3 of a run's 4.6 s at 2.6 MB. The results'
+    # data is now kept per result object and per dict; the file must be what packing fresh copies gives.
+    from dataclasses import replace
+
+    from studio.study import pipeline_json, result_json
+
+    study = session.study
+    pipe = study.pipeline
+    assert pipeline_json(pipe) == json.loads(pipe.to_json(indent=None))
+    r = study.result("subtask1")
+    assert result_json(r) is result_json(r)
+    again = replace(r, picked=0 if r.picked != 0 else 1)  # a result with another pick is another object
+    assert result_json(again) is not result_json(r) and result_json(again)["picked"] == again.picked
+    d = study.to_dict()
+    first = pack_study(d)
+    assert pack_study(study.to_dict()) == first == pack_study(json.loads(json.dumps(d)))
+
+
 @pytest.mark.parametrize("extra", [-1, 1])
 def test_picks_that_do_not_match_the_results_are_dropped_not_misassigned(session, extra):
     packed = json.loads(json.dumps(pack_study(session.study.to_dict())))

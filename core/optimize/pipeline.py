@@ -208,8 +208,9 @@ class Pipeline:
 
     # --- JSON -----------------------------------------------------------------------------
 
-    def to_dict(self) -> dict[str, Any]:
-        return {
+    def to_dict(self, results: bool = True) -> dict[str, Any]:
+        """The pipeline as data; ``results=False`` leaves the results' entry out (a caller that keeps their data)."""
+        out = {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
             "mechanism": self.start.mechanism.name,
@@ -217,10 +218,13 @@ class Pipeline:
             "start": self.start.named(),
             "start_params": self.start.params[0],
             "stages": [s.to_dict() for s in self.stages],
-            "results": [None if r is None else r.to_dict() for r in self.results],
+            "results": [None if r is None else r.to_dict() for r in self.results] if results else None,
             "picks": [None if r is None else r.picked for r in self.results],
             "versions": versions(),
         }
+        if not results:
+            del out["results"]
+        return out
 
     def to_json(self, indent: int | None = 1) -> str:
         return dumps(self.to_dict(), indent)
