@@ -389,9 +389,7 @@ class Session:
         kept = None
         if (new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name
                 and not other_mode(pipe.start.mechanism, new)):  # the RTCLM's other mode: the same leg's stages
-            before = len(self.study.branches)
-            self.study.start_over(f"before switching to {new.title}")
-            kept = self.study.branches[-1] if len(self.study.branches) > before else None
+            kept = self.study.start_over(f"before switching to {new.title}")
         if view is not self.view:
             self._remember(Step(self.view, kept, selection or self.study.selection()), into)
         self.view = view

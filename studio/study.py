@@ -370,25 +370,31 @@ class Study:
 
     # Changing ------------------------------------------------------------------------------
 
-    def keep_branch(self, why: str) -> None:
-        """Keep a copy of the current pipeline (if it has any result) as a branch."""
+    def keep_branch(self, why: str) -> Branch | None:
+        """Keep a copy of the current pipeline (if it has any result) as a branch; the branch it is, if any."""
         pipe = self.pipeline
         if pipe is None or not pipe.lineage:
-            return
+            return None
         done = branch_stages(pipe.lineage, self.shown)
         # Past every number in use: after a restore took one out, len + 1 repeated a number still listed.
         used = [int(b.label.split(":", 1)[0]) for b in self.branches if b.label.split(":", 1)[0].isdigit()]
-        label = f"{max(used, default=0) + 1}: {done}{_values(pipe.lineage[-1], self.shown)} ({why}, " \
-                f"{time.strftime('%H:%M:%S')})"
+        text = f"{done}{_values(pipe.lineage[-1], self.shown)} ({why}, {time.strftime('%H:%M:%S')})"
         target = None if self.target is None else self.target.to_dict()
         data = json.loads(pipe.to_json(indent=None))
         data["results"] = self._shared(pipe.results, data["results"])
-        self.branches.append(Branch(label, data, target, dict(self.shown), self.next_stage, self.from_pick))
+        for b in self.branches:
+            # The same pipeline against the same target is that branch, kept as it is (an undo step may name it): a
+            # copy told apart only by the clock piled up at every restore (lag walk, session 25).
+            if b.target == target and b.pipeline == data:
+                return b
+        self.branches.append(Branch(f"{max(used, default=0) + 1}: {text}", data, target, dict(self.shown),
+                                    self.next_stage, self.from_pick))
+        return self.branches[-1]
 
-    def start_over(self, why: str) -> None:
+    def start_over(self, why: str) -> Branch | None:
         """A new topology in the editor: keep the current pipeline as a branch and start afresh (the first
-        stage, from the editor's design; no chart, no candidates)."""
-        self.keep_branch(why)
+        stage, from the editor's design; no chart, no candidates); the branch kept, if any."""
+        kept = self.keep_branch(why)
         self.pipeline = None
         self.target = None
         self.viewing = None
@@ -398,6 +404,7 @@ class Study:
         if not self.status.running:  # "Last run: subtask2 complete" beside "No stage has run yet" otherwise
             self.status = RunStatus()
         self.touch()
+        return kept
 
     def show(self, name: str, member: int) -> StageResult:
         """Show member ``member`` of stage ``name`` (no commitment; the pipeline is unchanged)."""

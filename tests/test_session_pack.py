@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import json
 import math
 
@@ -40,11 +42,15 @@ def test_branches_that_share_a_front_store_it_once_and_keep_their_own_picks(sess
     study = session.study
     base = json.loads(json.dumps(session.to_dict()))
     one = len(json.dumps(base))
-    # Six branches of the same pipeline, each with a different pick of the same front.
+    # Six branches of the same pipeline, each with a different pick of the same front (kept, then told apart by
+    # hand: the same pipeline left twice is one branch).
+    kept = study.keep_branch("test")
+    study.branches.clear()
     for j in range(6):
-        study.keep_branch(f"test {j}")
-        study.branches[-1].pipeline["results"][0]["picked"] = j
-        study.branches[-1].pipeline["picks"][0] = j
+        p = copy.deepcopy(kept.pipeline)
+        p["results"][0]["picked"] = j
+        p["picks"][0] = j
+        study.branches.append(dataclasses.replace(kept, label=f"{j + 1}: test {j}", pipeline=p))
     data = json.loads(json.dumps(session.to_dict()))
     assert len(data["study"]["results"]) == 1  # one front, however many branches
     assert len(json.dumps(data)) - one < 6 * 4000  # a branch costs its labels and picks, not its front

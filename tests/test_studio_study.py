@@ -348,6 +348,24 @@ def test_branch_numbers_never_repeat_after_a_restore(session: Session) -> None:
     assert numbers == ["2", "3"] and len(set(b.label for b in study.branches)) == 2
 
 
+def test_leaving_the_same_pipeline_again_keeps_one_branch_and_undo_still_finds_it(session: Session) -> None:
+    # A restored branch left again unchanged was kept once more, told apart only by the clock: the lag walk ended
+    # with three copies each of two branches, each one more copy in the session file.
+    run(session, "subtask1", from_pick=False)
+    study = session.study
+    first = study.keep_branch("first")
+    assert first is not None and study.keep_branch("again") is first and study.branches == [first]
+    study.restore_branch(0)  # the current pipeline, the same, is left for it
+    assert len(study.branches) == 1 and study.keep_branch("left again") is study.branches[0]
+    # A topology switch that leaves the same pipeline names the branch it is, so Undo brings its stages back.
+    kept = study.branches[0]
+    view = session.load_preset("jansen")
+    assert study.branches == [kept] and study.pipeline is None and view.design.mechanism.name == "jansen"
+    session.undo()
+    assert session.view.design.mechanism.name == "stephenson1"
+    assert study.pipeline is not None and study.pipeline.lineage and study.branches == []
+
+
 def test_re_running_a_stage_keeps_the_previous_lineage_as_a_branch(session: Session) -> None:
     run(session, "subtask1", from_pick=False)
     run(session, "subtask1", from_pick=False)
@@ -728,7 +746,9 @@ def test_branches_of_one_pipeline_share_their_results_json_and_save_as_before(se
     run(session, "subtask1", from_pick=False)
     study = session.study
     study.keep_branch("first")
-    study.keep_branch("second")  # the same results: an afternoon's branches each parsed a copy of them
+    tiny(study, "subtask2")
+    run(session, "subtask2", from_pick=True)
+    study.keep_branch("second")  # subtask 1's same result: an afternoon's branches each parsed a copy of it
     a, b = (br.pipeline["results"] for br in study.branches)
     assert a[0] is b[0] and a[0] == json.loads(study.pipeline.to_json(indent=None))["results"][0]
     study.restore_branch(0)  # a restored pipeline's results are new objects: kept again, the dicts are shared
