@@ -74,25 +74,27 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
     stage = next((c for c in chain if c.name == nxt), None)
     box, note = None, ""
     if stage is not None:
+        try:  # the run's own spec: the current target (and its size), the stage's settings
+            spec: StageSpec | None = stage_spec(stage, study.settings_for(stage), target)
+        except ValueError:  # a problem that cannot be built here says so when run
+            spec = None
         if study.from_pick:
             box = study.next_box(stage.name, target)
             prev = study.parent_result(stage.name)
             if box is not None and prev is not None:
                 i = prev.picked if prev.picked is not None else prev.shortlist.first
+                if spec is not None and i is not None:
+                    box = spec.box(prev.pick(i))
                 note = f"around {prev.name}'s pick #{i}"
             else:
                 note = "no previous pick in this pipeline: run the previous stage, or start from the editor's design"
         else:
-            try:
-                spec: StageSpec | None = stage_spec(stage, study.settings_for(stage), target)
-            except ValueError:  # a problem that cannot be built here says so when run
-                spec = None
             box = None if spec is None else spec.box(editor)
             note = "global bounds" if stage.s is None else "around the design in the editor"
             if spec is not None and spec.s is not None:
                 note += f" (±max({100 * spec.s:g} %, {spec.d:.3g} mm))"
-            if spec is not None and spec.problem.scale != 1.0:
-                note += f"; sized for a {PAPER_STRIDE * spec.problem.scale:.4g} mm stride"
+        if box is not None and spec is not None and spec.problem.scale != 1.0:
+            note += f"; sized for a {PAPER_STRIDE * spec.problem.scale:.4g} mm stride"
     viewing = study.viewing if study.viewing in names else (names[0] if names else None)
     return StudyView(
         key=(id(study), study.version),

@@ -36,6 +36,26 @@ def test_the_scale_is_the_target_width_over_the_papers_300_mm() -> None:
     assert target_scale(HALF, 360) == 0.5
     assert target_scale("cycloid:L=1200,H=400", 360) == 4.0
     assert stride_scale(0.0) == stride_scale(float("nan")) == 1.0  # a degenerate target: the paper's figures
+    # A CSV export of the paper's cycloid reads 299.999 mm: the paper's size, not every figure moved by a millionth.
+    assert stride_scale(299.999) == stride_scale(300.2) == 1.0 and stride_scale(299.6) == 299.6 / 300.0
+
+
+def test_an_rtclm_config_with_a_target_table_is_not_sized(tmp_path: Path) -> None:
+    # The RTCLM's targets are heights: a [target] table (a curve it does not optimize) halved its start design.
+    data = tomllib.loads((ROOT / "assets/configs/rtclm_case1.toml").read_text())
+    base = parse_config(data)
+    data["target"] = {"curve": "cycloid", "L": 150.0, "H": 50.0}
+    sized = parse_config(data)
+    np.testing.assert_array_equal(sized.start.params, base.start.params)
+    assert [s.d for s in sized.stages] == [s.d for s in base.stages]
+
+
+def test_the_dp_baselines_search_the_sized_bounds() -> None:
+    from core.optimize.baselines import BaselineSettings, _bounds
+
+    lo, hi = _bounds(STEPHENSON1, BaselineSettings(target=HALF))
+    assert (lo[IDX["r1"]], hi[IDX["r1"]]) == (15.0, 250.0)
+    assert make_problem("dp", target=HALF).scale == 0.5
 
 
 def test_limits_left_out_are_the_papers_sized_mm_by_k_and_mm2_by_k_squared() -> None:
@@ -177,3 +197,23 @@ def test_the_studio_sizes_its_chains_steps_and_pick_limits_to_the_target() -> No
     assert (half.d, half.problem.scale) == (2.5, 0.5)
     assert {c.metric: c.upper for c in half.problem.constraints}["I"] == 10.0  # Eq. 23's 20 mm/s
     assert sized_where(subtask3.pick_where, 0.5)[0].upper == 0.22  # the chain's I <= 0.44 mm/s
+
+
+def test_the_studio_previews_the_next_box_at_the_size_the_run_will_use() -> None:
+    # After the target changed, the "from the previous pick" box was the one the earlier target's stage would get.
+    from test_studio_study import run, tiny
+
+    from studio.chains import chain_for
+    from studio.state import Session
+    from studio.study_view import study_view
+
+    session = Session.default()
+    tiny(session.study, "subtask1")
+    run(session, "subtask1", from_pick=False)
+    study, chain = session.study, chain_for(session.view.design.mechanism)
+    study.use_for_next("subtask1", study.result("subtask1").picked, chain)
+    session.set_target(length=150.0, height=50.0)
+    with session.lock:
+        sv = study_view(study, session.view.design, chain, session.view.target)
+    assert sv.box is not None and sv.box.bound_lo[IDX["r1"]] == 15.0
+    assert "sized for a 150 mm stride" in sv.box_note

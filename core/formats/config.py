@@ -386,10 +386,11 @@ def parse_config(data: Mapping[str, Any], base: str | Path = ".", path: str | No
     if f.n_samples % 2:
         raise _fail("n_samples", f"must be even (t + T/2 must fall on a sample), got {f.n_samples}")
     shared: dict[str, Any] = {"n_samples": f.n_samples, "backend": f.backend}
-    k = 1.0  # the leg's size against the paper's (core.optimize.scale)
+    k = 1.0  # the leg's size against the paper's (core.optimize.scale); the RTCLM's targets are heights
     if f.target is not None or mech.derive is None:
         shared["target"] = _target(f.target or Target(), Path(base))
-        k = target_scale(shared["target"], f.n_samples)
+        if mech.derive is None:
+            k = target_scale(shared["target"], f.n_samples)
     output = _output(f.output, preset, mech, k)
     lo, hi = sized_bounds(mech, k)
     center = preset.params[0] if preset is not None else 0.5 * (lo + hi)

@@ -31,9 +31,18 @@ from scipy.optimize import minimize
 from core.kinematics.design import Design
 from core.kinematics.model import Mechanism, OutputStage
 from core.optimize.algorithms import AlgorithmSpec
-from core.optimize.objectives import ASSEMBLY_TIER, DEFAULT_TARGET, load_target, quantize, shape_metrics, tiered
+from core.optimize.objectives import (
+    ASSEMBLY_TIER,
+    DEFAULT_TARGET,
+    load_target,
+    quantize,
+    shape_metrics,
+    target_scale,
+    tiered,
+)
 from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec, register
 from core.optimize.result import decode_array, decode_float
+from core.optimize.scale import sized_bounds
 from core.optimize.stage import Progress, Stage, StageSpec
 
 F64 = NDArray[np.float64]
@@ -73,7 +82,8 @@ def dp(target: str = DEFAULT_TARGET, n_points: int = 36, n_samples: int = 360, b
         err, viol = dp_error(design, target, n_points, n_samples, backend)
         return {"dp": quantize(err), "violation": tiered(viol)}
 
-    return ProblemSpec("dp", evaluate, ("dp",), (ASSEMBLY,), labels={"dp": "DP error (mm^2)"})
+    return ProblemSpec("dp", evaluate, ("dp",), (ASSEMBLY,), labels={"dp": "DP error (mm^2)"},
+                       scale=target_scale(target, n_samples))
 
 
 @dataclass(frozen=True)
@@ -176,6 +186,11 @@ class BaselineResult:
         )
 
 
+def _bounds(mechanism: Mechanism, settings: BaselineSettings) -> tuple[F64, F64]:
+    """The global bounds sized to the target (``core.optimize.scale``), as the hierarchical stages get them."""
+    return sized_bounds(mechanism, target_scale(settings.target, settings.n_samples))
+
+
 def random_feasible_start(mechanism: Mechanism, output: OutputStage, rng: np.random.Generator,
                           settings: BaselineSettings, batch: int = 1000) -> F64:
     """A design drawn uniformly in the global bounds that assembles over the whole cycle.
@@ -183,7 +198,7 @@ def random_feasible_start(mechanism: Mechanism, output: OutputStage, rng: np.ran
     Raises:
         ValueError: none found in ``MAX_DRAWS`` batches.
     """
-    lo, hi = mechanism.lower, mechanism.upper
+    lo, hi = _bounds(mechanism, settings)
     for _ in range(MAX_DRAWS):
         P = rng.uniform(lo, hi, size=(batch, mechanism.n_params))
         err, _ = dp_error(Design(mechanism, P, output), settings.target, settings.n_points, settings.n_samples,
@@ -199,7 +214,8 @@ class _Batch:
 
     def __init__(self, mechanism: Mechanism, output: OutputStage, settings: BaselineSettings) -> None:
         self.mechanism, self.output, self.settings = mechanism, output, settings
-        self.lo, self.span = mechanism.lower, mechanism.upper - mechanism.lower
+        lo, hi = _bounds(mechanism, settings)
+        self.lo, self.span = lo, hi - lo
         self._key: bytes | None = None
         self._val: tuple[float, F64, float, F64] = (0.0, np.zeros(0), 0.0, np.zeros(0))
         self.n_calls = 0
@@ -308,7 +324,8 @@ def run_baseline(method: str, mechanism: Mechanism, output: OutputStage, setting
         spec = StageSpec("dp_ga", _dp_problem(settings), s=None,
                          algorithm=AlgorithmSpec("nsga2", settings.pop_size), n_gen=settings.n_gen, seed=seed,
                          seed_start=False)
-        start = Design(mechanism, 0.5 * (mechanism.lower + mechanism.upper), output)
+        lo, hi = _bounds(mechanism, settings)
+        start = Design(mechanism, 0.5 * (lo + hi), output)
         res = Stage(spec, start, callback=callback).run(cancel=cancel)
         status = "complete" if res.status in ("complete", "stopped") else "cancelled"
         i = res.choose("best:dp")

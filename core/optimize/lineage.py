@@ -38,7 +38,7 @@ def resolved_spec(stage: StageConfig, start: Design, seed: int) -> StageSpec:
     """A stage's spec with relative limits resolved against its start design.
 
     A relative limit on a metric the start does not have (it does not assemble) falls back to
-    the problem's default (the paper's absolute threshold).
+    the problem's default (the paper's absolute threshold, sized to the target: ``core.optimize.scale``).
     """
     opts = dict(stage.options)
     relative = [k for k, v in opts.items() if isinstance(v, (str, list)) and k in LIMIT_METRICS]

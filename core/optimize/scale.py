@@ -18,6 +18,9 @@ from core.kinematics.params import Param
 F64 = NDArray[np.float64]
 
 PAPER_STRIDE = 300.0  # mm: the width of the paper's target, the size every built-in figure is for
+# A target this close to the paper's width is the paper's size: a CSV export of its cycloid reads 299.999 mm, and every
+# bound and limit moved by a millionth ("the paper's x 1" in the notes).
+SAME_SIZE = 1e-3
 # The power of k a metric's limit scales with: lengths and speeds (mm, mm/s at the same period) k, areas k^2.
 POWERS: dict[str, int] = {"f1": 1, "mse": 1, "f2": 2, "f3": 2, "h_s": 1, "I": 1, "l_s": 1, "width": 1,
                           "y_min": 1, "crank_margin": 1, "violation_mm": 1}
@@ -26,10 +29,12 @@ POWERS: dict[str, int] = {"f1": 1, "mse": 1, "f2": 2, "f3": 2, "h_s": 1, "I": 1,
 def stride_scale(width: float) -> float:
     """``k = width / 300``: the size of a leg whose target is ``width`` mm wide, relative to the paper's.
 
-    A width that is not a positive finite number (a degenerate target) gives 1: the paper's figures.
+    1 (the paper's figures) within ``SAME_SIZE`` of it, and for a width that is not a positive finite number (a
+    degenerate target).
     """
     w = float(width)
-    return w / PAPER_STRIDE if np.isfinite(w) and w > 0.0 else 1.0
+    k = w / PAPER_STRIDE if np.isfinite(w) and w > 0.0 else 1.0
+    return 1.0 if abs(k - 1.0) < SAME_SIZE else k
 
 
 def scaled_limit(metric: str, value: float, k: float) -> float:
