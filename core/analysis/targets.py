@@ -242,13 +242,14 @@ def scale_note(points: Any) -> str:
             "mm (a file in m or um needs scaling)")
 
 
-def path_note(points: Any) -> str:
+def path_note(points: Any, remedy: bool = True) -> str:
     """A word on a foot path, given in the leg frame, that would make a leg walk wrongly, else "".
 
     The spec's leg frame has the stance at the bottom, moving +x, and the swing above: the path runs
     counter-clockwise. Flagged: a path drawn clockwise (the foot pushes toward -x on the ground), and one whose
     flat part is at the top (the foot would stand on the swing's lowest point) — the span of x within the top
-    tenth of the height more than twice that within the bottom tenth.
+    tenth of the height more than twice that within the bottom tenth. ``remedy``: say how to turn the curve (a
+    caller whose curve is not the user's to edit, a cycloid, says its own).
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     pts = pts[np.isfinite(pts).all(axis=1)]
@@ -261,15 +262,17 @@ def path_note(points: Any) -> str:
     top = float(np.ptp(x[y >= y.max() - band]))
     up = top > 2.0 * bottom
     if up and area < 0.0:
-        return ("its flat part is at the top and it runs clockwise in the leg frame: the foot would stand on the "
-                "swing's lowest point. Flip it upside down (y -> -y)")
-    if up:
-        return ("its flat part is at the top in the leg frame: the foot would stand on the swing's lowest point. "
-                "Turn it half a turn (the paper's pantograph, output k = -1, does that)")
-    if area < 0.0:
-        return ("it runs clockwise in the leg frame: the foot pushes toward -x on the ground, where the stance "
-                "moves +x. Reverse the order of its points")
-    return ""
+        what, fix = ("its flat part is at the top and it runs clockwise in the leg frame: the foot would stand on the "
+                     "swing's lowest point", "Flip it upside down (y -> -y)")
+    elif up:
+        what, fix = ("its flat part is at the top in the leg frame: the foot would stand on the swing's lowest point",
+                     "Turn it half a turn (the paper's pantograph, output k = -1, does that)")
+    elif area < 0.0:
+        what, fix = ("it runs clockwise in the leg frame: the foot pushes toward -x on the ground, where the stance "
+                     "moves +x", "Reverse the order of its points")
+    else:
+        return ""
+    return f"{what}. {fix}" if remedy else what
 
 
 def load_curve(path: str | Path) -> Target:

@@ -363,8 +363,10 @@ def _warn_target(target: str, output: OutputStage) -> None:
     note = "" if cycloid else scale_note(load_curve(target).points)
     if note:
         print(f"clm: warning: target {Path(target).name}: {note}", file=sys.stderr)
-    note = path_note(output.apply(load_target(target).sample(360)))
+    note = path_note(output.apply(load_target(target).sample(360)), remedy=not cycloid)
     if note:
+        fix = ". Check the config's output stage (the paper's legs map the cycloid by k = -1 about (L/2, 0))" \
+            if cycloid else ""
         print(f"clm: warning: target {target if cycloid else Path(target).name} with output "
-              f"{output.describe()}: {note}", file=sys.stderr)
+              f"{output.describe()}: {note}{fix}", file=sys.stderr)
 

@@ -105,7 +105,8 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     from core.cli.simulate import load_design
 
     design, preset = load_design(args)
-    if target is not None and args.target is not None and args.target.split(":", 1)[0] != "cycloid":
+    if target is not None and args.target is not None and args.target.split(":", 1)[0] != "cycloid" \
+            and design.mechanism.derive is None:  # the RTCLM's targets are heights: no curve to turn
         note = path_note(design.output.apply(target.sample(args.samples)))
         if note:  # a curve drawn clockwise or stance up: the design may match it, and walk wrongly
             print(f"clm: warning: target {Path(args.target).name} in the design's leg frame: {note}", file=sys.stderr)

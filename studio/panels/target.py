@@ -124,7 +124,8 @@ class TargetPanel:
         if note:  # loaded (nothing is lost), with a word on its units
             self.studio.notify(event.client, "Target curve loaded: check its units", f"{name}: {note}.",
                                color="yellow")
-        note = curve.path_note(output)
+        rtclm = self.studio.session.view.design.mechanism.derive is not None  # its targets are heights
+        note = "" if rtclm else curve.path_note(output)
         if note:  # loaded as drawn: a leg matching it would walk backward or stand on its swing
             self.studio.notify(event.client, "Target curve loaded: check its direction", f"{name}: {note}.",
                                color="yellow")
