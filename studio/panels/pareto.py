@@ -229,6 +229,9 @@ class ParetoPanel:
             return
         panel = client.gui.add_panel()
         size = large_size(client)
+        # Floated before it holds the chart: floated after, the page drew the chart docked, then again in its window,
+        # and plotly's pending margin redraw of the first one threw on its purged node (an uncaught TypeError).
+        panel.float(x=-24, y=24, **size)  # right edge by the side panel: never over it
         # A window narrower than the one-line title breaks it into lines, as the side panel does (at 1100 x 760
         # under software rendering the window is ~480 px: the title was cut at "target cyc").
         chars = max(PANEL_TITLE_CHARS, int(size["width"] / PX_PER_TITLE_CHAR))
@@ -239,7 +242,6 @@ class ParetoPanel:
             plot = client.gui.add_plotly(go.Figure() if fig is None else large_figure(fig, chars),
                                          aspect=LARGE_ASPECT, config=CONFIG)
         close.on_click(lambda _: self._close_large(client.client_id))
-        panel.float(x=-24, y=24, **size)  # right edge by the side panel: never over it
         self._large[client.client_id] = (panel, plot, chars)
 
     def _forget(self, client: viser.ClientHandle) -> None:

@@ -49,6 +49,10 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     wait_for(lambda: (bb := chart.bounding_box()) is not None and bb["height"] < 1.05 * bb["width"],
              "a projection's 2-D chart height")
 
+    # Floated after it held the chart, the window drew it twice, and plotly's margin redraw of the first copy threw
+    # on its purged node: an uncaught TypeError at every opening (lag walk, session 25).
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
     page.get_by_role("button", name="Open large chart").click()
     big = page.locator(".js-plotly-plot", has=page.locator(".gtitle", has_text="subtask1 · complete"))
     expect(big).to_have_count(2)
@@ -88,6 +92,8 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
         expect(big).to_have_count(1)
     finally:
         page.set_viewport_size(size)
+    page.wait_for_timeout(1000)  # plotly's margin redraw runs after the draw
+    assert not errors, errors
 
     if not page.get_by_role("button", name="Pareto chart (PNG)", exact=True).is_visible():
         expand(page, "Session and export")  # the page is shared: an earlier test may have left it open
