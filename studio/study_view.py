@@ -73,9 +73,10 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
     nxt = next_stage(study, chain)
     stage = next((c for c in chain if c.name == nxt), None)
     box, note = None, ""
+    spec: StageSpec | None = None  # built once: the box, its note and the constraints the panel lists
     if stage is not None:
         try:  # the run's own spec: the current target (and its size), the stage's settings
-            spec: StageSpec | None = stage_spec(stage, study.settings_for(stage), target)
+            spec = stage_spec(stage, study.settings_for(stage), target)
         except ValueError:  # a problem that cannot be built here says so when run
             spec = None
         if study.from_pick:
@@ -111,7 +112,7 @@ def study_view(study: Study, editor: Design, chain: tuple[ChainStage, ...], targ
         box=box,
         box_note=note,
         branches=tuple(b.label for b in study.branches),
-        constraints=() if stage is None else _constraints(stage, study.settings_for(stage), target),
+        constraints=() if spec is None else _constraints(spec),
         run_target=study.target,
         problems=problems_for(editor.mechanism),
     )
@@ -125,9 +126,5 @@ def constraint_text(c: Constraint, labels: Mapping[str, str] | None = None) -> s
     return f"{name} ≤ {c.upper:g}" if c.upper is not None else f"{name} ≥ {c.lower:g}"
 
 
-def _constraints(stage: ChainStage, settings: RunSettings, target: TargetSpec) -> tuple[str, ...]:
-    try:
-        spec = stage_spec(stage, settings, target)
-    except ValueError:  # a problem that cannot be built here says so when run
-        return ()
+def _constraints(spec: StageSpec) -> tuple[str, ...]:
     return tuple(constraint_text(c, spec.problem.labels) for c in spec.problem.constraints)
