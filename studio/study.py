@@ -74,18 +74,21 @@ class RunStatus:
         return self.generation / self.n_gen if self.n_gen else 0.0
 
 
-# Each result's JSON data, made once per result object (results are immutable): a session is saved after every change
-# and every SAVE_PERIOD s of a run, and encoding every population of every stage again was most of a save.
+# Each result's JSON data, made once per result object (results are immutable) and shared by the current pipeline's
+# data and every branch that holds the result: a session is saved after every change and every SAVE_PERIOD s of a
+# run, and encoding every population again was most of a save; a re-run or a topology switch parsed another copy of
+# every earlier stage's result for its branch.
 _RESULT_JSON: dict[int, tuple[weakref.ref[StageResult], dict[str, Any]]] = {}
 
 
-def result_json(r: StageResult) -> dict[str, Any]:
-    """``r`` as ``Pipeline.to_json`` writes it, read back (a shared dict: do not change it)."""
+def result_json(r: StageResult, known: dict[str, Any] | None = None) -> dict[str, Any]:
+    """``r`` as ``Pipeline.to_json`` writes it, read back (a shared dict: do not change it). ``known``: that data
+    already read (a restored branch's), kept for ``r`` unless it has some."""
     key = id(r)
     hit = _RESULT_JSON.get(key)
     if hit is not None and hit[0]() is r:
         return hit[1]
-    data = json.loads(dumps(r.to_dict(), None))
+    data = known if known is not None else json.loads(dumps(r.to_dict(), None))
     _RESULT_JSON[key] = (weakref.ref(r, lambda _: _RESULT_JSON.pop(key, None)), data)
     return data
 
@@ -276,27 +279,6 @@ class Study:
     status: RunStatus = field(default_factory=RunStatus)
     live: Progress | None = None
     version: int = 0
-    # A stage result's JSON, kept once however many branches hold that result (id -> the result, weakly, and its
-    # dict): a re-run of the last stage or a topology switch parsed another copy of every earlier stage's result.
-    _kept: dict[int, tuple[weakref.ref[StageResult], dict[str, Any]]] = field(default_factory=dict, repr=False,
-                                                                              compare=False)
-
-    def _shared(self, results: list[StageResult | None], dicts: list[Any]) -> list[Any]:
-        """The branch's result dicts, each replaced by the one kept for the same result object if any (and kept
-        for the next branch otherwise)."""
-        for key in [k for k, (ref, _) in self._kept.items() if ref() is None]:
-            del self._kept[key]
-        out = []
-        for r, d in zip(results, dicts, strict=True):
-            if r is not None:
-                ref, kept = self._kept.get(id(r), (None, None))
-                if ref is not None and ref() is r:
-                    d = kept
-                else:
-                    self._kept[id(r)] = (weakref.ref(r), d)
-            out.append(d)
-        return out
-
     def touch(self) -> None:
         self.version += 1
 
@@ -380,8 +362,7 @@ class Study:
         used = [int(b.label.split(":", 1)[0]) for b in self.branches if b.label.split(":", 1)[0].isdigit()]
         text = f"{done}{_values(pipe.lineage[-1], self.shown)} ({why}, {time.strftime('%H:%M:%S')})"
         target = None if self.target is None else self.target.to_dict()
-        data = json.loads(pipe.to_json(indent=None))
-        data["results"] = self._shared(pipe.results, data["results"])
+        data = pipeline_json(pipe)
         for b in self.branches:
             # The same pipeline against the same target is that branch, kept as it is (an undo step may name it): a
             # copy told apart only by the clock piled up at every restore (lag walk, session 25).
@@ -465,7 +446,9 @@ class Study:
             raise ValueError(f"no branch {j + 1}")
         chosen = self.branches[j]
         pipe = Pipeline.from_dict(chosen.pipeline)
-        self._shared(pipe.results, list(chosen.pipeline["results"]))  # kept again, the same dicts are shared
+        for r, d in zip(pipe.results, chosen.pipeline["results"], strict=True):  # kept again, the dicts are shared
+            if r is not None:
+                result_json(r, d)
         del self.branches[j]
         self.keep_branch("left for a branch")
         self.pipeline = pipe
