@@ -356,14 +356,15 @@ def _warn_target(target: str, output: OutputStage) -> None:
     """A word on stderr when the config's target curve is far from a leg's size (a CSV in m or um is read as mm: the
     run went on to a confident nonsense, where the studio warned about the same file), or would make the leg walk
     wrongly once the output stage maps it to the leg frame (drawn clockwise, or stance up)."""
-    from core.analysis.targets import load_curve, path_note, scale_note
+    from core.analysis.targets import path_note, scale_note
     from core.optimize.objectives import load_target
 
     cycloid = target.split(":", 1)[0] == "cycloid"
-    note = "" if cycloid else scale_note(load_curve(target).points)
+    curve = load_target(target)  # read once: a CSV was read for each note
+    note = "" if cycloid else scale_note(curve.points)
     if note:
         print(f"clm: warning: target {Path(target).name}: {note}", file=sys.stderr)
-    note = path_note(output.apply(load_target(target).sample(360)), remedy=not cycloid)
+    note = path_note(output.apply(curve.sample(360)), remedy=not cycloid)
     if note:
         fix = ". Check the config's output stage (the paper's legs map the cycloid by k = -1 about (L/2, 0))" \
             if cycloid else ""
