@@ -105,6 +105,14 @@ def history_html(rows: list[HistoryRow]) -> str:
     return f'<table class="clm-history" style="{STYLE}">{head}{"".join(body)}</table>'
 
 
+def one_design_html(stage: str) -> str:
+    """The Pick panel's word when a stage's feasible front is one design: the dropdown's single entry read as a
+    broken list (subtask 1 converges so: its placement makes f2 = f3 = 0)."""
+    return (f'<div class="clm-one-design" style="font-size:0.8em;padding:2px 0.75em;color:#4b5563">'
+            f"{html.escape(stage)}'s front is this one design: it is the best in every objective at once, so "
+            "there is no trade-off to pick from.</div>")
+
+
 def verdict_html(r: StageResult, i: int, stage: str, other_target: str = "") -> str:
     """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``).
     ``other_target``: the target the stage ran against, when the editor's is another (the rows below, MSE

@@ -504,6 +504,12 @@ def test_a_one_member_front_has_no_slider(studio, front):
     studio.pick_panel._key = None
     studio.pick_panel.show(front.view(0, result=one))
     assert not studio.pick_panel.slider.visible and studio.pick_panel.slider.max == 2
+    # One entry in the dropdown, and a word on why: it read as a broken list (subtask 1's front is one design).
+    assert len(studio.pick_panel.candidate.options) == 1
+    assert "front is this one design" in html.unescape(studio.pick_panel.table.content)
+    studio.pick_panel._key = None
+    studio.pick_panel.show(front.view(3))  # a front of twelve: no such word
+    assert "one design" not in studio.pick_panel.table.content
 
 
 def test_use_for_next_stage_is_offered_except_on_the_last_stage(studio, front):
