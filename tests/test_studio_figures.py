@@ -222,6 +222,51 @@ def test_bench_chart_labels_feature_points_and_leaves_gaps_where_the_path_breaks
     assert len(curves["bench trajectory"]) == 2  # the unassembled sample splits the path
 
 
+def label_boxes(svg: str) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]], tuple[float, ...]]:
+    """The feature labels' boxes, the feature dots' boxes and the plot's box (px) of a bench chart."""
+    from studio.bench_svg import DOT, label_box
+
+    root = ET.fromstring(svg)
+    labels = [label_box(float(t.get("x", 0)), float(t.get("y", 0)), t.get("text-anchor", ""), t.text or "")
+              for t in root.iter(f"{SVG}text") if t.get("class") == "label"]
+    dots = [(float(c.get("cx", 0)) - DOT, float(c.get("cy", 0)) - DOT, float(c.get("cx", 0)) + DOT,
+             float(c.get("cy", 0)) + DOT) for c in root.iter(f"{SVG}circle") if c.get("class") == "feature"]
+    (r,) = [r for r in root.iter(f"{SVG}rect") if r.get("class") == "plot"]
+    x, y, w, h = (float(r.get(k, 0)) for k in ("x", "y", "width", "height"))
+    return labels, dots, (x, y, x + w, y + h)
+
+
+def _apart(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    return a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "fourbar/chebyshev", "stephenson1/X3", "stephenson3/paper",
+                                  "watt1/paper"])
+def test_feature_labels_cover_no_other_label_or_point_and_keep_off_the_ticks(name):
+    # Centred above their points, Jansen's t1=t4 and t3 printed over each other, and Klann's t2=t3 and t5.
+    view = Session.default(name).view
+    labels, dots, plot = label_boxes(bench_svg(view.solution.leg[0], view.target_leg, stance=view.stance,
+                                               features=dict(view.features)))
+    assert len(labels) == len(dots) == len(view.features) >= 4
+    for i, a in enumerate(labels):
+        assert all(_apart(a, b) for b in labels[i + 1:]), (name, i)
+        assert all(_apart(a, d) for j, d in enumerate(dots) if j != i), (name, i)
+        assert a[1] >= 18.5 and a[3] <= plot[3] + 4.0  # under the legend's text, above the x ticks' labels
+
+
+def test_a_label_that_would_cover_a_neighbour_moves_and_the_first_stays_above_its_point():
+    from studio.bench_svg import label_box, label_spots
+
+    bounds = (0.0, 0.0, 320.0, 200.0)
+    (x1, y1, a1), (x2, y2, a2) = label_spots([(100.0, 100.0), (112.0, 100.0)], ["t1=t4", "t3"], bounds)
+    assert (x1, y1, a1) == (100.0, 93.0, "middle")  # centred, 7 px above
+    assert (x2, y2, a2) != (112.0, 93.0, "middle")
+    assert _apart(label_box(x1, y1, a1, "t1=t4"), label_box(x2, y2, a2, "t3"))
+    # A lone point near the plot's top edge gets its label below, inside the plot.
+    ((x, y, a),) = label_spots([(50.0, 4.0)], ["t6"], bounds)
+    assert label_box(x, y, a, "t6")[1] >= 0.0 and y > 4.0
+
+
 def test_chart_ticks_are_round_and_inside_the_range():
     assert ticks(0.0, 300.0) == [0.0, 100.0, 200.0, 300.0]
     assert ticks(48.6, 50.6) == [49.0, 49.5, 50.0, 50.5]
