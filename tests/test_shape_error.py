@@ -44,3 +44,27 @@ def test_phase_optimal_is_the_minimum_over_shifts_and_batches() -> None:
 def test_shapes_must_match() -> None:
     with pytest.raises(ValueError, match="same"):
         mse(TARGET, TARGET[:-1])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(3, 48), st.integers(1, 4), st.integers(0, 2**32 - 1), st.booleans())
+def test_the_compiled_search_matches_every_shift_tried_in_numpy(n: int, pop: int, seed: int, periodic: bool) -> None:
+    # The kernel stops a shift's sum once it passes the best so far and starts from a coarse guess; the answer
+    # must still be the exhaustive one: the least error, at the smallest shift that gives it.
+    rng = np.random.default_rng(seed)
+    target = rng.normal(0, 50, (n, 2))
+    noise = rng.normal(0, 3, (pop, n, 2))
+    if periodic and n % 3 == 0:  # path and target made of three equal thirds: three shifts tie (up to rounding)
+        target = np.tile(target[: n // 3], (3, 1))
+        noise = np.tile(noise[:, : n // 3], (1, 3, 1))
+    paths = np.roll(target, rng.integers(0, n), 0)[None] + noise
+    if pop > 1:
+        paths[-1, rng.integers(0, n)] = np.nan
+    err, shift = mse_phase_optimal(paths, target)
+    for j in range(pop):
+        every = np.array([mse(paths[j], np.roll(target, -k, 0))[0] for k in range(n)])
+        if np.isnan(every).all():
+            assert np.isnan(err[j]) and shift[j] == 0
+            continue
+        assert err[j] == every[shift[j]]  # the error at that shift, summed as mse sums it
+        assert err[j] <= every.min() * (1 + 1e-12)  # the least, up to the order of a sum's terms
