@@ -125,6 +125,18 @@ class Branch:
         return out
 
 
+def ran_with(r: StageResult) -> RunSettings | None:
+    """The Stages panel's settings a result was produced with (problem, algorithm, population, generations
+    planned, seed), or None if its record does not make valid ones (a hand-made or older file)."""
+    try:
+        problem = r.settings["problem"]["name"]
+        algorithm = r.settings["algorithm"]
+        return RunSettings(str(problem), str(algorithm["name"]), int(algorithm["pop_size"]), int(r.n_gen),
+                           int(r.seed))
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
 @dataclass(frozen=True)
 class RunPlan:
     """A prepared run: the pipeline it records into, the stage index, the pick it starts from, the spec, and
@@ -464,6 +476,12 @@ class Study:
             self.next_stage, self.from_pick = last.name, names.index(last.name) > 0
         else:  # a branch without results (a hand-made file): a fresh start
             self.shown, self.next_stage, self.from_pick = {}, None, False
+        # Each stage the branch ran takes the settings it ran with back: the Stages panel showed another branch's
+        # algorithm and budget beside the restored result's chart, and Run "again" ran those.
+        for r in pipe.results:
+            ran = None if r is None else ran_with(r)
+            if r is not None and ran is not None:
+                self.settings[r.name] = ran
         # The Stages panel's "Last run" line describes the branch's last stage, not what ran before the restore.
         self.status = last_run(last)
         self.touch()

@@ -384,6 +384,33 @@ def test_re_running_a_stage_from_its_pick_keeps_the_old_results_as_a_branch(sess
     np.testing.assert_array_equal(study.result("subtask2").X, old.X)
 
 
+def test_a_restored_branch_brings_back_the_settings_its_stages_ran_with(session: Session) -> None:
+    # The Stages panel showed the other branch's algorithm and budget beside the restored result (a demo
+    # rehearsal's cmoes branch came back as imtcmo 100 x 400), and Run "again" would have run those.
+    study = session.study
+    study.settings["subtask1"] = RunSettings("subtask1", "cmoes", pop_size=12, n_gen=2, seed=7)
+    run(session, "subtask1", from_pick=False)
+    study.settings["subtask1"] = RunSettings("subtask1", "imtcmo", pop_size=12, n_gen=3, seed=2)
+    run(session, "subtask1", from_pick=False)  # the cmoes pipeline becomes branch 1
+    study.settings["subtask2"] = RunSettings("subtask2", "mccmo", pop_size=6, n_gen=2, seed=3)  # not in the branch
+    study.restore_branch(0)
+    assert study.settings["subtask1"] == RunSettings("subtask1", "cmoes", pop_size=12, n_gen=2, seed=7)
+    assert study.settings["subtask2"] == RunSettings("subtask2", "mccmo", pop_size=6, n_gen=2, seed=3)
+    study.restore_branch(0)  # and back: the imtcmo run's
+    assert study.settings["subtask1"] == RunSettings("subtask1", "imtcmo", pop_size=12, n_gen=3, seed=2)
+
+
+def test_a_result_whose_record_makes_no_settings_restores_without_them() -> None:
+    from studio.study import ran_with
+
+    good = SimpleNamespace(settings={"problem": {"name": "subtask2"}, "algorithm": {"name": "nsga2", "pop_size": 30}},
+                           n_gen=12, seed=5)
+    assert ran_with(good) == RunSettings("subtask2", "nsga2", pop_size=30, n_gen=12, seed=5)  # type: ignore[arg-type]
+    for bad in ({}, {"problem": {"name": "subtask2"}, "algorithm": {"name": "no-such", "pop_size": 30}},
+                {"problem": {"name": "subtask2"}, "algorithm": {"name": "nsga2", "pop_size": 1}}):
+        assert ran_with(SimpleNamespace(settings=bad, n_gen=12, seed=5)) is None  # type: ignore[arg-type]
+
+
 def test_a_kept_branch_does_not_change_with_later_picks(session: Session) -> None:
     study, chain = session.study, chain_for(X3.mechanism)
     run(session, "subtask1", from_pick=False)
