@@ -175,18 +175,32 @@ def make_pareto_figure(
         top = float(v.max()) * 1.06 if len(v) and v.max() > 1e-9 else 1.0
         ranges = (ranges[0], [-0.06 * top, top])
     placed: dict[int, str | None] = {}  # member -> its label's position on a 2-D chart (None: hover only)
+    # Every point's hover names the candidates it is (the front's point under a knee's diamond took the hover,
+    # which read "member #14" where the docs promise "K2"), and its objectives with their units.
+    extra = [b for b in dict.fromkeys(best) if b not in knees]
+    knee_names = [f"K{j + 1}" for j in range(len(knees))]
+    names = [f"best {objectives[best.index(b)]}" for b in extra]
+    tags: dict[int, list[str]] = {}
+    for i, t in (*zip(knees, knee_names, strict=True), *zip(extra, names, strict=True)):
+        tags.setdefault(int(i), []).append(t)
+    for o, b in zip(objectives, best, strict=False):  # a knee that is also best in an objective says so too
+        if b in knees:
+            tags.setdefault(int(b), []).append(f"best {o}")
+    axis_names = "xyz"[: coords.shape[1]]
+    template = "%{hovertext}" + "".join(f"<br>{t}: %{{{a}:.4g}}" for a, t in zip(axis_names, titles, strict=True)) \
+        + "<extra></extra>"
 
     def add(name: str, idx: NDArray[np.intp] | list[int], marker: dict[str, object], text: list[str] | None = None,
             show_in_legend: bool = True, clip: bool = False) -> None:
         idx = np.asarray(idx, dtype=np.intp)
         keep: NDArray[np.bool_] = np.asarray(drawable)[idx] if len(idx) else np.zeros(0, dtype=bool)
         idx = idx[keep] if len(idx) else idx
-        hover = [f"member #{i}" + ("" if feasible[i] else f", violation {cv[i]:.3g}") for i in idx]
+        hover = [(" · ".join(tags[int(i)]) + ": " if int(i) in tags else "") + f"member #{i}"
+                 + ("" if feasible[i] else f", violation {cv[i]:.3g}") for i in idx]
         common: dict[str, object] = {"name": name, "customdata": idx.tolist(), "hovertext": hover,
-                                     "showlegend": show_in_legend, "marker": marker}
+                                     "hovertemplate": template, "showlegend": show_in_legend, "marker": marker}
         if text is not None:
             text = [t for t, k in zip(text, keep, strict=True) if k]
-            common["hovertext"] = [f"{t}: {h}" for t, h in zip(text, hover, strict=True)]
             if three:
                 common.update(text=text, mode="markers+text", textposition="top center")
             else:  # labels that would cover another are left to the hover
@@ -202,9 +216,6 @@ def make_pareto_figure(
             fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], cliponaxis=clip, **common))
 
     size = 4 if three else 7
-    extra = [b for b in dict.fromkeys(best) if b not in knees]
-    knee_names = [f"K{j + 1}" for j in range(len(knees))]
-    names = [f"best {objectives[best.index(b)]}" for b in extra]
     labelled = [int(i) for i in (*knees, *extra)]
     if not three and ranges is not None and all(r is not None for r in ranges) and labelled:
         ok = [i for i in labelled if bool(np.asarray(drawable)[i])]

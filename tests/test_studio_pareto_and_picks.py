@@ -245,6 +245,11 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
                 px = ((x - ranges[0][0]) / np.ptp(ranges[0]) * 240.0, (y - ranges[1][0]) / np.ptp(ranges[1]) * 190.0)
                 shown.append((text, _label_box(*px, text, pos)))
     assert t["knee candidates"].text[0] == "K1"
+    # The front's own point under a diamond took the hover and read "member #3": it names the candidate too, and
+    # every hover gives the objectives with their names.
+    hover = dict(zip(t["Pareto front"].customdata, t["Pareto front"].hovertext, strict=True))
+    assert hover[3] == "K1: member #3" and hover[0] == "best fd: member #0" and hover[6] == "member #6"
+    assert t["Pareto front"].hovertemplate == "%{hovertext}<br>fd: %{x:.4g}<br>f1: %{y:.4g}<extra></extra>"
     assert len(shown) >= 3
     for a in range(len(shown)):
         for b in range(a + 1, len(shown)):
