@@ -71,6 +71,13 @@ def finished_runs(rows: list[dict[str, Any]]) -> list[StudyRun]:
 
 def picked_design(directory: Path, run: StudyRun) -> Design:
     """The design a run picked in its last stage; only a file inside the study directory is read."""
+    return picked(directory, run)[0]
+
+
+def picked(directory: Path, run: StudyRun) -> tuple[Design, str | None]:
+    """The design a run picked in its last stage, and the target that stage ran against (its problem's ``target``
+    option, ``cycloid:L=..`` or a CSV path; None for a problem without one, the RTCLM's); ValueError naming the
+    problem. Only a file inside the study directory is read."""
     root = directory.resolve()
     path = (root / run.result_path).resolve()
     if root not in path.parents:
@@ -85,4 +92,36 @@ def picked_design(directory: Path, run: StudyRun) -> Design:
     i = last.picked if last.picked is not None else last.shortlist.first
     if i is None:
         raise ValueError(f"{run.result_path}: the run picked nothing")
-    return last.pick(i)
+    problem = last.settings.get("problem")
+    options = problem.get("options") if isinstance(problem, dict) else None
+    target = options.get("target") if isinstance(options, dict) else None
+    return last.pick(i), target if isinstance(target, str) else None
+
+
+def same_target(ran: str, current: str) -> bool:
+    """True if two ``target`` options name the same target: equal cycloid parameters (to 1e-9), or the same
+    curve file name (a study keeps its own copy of an uploaded curve, under the name it had)."""
+    from core.analysis.targets import cycloid_params
+
+    cyc = [t.split(":", 1)[0] == "cycloid" for t in (ran, current)]
+    if all(cyc):
+        try:
+            a, b = cycloid_params(ran), cycloid_params(current)
+        except ValueError:
+            return ran == current
+        return all(abs(a[k] - b[k]) <= 1e-9 * max(1.0, abs(b[k])) for k in a)
+    return not any(cyc) and Path(ran).name == Path(current).name
+
+
+def target_words(option: str) -> str:
+    """A ``target`` option as the Target panel says it (``compound cycloid L = 300 mm, H = 100 mm, T = 2 s``, or
+    ``curve ellipse.csv``)."""
+    from core.analysis.targets import cycloid_params
+
+    if option.split(":", 1)[0] == "cycloid":
+        try:
+            p = cycloid_params(option)
+        except ValueError:
+            return option
+        return f"compound cycloid L = {p['L']:g} mm, H = {p['H']:g} mm, T = {p['T']:g} s"
+    return f"curve {Path(option).name}"

@@ -83,6 +83,54 @@ def test_a_runs_picked_design_comes_back_exactly(studies):
     assert run.metrics["mse"] == pytest.approx(float(last.metrics["mse"][last.picked]))
 
 
+def test_a_run_says_which_target_it_ran_against_and_targets_compare_by_value(studies):
+    from studio.studies import picked, same_target, target_words
+
+    _, rows = study_rows(studies / "tiny_dir")
+    design, ran = picked(studies / "tiny_dir", finished_runs(rows)[0])
+    assert ran is not None and same_target(ran, "cycloid") and target_words(ran).startswith("compound cycloid L = 300")
+    assert same_target("cycloid:L=300.0,H=100.0,T=2.0", "cycloid:T=2,L=300,H=100")
+    assert not same_target("cycloid:L=300.0,H=100.0,T=2.0", "cycloid:L=300,H=100,T=2.5")
+    assert not same_target("cycloid", "/tmp/x/ellipse.csv") and same_target("/a/ellipse.csv", "/b/ellipse.csv")
+    assert target_words("/tmp/x/ellipse.csv") == "curve ellipse.csv"
+
+
+def test_loading_a_study_design_under_another_target_says_so(studies):
+    # The notification said "mse 5.04" (the run's, against the cycloid) while the Metrics panel said MSE 50.67 mm
+    # (against an uploaded ellipse), and nothing said why.
+    from types import SimpleNamespace
+
+    from studio.app import Studio
+    from studio.state import Session
+    from studio.target import Curve
+
+    notes: list[tuple[str, str, str]] = []
+    client = SimpleNamespace(client_id=1, add_notification=lambda title, body, color="", **_: notes.append(
+        (title, body, color)))
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        s.animator.stop()
+        panel = s.studies
+        panel.path.value = str(studies)
+        for cb in list(panel.scan._impl.update_cb):
+            cb(SimpleNamespace(client=client, target=panel.scan))
+        assert panel.run.options and panel.run.options[0] != "(none)"
+
+        def load():
+            for cb in list(panel.load._impl.update_cb):
+                cb(SimpleNamespace(client=client, target=panel.load))
+            return notes[-1]
+
+        title, body, color = load()  # the paper's cycloid in the editor: the study's own target
+        assert (title, color) == ("Design loaded", "green")
+        s.session.set_curve(Curve("ellipse.csv", ((0.0, 0.0), (200.0, 0.0), (200.0, 60.0), (0.0, 60.0)), None, 2.0))
+        title, body, color = load()
+        assert title == "Design loaded: its study ran against another target" and color == "yellow"
+        assert "compound cycloid L = 300 mm" in body and "curve ellipse.csv" in body
+    finally:
+        s.close()
+
+
 def test_a_run_file_outside_the_study_is_refused(studies):
     bad = StudyRun("subtask2", "nsga2", 1, {}, "../tiny.toml")
     with pytest.raises(ValueError, match="outside the study directory"):

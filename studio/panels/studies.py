@@ -14,7 +14,7 @@ from studio import palette
 from studio.panels._inputs import set_value
 from studio.panels._lazy import LazyPlotly
 from studio.panels.pareto import CONFIG
-from studio.studies import StudyRun, find_studies, finished_runs, picked_design, study_rows
+from studio.studies import StudyRun, find_studies, finished_runs, picked, same_target, study_rows, target_words
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -129,14 +129,24 @@ class StudiesPanel:
         if run is None or self._dir is None:
             return
         try:
-            design = picked_design(self._dir, run)
+            design, ran = picked(self._dir, run)
             with self.studio.session.lock:
                 self.studio.session.set_design(design, by_hand=True)
+                current = self.studio.session.view.target
         except ValueError as exc:
             if event.client is not None:
                 self.studio.notify(event.client, "Design not loaded", str(exc))
             return
         self.studio.refresh()
-        if event.client is not None:  # the editor changes quietly otherwise: say whose design it now shows
-            self.studio.notify(event.client, "Design loaded", f"{run.label} (study in {self._dir.name}) is the "
-                               "editor's design now; Undo takes it back", color="green")
+        if event.client is None:
+            return
+        # The editor changes quietly otherwise: say whose design it now shows. Measured against another target
+        # than its study's, its MSE in the Metrics panel contradicted the run's in the label (50.67 against 5.04).
+        text = f"{run.label} (study in {self._dir.name}) is the editor's design now; Undo takes it back"
+        if ran is not None and not same_target(ran, current.option()):
+            self.studio.notify(event.client, "Design loaded: its study ran against another target",
+                               f"{text}. The study optimized it against the {target_words(ran)}; the Metrics "
+                               f"panel measures it against the editor's target, {current.label()}, so its MSE "
+                               "there differs from the study's. Set that target to compare.", color="yellow")
+        else:
+            self.studio.notify(event.client, "Design loaded", text, color="green")
