@@ -91,10 +91,21 @@ def candidates(result: StageResult) -> tuple[Candidate, ...]:
     return tuple(out)
 
 
+# Report metrics that shape problems list as an objective under another name ("f1 = MSE (mm)"), when they hold
+# the same numbers: "MSE (mm)" below "f1 = MSE (mm)" read one number twice.
+ALIASES = {"mse": "f1"}
+
+
+def _alias(result: StageResult, metric: str, names: list[str]) -> bool:
+    other = ALIASES.get(metric)
+    return other in names and other in result.metrics and np.array_equal(result.metrics[metric],
+                                                                          result.metrics[other], equal_nan=True)
+
+
 def compared_metrics(result: StageResult, constraint_metrics: tuple[str, ...] = ()) -> tuple[str, ...]:
     """Metric names the Pick panel compares: objectives, constrained metrics, then the paper's report metrics."""
     names = list(result.objectives) + [m for m in constraint_metrics if m != "violation"]
-    names += [m for m in REPORT_METRICS if m in result.metrics]
+    names += [m for m in REPORT_METRICS if m in result.metrics and not _alias(result, m, names)]
     names.append("violation")
     return tuple(n for n in dict.fromkeys(names) if n in result.metrics)
 

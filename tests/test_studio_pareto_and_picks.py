@@ -307,6 +307,10 @@ def test_the_pick_panel_compares_objectives_then_constrained_then_report_metrics
         objectives = ("f1", "f2")
         metrics = {k: np.zeros(1) for k in ("f1", "f2", "h_s", "I", "mse", "violation", "width")}
 
+    assert compared_metrics(R(), ("h_s", "violation")) == ("f1", "f2", "h_s", "I", "width", "violation")  # type: ignore[arg-type]
+    # MSE is listed once when it is f1 ("f1 = MSE (mm)" then "MSE (mm)" read one number twice); a problem whose f1
+    # is something else keeps both.
+    R.metrics = {**R.metrics, "mse": np.ones(1)}
     assert compared_metrics(R(), ("h_s", "violation")) == ("f1", "f2", "h_s", "mse", "I", "width", "violation")  # type: ignore[arg-type]
 
 
