@@ -123,7 +123,14 @@ def constraint_text(c: Constraint, labels: Mapping[str, str] | None = None) -> s
     if c.metric in ("violation", "violation_mm"):
         return "assembles"
     name = (labels or {}).get(c.metric, c.metric)
-    return f"{name} ≤ {c.upper:g}" if c.upper is not None else f"{name} ≥ {c.lower:g}"
+    return f"{name} ≤ {limit_text(c.upper)}" if c.upper is not None else f"{name} ≥ {limit_text(c.lower)}"
+
+
+def limit_text(v: float) -> str:
+    """A limit to four significant digits, with "…" when that rounds it: a leg's sized limits read "≤ 2.22222"
+    and "≤ 13.3333" (the paper's 5 mm² and 30 mm/s at k = 2/3)."""
+    short = f"{v:.4g}"
+    return short if float(short) == v else short + "…"
 
 
 def _constraints(spec: StageSpec) -> tuple[str, ...]:

@@ -856,3 +856,16 @@ def test_a_stage_that_runs_out_of_generations_short_of_its_stop_says_so() -> Non
     assert r.status == "complete" and r.picked is not None and float(r.F[r.picked, 0]) > 0.5
     dh6 = float(r.F[r.picked, 0])
     assert status_text(r).startswith(f"complete — its early stop [0.5] not reached (pick: dh6 {dh6:.3g})")
+
+
+def test_a_constraint_reads_to_four_digits_and_says_when_that_rounds_it() -> None:
+    from core.optimize.problem import Constraint
+    from studio.study_view import constraint_text
+
+    labels = {"f2": "f2 = width penalty (mm²)", "h_s": "f4 = h_s (mm)"}
+    # A 200 mm leg's sized limits (k = 2/3) read "≤ 2.22222" and "≤ 13.3333".
+    assert constraint_text(Constraint("f2", upper=5.0 * (2 / 3) ** 2), labels) == "f2 = width penalty (mm²) ≤ 2.222…"
+    assert constraint_text(Constraint("I", upper=20.0 * 2 / 3)) == "I ≤ 13.33…"
+    assert constraint_text(Constraint("h_s", upper=6.5), labels) == "f4 = h_s (mm) ≤ 6.5"  # exact: as typed
+    assert constraint_text(Constraint("theta1", lower=0.25)) == "theta1 ≥ 0.25"
+    assert constraint_text(Constraint("violation", upper=0.0)) == "assembles"
