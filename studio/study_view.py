@@ -123,7 +123,9 @@ def constraint_text(c: Constraint, labels: Mapping[str, str] | None = None) -> s
     if c.metric in ("violation", "violation_mm"):
         return "assembles"
     name = (labels or {}).get(c.metric, c.metric)
-    return f"{name} ≤ {limit_text(c.upper)}" if c.upper is not None else f"{name} ≥ {limit_text(c.lower)}"
+    if c.upper is not None:
+        return f"{name} ≤ {limit_text(c.upper)}"
+    return f"{name} ≥ {limit_text(float(c.lower or 0.0))}"
 
 
 def limit_text(v: float) -> str:
