@@ -22,7 +22,7 @@ from core.formats.session import parse_json
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, takes_target
-from studio.charts import png
+from studio.charts import png, stop_png_browser
 from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE, SceneFrames, inset_caption
 from studio.geometry import SCENE_SCALE, frame_index, inset_positions
@@ -579,7 +579,7 @@ class Studio:
         fig = pareto_figure(sv, self.pareto.axes())
         if fig is None:
             raise ValueError("no stage result to chart yet; run a stage first")
-        return f"pareto-{slug(sv.viewing or 'stage')}.png", png(fig)
+        return f"pareto-{slug(sv.viewing or 'stage')}.png", png(fig, keep=True)
 
     def scene_file(self) -> tuple[str, bytes]:
         view = self.session.view
@@ -629,5 +629,6 @@ class Studio:
         self.target.close()
         self.walking.close()
         self.stages.close()
+        stop_png_browser()
         self.server.stop()
 

@@ -137,3 +137,17 @@ def test_a_runs_final_pick_is_a_design_for_evaluate_simulate_and_export(run_dir,
     # A folder that holds no run: one line, exit 2.
     assert clm(["evaluate", "--design", str(tmp_path)]) == 2
     assert "result.json" in capsys.readouterr().err
+
+
+def test_the_studio_keeps_one_png_browser_and_stops_it_on_close():
+    # Each PNG started its own chromium (7-8 s for the studio's chart here); the studio keeps one between them.
+    fig = go.Figure(go.Scatter(x=[1.0, 2.0, 3.0], y=[3.0, 1.0, 2.0]))
+    try:
+        first = charts.png(fig, 300, 200, keep=True)
+        assert charts._kaleido_kept
+        again = charts.png(fig, 300, 200, keep=True)
+        assert first[:8] == again[:8] == b"\x89PNG\r\n\x1a\n"
+    finally:
+        charts.stop_png_browser()
+    assert not charts._kaleido_kept
+    assert charts.png(fig, 300, 200)[:4] == b"\x89PNG"  # and without it, as clm-charts draws
