@@ -535,7 +535,12 @@ class Studio:
         except ValueError as exc:
             if client is not None:
                 self.notify(client, "Branch not restored", str(exc))
-        self.refresh()
+            self.refresh()
+            return
+        # A branch is another design, often of another topology, framed as a topology switch frames it: a
+        # Stephenson-I branch restored from Watt-I was drawn a quarter smaller until the page was reloaded (the
+        # camera refits on its own only past half or double the framed size).
+        self.refresh(fit_camera=True)
 
     def delete_branch(self, label: str, client: viser.ClientHandle | None) -> None:
         try:

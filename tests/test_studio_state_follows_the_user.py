@@ -117,6 +117,26 @@ def test_restoring_a_branch_of_another_topology_brings_its_target_back():
     np.testing.assert_allclose(s.view.target_design, before.points(len(s.view.target_design)))
 
 
+def test_a_restored_branch_is_framed_as_a_topology_switch_is():
+    # Restored from Watt-I, a Stephenson-I branch was drawn a quarter smaller until the page was reloaded.
+    from studio.app import Studio
+    from studio.state import Session
+    from tests.stage_runs import run_stage
+
+    s = Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        s.animator.stop()
+        run_stage(s.session, "subtask1", pop=12, gens=2)
+        s.session.select_mechanism("watt1")  # keeps the Stephenson-I pipeline as a branch
+        s.refresh(fit_camera=True)
+        watt = s._fitted.copy()
+        s.restore_branch(0, None)
+        assert s.session.view.design.mechanism.name == "stephenson1"
+        assert np.array_equal(s._fitted, s.scene.frames.composition.bounds) and not np.array_equal(s._fitted, watt)
+    finally:
+        s.close()
+
+
 def test_the_camera_frames_the_views_again_when_a_design_outgrows_them():
     from studio.app import Studio
     from studio.state import Session
