@@ -113,7 +113,8 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
     margin = solution.dyad_margin[i]
     margin = margin[np.isfinite(margin)]
     return (
-        Row("feasible", "Feasible", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
+        # Not "Feasible": beside "Gait constraints: 1 unmet" on the paper's X3 it read as a contradiction.
+        Row("feasible", "Assembles and walks", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
         Row("why", "Why not", why or "-", note="reason the bench trajectory is not well defined"),
         Row("mse", "MSE (shape error)", shape_error(ev, i), "mm",
             note="mean distance to the target, sample against sample (design frame)" if height is None else

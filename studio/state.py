@@ -86,8 +86,8 @@ def mode_preset(preset: str | None, mechanism: str) -> str | None:
 
 
 def opening_preset(mechanism: str) -> str:
-    """The preset a topology opens on: its first whose evaluation is feasible (the Metrics panel's "Feasible:
-    yes": it assembles and its foot path gives every metric), else its first that assembles, else its first. The
+    """The preset a topology opens on: its first whose evaluation is feasible (the Metrics panel's "Assembles and
+    walks: yes": it assembles and its foot path gives every metric), else its first that assembles, else its first. The
     RTCLM's first rows are paper rows that do not reproduce: "RTCLM, auxiliary mode" opened on a linkage that jams
     for 42 % of the crank cycle. (The RTCLM's own Eqs. 29-31 are its stages' constraints, not checked here.) The
     RTCLM opens on a design of our own that works in both modes and meets case 1's targets (``rtclm/clm-case1``):

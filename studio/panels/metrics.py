@@ -32,7 +32,7 @@ class MetricsPanel:
 
     def show_stage(self, sv: StudyView, view: DesignView) -> None:
         """Above the table: whether the design in the editor, if it is the shown member of the stage in view,
-        meets that stage's constraints ("Feasible" below is about assembly and gait only)."""
+        meets that stage's constraints ("Assembles and walks" below is about assembly and gait only)."""
         r, i = sv.result(sv.viewing), sv.shown
         same = (r is not None and i is not None and 0 <= i < r.pop and view.design.mechanism == r.mechanism
                 and np.allclose(view.design.params[0], r.X[i], rtol=0.0, atol=1e-9))
