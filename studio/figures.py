@@ -222,6 +222,10 @@ def make_pareto_figure(
         texts = dict(zip(labelled, knee_names + names, strict=True))
         where = place_labels(coords[ok], [texts[i] for i in ok], ranges)  # type: ignore[arg-type]
         placed.update(zip(ok, where, strict=True))
+    # A ringed candidate (picked, passed on) carries its label on the ring, which plotly sets off by the ring's
+    # size: beside its own marker the red ring crossed the label's first letter ("pest f1").
+    ringed = {int(m): placed.pop(int(m)) for m in (shown, passed) if m is not None and placed.get(int(m))}
+    label_of = dict(zip(labelled, knee_names + names, strict=True))
     add("infeasible", np.flatnonzero(drawable & ~feasible),
         {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"}, clip=True)
     add("dominated", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.8), "size": size},
@@ -235,12 +239,18 @@ def make_pareto_figure(
     if extra:
         add("best per objective", extra, {"color": palette.css(palette.BEST), "size": size + 4, "symbol": "square",
                                           "line": {"color": "black", "width": 1}}, text=names)
+    placed.update(ringed)
+
+    def ring_text(m: int) -> list[str] | None:
+        return [label_of[m]] if m in ringed else None
+
     if passed is not None and passed != shown and 0 <= passed < len(F):
         add("passed on", [passed], {"color": "rgba(0,0,0,0)", "size": size + 12,
-                                    "line": {"color": palette.css(palette.PASSED), "width": 3}})
+                                    "line": {"color": palette.css(palette.PASSED), "width": 3}},
+            text=ring_text(int(passed)))
     if shown is not None and 0 <= shown < len(F):
         add("picked", [shown], {"color": "rgba(0,0,0,0)", "size": size + 14,
-                                "line": {"color": palette.css(palette.FOOT), "width": 3}})
+                                "line": {"color": palette.css(palette.FOOT), "width": 3}}, text=ring_text(int(shown)))
     fig.update_layout(
         # 8 px in from the edge: at x = 0 the PNG's title touched its left border.
         title={"text": title, "font": {"size": 13}, "x": 0.0, "xanchor": "left", "pad": {"l": 8}},

@@ -50,9 +50,10 @@ def test_pareto_chart_tells_feasible_infeasible_front_and_knees_apart_with_unit_
     assert len(colours) == 3  # front, dominated and infeasible in three colours
     assert 5 not in {i for tr in fig.data for i in tr.customdata}  # undefined members are not drawn
     assert list(t["knee candidates"].customdata) == list(sl.knees)
-    assert list(t["knee candidates"].text) == [f"K{j + 1}" for j in range(len(sl.knees))]
+    # K1 is the picked member: its label is on the ring around it (set off by the ring's size), not beside it.
+    assert list(t["knee candidates"].text) == [""] + [f"K{j + 1}" for j in range(1, len(sl.knees))]
     picked = t["picked"]
-    assert list(picked.customdata) == [sl.knees[0]]
+    assert list(picked.customdata) == [sl.knees[0]] and list(picked.text) == ["K1"]
     assert (picked.x[0], picked.y[0]) == tuple(F[sl.knees[0]])
     assert fig.layout.xaxis.title.text == "f1 = MSE (mm)" and fig.layout.yaxis.title.text == "f2 (mm^2)"
     for axis, k in ((fig.layout.xaxis, 0), (fig.layout.yaxis, 1)):
@@ -250,6 +251,16 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
     hover = dict(zip(t["Pareto front"].customdata, t["Pareto front"].hovertext, strict=True))
     assert hover[3] == "K1: member #3" and hover[0] == "best fd: member #0" and hover[6] == "member #6"
     assert t["Pareto front"].hovertemplate == "%{hovertext}<br>fd: %{x:.4g}<br>f1: %{y:.4g}<extra></extra>"
+    # A ringed candidate's label moves onto its ring (set off by the ring's size), in the same place: beside its
+    # own marker the red ring crossed the label's first letter ("pest f1").
+    ringed = traces(make_pareto_figure(F, cv, objectives=("fd", "f1"), front=tuple(range(8)), knees=knees, best=best,
+                                       shown=3, passed=0))
+    k1 = list(t["knee candidates"].customdata).index(3)
+    assert ringed["knee candidates"].text[k1] == "" and ringed["best per objective"].text[0] == ""
+    assert list(ringed["picked"].text) == ["K1"]
+    assert ringed["picked"].textposition[0] == t["knee candidates"].textposition[k1]
+    assert list(ringed["passed on"].text) == ["best fd"]
+    assert list(ringed["knee candidates"].text)[k1 + 1:] == list(t["knee candidates"].text)[k1 + 1:]
     assert len(shown) >= 3
     for a in range(len(shown)):
         for b in range(a + 1, len(shown)):
