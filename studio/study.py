@@ -198,7 +198,9 @@ def branch_stages(lineage: list[StageResult], shown: dict[str, int]) -> str:
     if i is not None and i != last.picked:
         parts[-1] += f" showing #{i}"
     name = algorithm_name(last.settings)
-    return ", ".join(parts) + (f" by {name}" if name else "")
+    # A run the designer stopped (or one a crash interrupted) says so: its label read as a finished one's.
+    cut = f", stopped at {last.generation}/{last.n_gen}" if last.status in ("cancelled", "running") else ""
+    return ", ".join(parts) + (f" by {name}" if name else "") + cut
 
 
 def status_text(r: StageResult) -> str:

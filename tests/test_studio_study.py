@@ -869,3 +869,14 @@ def test_a_constraint_reads_to_four_digits_and_says_when_that_rounds_it() -> Non
     assert constraint_text(Constraint("h_s", upper=6.5), labels) == "f4 = h_s (mm) ≤ 6.5"  # exact: as typed
     assert constraint_text(Constraint("theta1", lower=0.25)) == "theta1 ≥ 0.25"
     assert constraint_text(Constraint("violation", upper=0.0)) == "assembles"
+
+
+def test_a_branch_of_a_stopped_run_says_it_was_stopped(session: Session) -> None:
+    # A rehearsal's Stop at 348/400 made a branch "subtask3 showing #87 by imtcmo", read as a finished run's.
+    from studio.study import branch_stages
+
+    run(session, "subtask1", from_pick=False)
+    r = session.study.result("subtask1")
+    assert "stopped" not in branch_stages([r], {})
+    cut = replace(r, status="cancelled", generation=2)
+    assert branch_stages([cut], {}).endswith(f"by nsga2, stopped at 2/{r.n_gen}")
