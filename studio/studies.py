@@ -37,7 +37,9 @@ class StudyRun:
 def find_studies(folder: Path) -> list[Path]:
     """Study directories (holding ``study.sqlite``) in ``folder`` or one level below it, sorted by name."""
     if not folder.is_dir():
-        raise ValueError(f"{folder} is not a folder")
+        # By its full path: the default "runs" read as a folder the studio should have, not one beside its start.
+        raise ValueError(f"{folder.absolute()} is not a folder (a relative folder is read from where the studio "
+                         "was started)" if not folder.is_absolute() else f"{folder} is not a folder")
     found = [folder] if (folder / "study.sqlite").is_file() else []
     for d in sorted(folder.iterdir()):
         if d.is_dir() and (d / "study.sqlite").is_file():

@@ -4,6 +4,7 @@ writing, box plots per case and metric, and a run's picked design loaded into th
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,10 @@ def test_studies_are_found_and_read_without_writing(studies):
     assert fig.layout.yaxis.title.text == "MSE (mm)" and fig.layout.title.text == "subtask2: MSE (mm)"
     with pytest.raises(ValueError, match="not a folder"):
         find_studies(studies / "missing")
+    # A relative folder (the panel's default "runs") is named by its full path, and where it is read from.
+    with pytest.raises(ValueError, match=f"^{re.escape(str(Path.cwd() / 'no-such-runs'))} is not a folder "
+                                         r"\(a relative folder is read from where the studio was started\)$"):
+        find_studies(Path("no-such-runs"))
     with pytest.raises(ValueError, match="holds no study.sqlite"):
         study_rows(studies / "not-a-study")
 
