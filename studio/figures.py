@@ -180,9 +180,9 @@ def make_pareto_figure(
     extra = [b for b in dict.fromkeys(best) if b not in knees]
     knee_names = [f"K{j + 1}" for j in range(len(knees))]
     names = [f"best {objectives[best.index(b)]}" for b in extra]
-    tags: dict[int, list[str]] = {}
-    for i, t in (*zip(knees, knee_names, strict=True), *zip(extra, names, strict=True)):
-        tags.setdefault(int(i), []).append(t)
+    labelled = [int(i) for i in (*knees, *extra)]
+    label_of = dict(zip(labelled, knee_names + names, strict=True))  # each candidate's label on the chart
+    tags: dict[int, list[str]] = {i: [t] for i, t in label_of.items()}
     for o, b in zip(objectives, best, strict=False):  # a knee that is also best in an objective says so too
         if b in knees:
             tags.setdefault(int(b), []).append(f"best {o}")
@@ -216,16 +216,13 @@ def make_pareto_figure(
             fig.add_trace(go.Scatter(x=pts[:, 0], y=pts[:, 1], cliponaxis=clip, **common))
 
     size = 4 if three else 7
-    labelled = [int(i) for i in (*knees, *extra)]
     if not three and ranges is not None and all(r is not None for r in ranges) and labelled:
         ok = [i for i in labelled if bool(np.asarray(drawable)[i])]
-        texts = dict(zip(labelled, knee_names + names, strict=True))
-        where = place_labels(coords[ok], [texts[i] for i in ok], ranges)  # type: ignore[arg-type]
+        where = place_labels(coords[ok], [label_of[i] for i in ok], ranges)  # type: ignore[arg-type]
         placed.update(zip(ok, where, strict=True))
     # A ringed candidate (picked, passed on) carries its label on the ring, which plotly sets off by the ring's
     # size: beside its own marker the red ring crossed the label's first letter ("pest f1").
     ringed = {int(m): placed.pop(int(m)) for m in (shown, passed) if m is not None and placed.get(int(m))}
-    label_of = dict(zip(labelled, knee_names + names, strict=True))
     add("infeasible", np.flatnonzero(drawable & ~feasible),
         {"color": palette.css(palette.INFEASIBLE, 0.6), "size": size, "symbol": "x"}, clip=True)
     add("dominated", np.flatnonzero(feasible & ~on_front), {"color": palette.css(palette.FEASIBLE, 0.8), "size": size},

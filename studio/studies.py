@@ -12,6 +12,7 @@ from core.analysis.targets import read_user_file
 from core.kinematics.design import Design
 from core.optimize.pipeline import Pipeline
 from core.study.store import current_rows, read_study
+from studio.target import TargetSpec
 
 MAX_RUN_BYTES = 256 * 2**20
 MAX_STUDIES = 200
@@ -125,5 +126,5 @@ def target_words(option: str) -> str:
             p = cycloid_params(option)
         except ValueError:
             return option
-        return f"compound cycloid L = {p['L']:g} mm, H = {p['H']:g} mm, T = {p['T']:g} s"
+        return TargetSpec(p["L"], p["H"], p["T"]).label()  # as the Target panel says the editor's
     return f"curve {Path(option).name}"
