@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from core.kinematics.design import Design
-from core.optimize.algorithms import make_algorithm
+from core.optimize.algorithms import ALGORITHMS, make_algorithm
 from core.optimize.box import Box
 from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
@@ -164,10 +164,13 @@ def studio_pick(result: StageResult, plan: RunPlan) -> int:
 
 
 def algorithm_name(settings: object) -> str:
-    """The algorithm's name in a stage result's settings, or "" (a loaded session's settings are free-form)."""
+    """The algorithm's published name (``IMTCMO``, not ``imtcmo``) in a stage result's settings, or "" (a loaded
+    session's settings are free-form: an unknown name is shown as it is)."""
     algorithm = settings.get("algorithm") if isinstance(settings, Mapping) else None
     name = algorithm.get("name") if isinstance(algorithm, Mapping) else None
-    return name if isinstance(name, str) else ""
+    if not isinstance(name, str):
+        return ""
+    return ALGORITHMS[name].title if name in ALGORITHMS else name
 
 
 def member_shown(r: StageResult | None, shown: Mapping[str, int]) -> int | None:

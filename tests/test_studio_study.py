@@ -160,7 +160,7 @@ def test_a_branch_label_names_the_member_restore_brings_back_and_the_algorithm(s
     label = session.study.branches[0].label
     values = ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[other], strict=True))
     # It used to name the pick and its values while Restore showed the browsed member.
-    assert f"subtask1 #{r.picked} showing #{other} by nsga2 · {values} (before a new start" in label
+    assert f"subtask1 #{r.picked} showing #{other} by NSGA-II · {values} (before a new start" in label
     assert session.study.branches[0].shown == {"subtask1": other}
 
 
@@ -879,4 +879,4 @@ def test_a_branch_of_a_stopped_run_says_it_was_stopped(session: Session) -> None
     r = session.study.result("subtask1")
     assert "stopped" not in branch_stages([r], {})
     cut = replace(r, status="cancelled", generation=2)
-    assert branch_stages([cut], {}).endswith(f"by nsga2, stopped at 2/{r.n_gen}")
+    assert branch_stages([cut], {}).endswith(f"by NSGA-II, stopped at 2/{r.n_gen}")

@@ -23,6 +23,20 @@ from studio.tables import box_html
 # NSGA-II and the six constrained MOEAs the paper compares (docs/algorithms.md).
 PAPER_ALGORITHMS = ("nsga2", "cmoemt", "cmoes", "drlos_emcmo", "imtcmo", "mccmo", "moead_cmt")
 
+
+def algorithm_label(name: str) -> str:
+    """How the dropdown names an algorithm: its published name, not our identifier (``IMTCMO (paper)``)."""
+    title = ALGORITHMS[name].title
+    if name == "nsga2":
+        return f"{title} (paper, default)"
+    return f"{title} (paper)" if name in PAPER_ALGORITHMS else title
+
+
+# The paper's seven first: on a 720 px screen the list ran past the bottom edge, three of them below it.
+LISTED = sorted(ALGORITHMS, key=lambda k: (k not in PAPER_ALGORITHMS, list(ALGORITHMS).index(k)))
+LABELS = {k: algorithm_label(k) for k in LISTED}
+BY_LABEL = {v: k for k, v in LABELS.items()}
+
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
@@ -46,10 +60,10 @@ class StagesPanel:
             self.problem = gui.add_dropdown("Problem", ("-",),
                                             hint="any registered problem that fits the mechanism can run in this "
                                                  "stage's place")
-            # The paper's seven first: on a 720 px screen the list ran past the bottom edge, three of them below it.
-            listed = sorted(ALGORITHMS, key=lambda k: (k not in PAPER_ALGORITHMS, list(ALGORITHMS).index(k)))
-            self.algorithm = gui.add_dropdown("Algorithm", tuple(listed), initial_value="nsga2",
-                                              hint=", ".join(f"{k}: {ALGORITHMS[k].title}" for k in listed))
+            self.algorithm = gui.add_dropdown("Algorithm", tuple(LABELS.values()), initial_value=LABELS["nsga2"],
+                                              hint="NSGA-II and the six constrained MOEAs the paper compares, then "
+                                                   "pymoo's; names for configs and `clm design`: "
+                                                   + ", ".join(f"{LABELS[k]} = {k}" for k in LISTED))
             self._numbers = NumberFields(studio)
             self.pop_size = self._number("pop_size", "Population", 40, 2, MAX_POP, "members per generation")
             self.n_gen = self._number("n_gen", "Generations", 30, 1, MAX_GEN,
@@ -89,7 +103,7 @@ class StagesPanel:
             if tuple(self.problem.options) != names:
                 self.problem.options = names
             set_value(self.problem, s.problem)
-            set_value(self.algorithm, s.algorithm)
+            set_value(self.algorithm, LABELS.get(s.algorithm, s.algorithm))
             self.pop_size.show(s.pop_size)
             self.n_gen.show(s.n_gen)
             self.seed.show(s.seed)
@@ -195,7 +209,8 @@ class StagesPanel:
         if event.client is None:
             return
         try:
-            self._change(problem=str(self.problem.value), algorithm=str(self.algorithm.value))
+            label = str(self.algorithm.value)
+            self._change(problem=str(self.problem.value), algorithm=BY_LABEL.get(label, label))
         except ValueError as exc:
             self.studio.notify(event.client, "Setting not applied", str(exc))
         self.studio.refresh()
