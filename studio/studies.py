@@ -27,12 +27,17 @@ class StudyRun:
     seed: int
     metrics: dict[str, float]
     result_path: str
+    title: str = ""  # the study's label of its algorithm ("NSGA-II"); its name when it has none
+
+    @property
+    def named(self) -> str:
+        return self.title or self.algorithm
 
     @property
     def label(self) -> str:
         m = self.metrics
         shown = " · ".join(f"{k} {m[k]:.3g}" for k in ("mse", "S", "I", "h_s") if isinstance(m.get(k), int | float))
-        return f"{self.case} · {self.algorithm} · seed {self.seed}" + (f" · {shown}" if shown else "")
+        return f"{self.case} · {self.named} · seed {self.seed}" + (f" · {shown}" if shown else "")
 
 
 def find_studies(folder: Path) -> list[Path]:
@@ -52,12 +57,16 @@ def find_studies(folder: Path) -> list[Path]:
 
 def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
     """(study name, the rows of its current cells) from ``study.sqlite``, opened read-only
-    (``core.study.store.read_study``); ValueError if it is not a study."""
+    (``core.study.store.read_study``); ValueError if it is not a study. Each row gains ``title``: the study file's
+    label of its algorithm (``NSGA-II``), as the report names it."""
     meta, rows = read_study(directory)
-    study = meta.get("study")  # clm study keeps its name in meta "study"
+    study = meta.get("study")  # clm study keeps its name and the algorithms' labels in meta "study"
     name = study.get("name") if isinstance(study, dict) and isinstance(study.get("name"), str) else directory.name
+    labels = study.get("labels") if isinstance(study, dict) else None
+    labels = labels if isinstance(labels, dict) else {}
     # The study as its file last ran, as its report counts it: not the runs of removed seeds or changed settings.
-    return str(name), current_rows(study if isinstance(study, dict) else None, rows)
+    kept = current_rows(study if isinstance(study, dict) else None, rows)
+    return str(name), [dict(r, title=str(labels.get(r["algorithm"], r["algorithm"]))) for r in kept]
 
 
 def flat_metrics(m: dict[str, Any]) -> dict[str, float]:
@@ -68,7 +77,8 @@ def flat_metrics(m: dict[str, Any]) -> dict[str, float]:
 
 
 def finished_runs(rows: list[dict[str, Any]]) -> list[StudyRun]:
-    return [StudyRun(r["case"], r["algorithm"], int(r["seed"]), flat_metrics(r["metrics"] or {}), r["result_path"])
+    return [StudyRun(r["case"], r["algorithm"], int(r["seed"]), flat_metrics(r["metrics"] or {}), r["result_path"],
+                     str(r.get("title") or ""))
             for r in rows if r["status"] == "done" and r["result_path"]]
 
 

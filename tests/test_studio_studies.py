@@ -17,7 +17,7 @@ from core.study.runner import run_study
 from studio.panels.studies import box_figure
 from studio.studies import StudyRun, find_studies, finished_runs, picked_design, study_rows
 
-TINY = tiny_study("nsga2", "cmoes")
+TINY = tiny_study("nsga2", "cmoes").replace('name = "cmoes"\n', 'name = "cmoes"\nlabel = "CMOES (2024)"\n')
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +40,9 @@ def test_studies_are_found_and_read_without_writing(studies):
     runs = finished_runs(rows)
     assert {r.algorithm for r in runs} == {"nsga2", "cmoes"} and all("mse" in r.metrics for r in runs)
     fig = box_figure(runs, "subtask2", "mse")
-    assert [t.name for t in fig.data] == ["cmoes", "nsga2"] and all(len(t.y) == 2 for t in fig.data)
+    # Named as the study file labels them, as its report does (a rehearsal read "nsga2" where it said "NSGA-II").
+    assert [t.name for t in fig.data] == ["CMOES (2024)", "nsga2"] and all(len(t.y) == 2 for t in fig.data)
+    assert {r.label.split(" · ")[1] for r in runs} == {"CMOES (2024)", "nsga2"}
     assert fig.layout.yaxis.title.text == "MSE (mm)" and fig.layout.title.text == "subtask2: MSE (mm)"
     with pytest.raises(ValueError, match="not a folder"):
         find_studies(studies / "missing")

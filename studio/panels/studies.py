@@ -26,12 +26,13 @@ FIRST = ("mse", "S", "I", "h_s")  # offered first when a study has them
 def box_figure(runs: list[StudyRun], case: str, metric: str) -> go.Figure:
     """One box per algorithm: the metric over the case's seeds (the paper's Fig. 11 / 19 view)."""
     fig = go.Figure()
-    algorithms = list(dict.fromkeys(r.algorithm for r in runs if r.case == case))
-    for k, a in enumerate(algorithms):
+    # Named as the study file labels them ("NSGA-II"), as its report does; a rehearsal read "nsga2" here.
+    algorithms = {r.algorithm: r.named for r in runs if r.case == case}
+    for k, (a, named) in enumerate(algorithms.items()):
         ys = [r.metrics.get(metric) for r in runs if r.case == case and r.algorithm == a]
         ys = [y for y in ys if isinstance(y, int | float)]
         colour = palette.LEGS[k % len(palette.LEGS)]
-        fig.add_trace(go.Box(y=ys, name=a, boxpoints="all", jitter=0.3, marker={"color": palette.css(colour)},
+        fig.add_trace(go.Box(y=ys, name=named, boxpoints="all", jitter=0.3, marker={"color": palette.css(colour)},
                              showlegend=False))
     label = LABELS.get(metric, metric)  # with its unit, as the study's report writes it
     fig.update_layout(title={"text": f"{case}: {label}", "font": {"size": 13}, "x": 0.0},
