@@ -186,6 +186,27 @@ def test_the_server_shows_its_values_without_the_edit_path_but_not_over_a_pendin
     assert handle.value == "70" and "Kept 70." in studio.notes[-1][2]
 
 
+def test_a_parameter_is_shown_to_its_decimals_and_typed_digits_are_kept() -> None:
+    # A rehearsal saw a preset's "128.33" become "100.609144" after a run's pick: lengths show 0.01 mm.
+    from studio.panels.mechanism import param_form
+    from studio.state import Session
+
+    mech = Session.default().view.design.mechanism
+    r4, b = (next(p for p in mech.params if p.name == n) for n in ("r4", "b"))
+    field, handle, studio, applied = make(param_form(r4), 128.33)
+    field.show(100.609144)
+    assert handle.value == "100.61" and applied == [128.33]  # shown rounded; the value held is not touched
+    field.show(100.609144)
+    assert handle.sent == ["100.61"]
+    handle.type(field, "100.6091")  # the designer's own digits stay as typed
+    assert applied[-1] == 100.6091
+    field.show(100.6091)
+    assert handle.value == "100.6091"
+    angle, _, _, _ = make(param_form(b), 0.52)
+    angle.show(0.523456789)
+    assert angle.handle.value == "0.5235"  # 0.0001 rad
+
+
 def test_the_newest_text_wins_when_edits_overlap() -> None:
     # viser runs callbacks in a thread pool: two keystrokes may be handled at once. Each handles the newest text.
     slow = threading.Event()

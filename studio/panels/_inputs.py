@@ -46,13 +46,13 @@ def set_value(handle: Any, value: object) -> None:
     handle.value = value
 
 
-def format_number(value: float, whole: bool = False) -> str:
-    """How a field shows a value: integers without ``.0``, others with up to 6 decimals (``128.33``)."""
+def format_number(value: float, whole: bool = False, decimals: int = 6) -> str:
+    """How a field shows a value: integers without ``.0``, others with up to ``decimals`` decimals (``128.33``)."""
     v = float(value)
     if whole or (v.is_integer() and abs(v) < 1e15):
         return str(int(v))
-    text = f"{v:.6f}".rstrip("0").rstrip(".")
-    if text in ("0", "-0"):  # too small for 6 decimals: keep its significant digits
+    text = f"{v:.{decimals}f}".rstrip("0").rstrip(".")
+    if text in ("0", "-0"):  # too small for its decimals: keep its significant digits
         text = f"{v:.6g}"
     return text
 
@@ -66,6 +66,7 @@ class NumberForm:
         lo, hi: inclusive bounds (None: unbounded); ``lo_open`` makes ``lo`` exclusive (``> 0``).
         unit: shown after the description (``mm``).
         text: the description when the model checks more than the form (a parameter's bounds).
+        decimals: at most this many decimals shown; the value held keeps all of them.
     """
 
     whole: bool = False
@@ -74,6 +75,7 @@ class NumberForm:
     lo_open: bool = False
     unit: str = ""
     text: str | None = None
+    decimals: int = 6
 
     def describe(self) -> str:
         """``a whole number from 2 to 2000``, ``a number > 0 (mm)``, ..."""
@@ -162,7 +164,7 @@ class NumberField:
         self.handle.disabled = disabled
 
     def format(self, value: float) -> str:
-        return format_number(value, self.form.whole)
+        return format_number(value, self.form.whole, self.form.decimals)
 
     # The server's side ---------------------------------------------------------------------
 
@@ -181,13 +183,17 @@ class NumberField:
             text = self.handle.value
             if text != self._settled and time.time() - self.handle.update_timestamp < STALE_EDIT:
                 return
+            shown = self.format(value)
+            if text == shown:  # already shown (rounded to the form's decimals: not sent again each refresh)
+                self._settled = text
+                return
             try:
                 if self.form.parse(text) == value:
                     self._settled = text
                     return
             except ValueError:
                 pass
-            self._settled = self.format(value)
+            self._settled = shown
             set_value(self.handle, self._settled)
 
     def cancel(self) -> None:

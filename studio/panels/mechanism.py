@@ -41,12 +41,14 @@ def param_label(name: str, unit: str) -> str:
 
 def param_form(p: Param, k: float = 1.0) -> NumberForm:
     """What a parameter's field takes on a leg of scale ``k``; the model checks the bounds
-    (``studio.state.check_value``) and assembly."""
+    (``studio.state.check_value``) and assembly. Shown to 0.01 mm and 0.0001 rad (0.006 deg), as the paper's
+    tables give them: a run's picks read "100.609144" beside a preset's "128.33". Exports keep every digit."""
     if p.kind == "angle":
-        return NumberForm(text=f"an angle in {p.unit} (any number within ±1e6; angles are periodic)")
+        return NumberForm(text=f"an angle in {p.unit} (any number within ±1e6; angles are periodic)", decimals=4)
     what = "a length" if p.kind == "length" else "a number"
     lo, hi = entry_bounds(p, k)
-    return NumberForm(text=f"{what} in {p.unit} within its bounds [{lo:g}, {hi:g}] that keeps the design assembled")
+    return NumberForm(text=f"{what} in {p.unit} within its bounds [{lo:g}, {hi:g}] that keeps the design assembled",
+                      decimals=2 if p.unit == "mm" else 4)
 
 
 class MechanismPanel:
