@@ -460,7 +460,7 @@ class Studio:
                     design = r.pick(i)
         if design is not None:
             try:
-                session.set_design(design)
+                session.set_design(design, cause=f"{st.stage}'s pick")  # it read "Undo 15 parameters"
             except ValueError:
                 pass  # a member outside the parameters' hard limits stays listed but is not loaded
         self.refresh()
@@ -521,7 +521,7 @@ class Studio:
                     raise ValueError(f"{stage} has no result")
                 i = session.study.shown_member(stage)
                 if i is not None:  # first: if the design may not change now, the stage in view does not either
-                    session.set_design(r.pick(i))
+                    session.set_design(r.pick(i), cause=f"showing {stage}")
                 session.study.viewing = stage
                 session.study.touch()
         except ValueError as exc:

@@ -326,6 +326,7 @@ class Step:
     view: DesignView
     branch: Branch | None = None
     selection: Selection | None = None
+    cause: str = ""  # what made the change, when its diff says it badly ("subtask2's pick", not "15 parameters")
 
 
 @dataclass(frozen=True)
@@ -373,7 +374,7 @@ class Session:
             return self.view, self.playback, self.version
 
     def _commit(self, view: DesignView, keep_assembly: bool = False, into: list[Step] | None = None,
-                selection: Selection | None = None) -> DesignView:
+                selection: Selection | None = None, cause: str = "") -> DesignView:
         """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design.
         The replaced view, with the branch a topology switch kept, goes onto ``into``: by default the Undo history
         (and what was undone is forgotten); Undo and Redo pass each other's."""
@@ -391,7 +392,7 @@ class Session:
                 and not other_mode(pipe.start.mechanism, new)):  # the RTCLM's other mode: the same leg's stages
             kept = self.study.start_over(f"before switching to {new.title}")
         if view is not self.view:
-            self._remember(Step(self.view, kept, selection or self.study.selection()), into)
+            self._remember(Step(self.view, kept, selection or self.study.selection(), cause), into)
         self.view = view
         self.version += 1
         return view
@@ -439,7 +440,7 @@ class Session:
                 raise ValueError(f"a stage is running; stop it or wait before you {what} a pass-on")
             self._remember(Step(self.view, None, before), sink)
         else:
-            self._commit(step.view, into=sink, selection=before)
+            self._commit(step.view, into=sink, selection=before, cause=step.cause)
         if step.selection is not None:
             study.reselect(step.selection)
         source.pop()
@@ -452,7 +453,7 @@ class Session:
             if not stack:
                 return ""
             step, now = stack[-1], self.study.selection()
-            text = change_summary(self.view, step.view)
+            text = step.cause or change_summary(self.view, step.view)
             sel = step.selection if step.selection is not None and self.study.holds(step.selection) else None
             if sel is not None and (sel.picks, sel.next_stage) != (now.picks, now.next_stage):
                 text = " · ".join(t for t in (text, "pass-on") if t)
@@ -541,14 +542,16 @@ class Session:
             self._from_editor()
             return view
 
-    def set_design(self, design: Design, preset: str | None = None, by_hand: bool = False) -> DesignView:
+    def set_design(self, design: Design, preset: str | None = None, by_hand: bool = False,
+                   cause: str = "") -> DesignView:
         """Replace the whole design (a loaded file, a picked candidate); ValueError if malformed. ``by_hand``:
-        the designer brought it (a study's design), so the next run starts from it."""
+        the designer brought it (a study's design), so the next run starts from it. ``cause`` names the change
+        on the Undo button ("subtask2's pick")."""
         if design.pop != 1:
             raise ValueError(f"the studio shows one design at a time, got a population of {design.pop}")
         check_params(design.mechanism, design.params)
         with self.lock:
-            view = self._commit(self._rebuild(design, preset))
+            view = self._commit(self._rebuild(design, preset), cause=cause)
             if by_hand:
                 self._from_editor()
             return view
@@ -692,7 +695,7 @@ class Session:
             if target is None:
                 name = design.mechanism.name
                 target = self._target_for(name, opening_preset(name)) if presets_for(name) else None
-            return self._commit(self._rebuild(design, None, target))
+            return self._commit(self._rebuild(design, None, target), cause="branch restore")
 
     def restore(self, other: Session) -> None:
         """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""

@@ -274,3 +274,35 @@ def test_a_step_whose_selection_a_run_overtook_is_named_by_its_design_alone() ->
     run_stage(s, "subtask1", pop=12, gens=2)
     assert s.study.result("subtask1") is not None
     assert s.change_names("undo") == "r4"
+
+
+def test_undo_names_the_change_by_what_made_it_a_run_s_pick_a_shown_stage_or_a_restore() -> None:
+    # A rehearsal read "Undo 15 parameters" after a run ended and "Undo design" after a Stop: true, but it did not
+    # say that Undo takes back the run's pick.
+    import studio.app as app
+    from studio.chains import RunSettings
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        s = studio.session
+        nudge(s, "r4", 1.002)
+        s.study.settings["subtask1"] = RunSettings("subtask1", pop_size=12, n_gen=3, seed=5)
+        with s.lock:
+            s.study.next_stage = "subtask1"
+        assert studio.start_run()
+        studio.runner.join(60)
+        studio.refresh()
+        assert s.change_names("undo") == "subtask1's pick"
+        assert studio.mechanism.undo.label == "Undo subtask1's pick"
+        s.undo()
+        assert s.change_names("redo") == "subtask1's pick" and s.change_names("undo") == "r4"
+        s.redo()
+        s.set_param("r5", s.view.values["r5"] * 1.002)
+        studio.view_stage("subtask1", None)
+        assert s.change_names("undo") == "showing subtask1"
+        s.select_mechanism("watt1")  # keeps the Stephenson-I stages as a branch
+        studio.restore_branch(0, None)
+        assert s.change_names("undo") == "branch restore"
+        assert s.view.design.mechanism.name == "stephenson1"
+    finally:
+        studio.close()

@@ -132,7 +132,7 @@ class StudiesPanel:
         try:
             design, ran = picked(self._dir, run)
             with self.studio.session.lock:
-                self.studio.session.set_design(design, by_hand=True)
+                self.studio.session.set_design(design, by_hand=True, cause="study design")
                 current = self.studio.session.view.target
         except ValueError as exc:
             if event.client is not None:

@@ -35,3 +35,4 @@ def test_a_collaborator_finds_a_study_sees_its_boxes_and_loads_a_design(page: An
     want = picked_design(tmp_path / "tiny", runs[1])
     wait_for(lambda: np.array_equal(studio.session.view.design.params, want.params), "the design in the editor")
     expect(page.get_by_text("Design loaded")).to_be_visible()  # the editor changed: the page says whose design
+    expect(page.get_by_role("button", name="Undo study design")).to_be_visible()  # it read "Undo design"
