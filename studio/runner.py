@@ -104,7 +104,9 @@ class Runner:
             if cancel.is_set():
                 stage.cancel()
             result = stage.result()
-            if result.status in ("complete", "stopped") and result.pop > 0:
+            # A stopped run is picked as a finished one is: History's pick column stayed blank while the editor
+            # showed its first candidate.
+            if result.status in ("complete", "stopped", "cancelled") and result.pop > 0:
                 result = result.with_pick(studio_pick(result, plan))
             with self._lock:
                 pipe.record(k, result)

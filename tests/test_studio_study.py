@@ -205,6 +205,11 @@ def test_stop_ends_the_run_between_generations_and_keeps_the_partial_result(sess
     r = session.study.result("subtask1")
     assert r.status == "cancelled" and r.generation == 2 and r.pop == 8
     assert "stopped at generation 2/50" in session.study.status.message
+    # Picked as a finished run is: History's pick column was blank while the editor showed the stopped run's knee.
+    assert r.picked is not None and session.study.shown_member("subtask1") == r.picked
+    from studio.candidates import history_rows
+    row = history_rows([r], {}, ["subtask1"], {})[0]
+    assert row.pick == f"#{r.picked}" and row.values
 
 
 def test_a_failing_problem_is_reported_and_the_studio_stays_idle(session: Session,
