@@ -21,7 +21,7 @@ from core.formats.files import slug
 from core.formats.session import parse_json
 from studio.address import url_for
 from studio.candidates import candidates
-from studio.chains import ChainStage, chain_for, find, takes_target
+from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
 from studio.charts import png, stop_png_browser
 from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE, SceneFrames, inset_caption
@@ -44,6 +44,7 @@ from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
 from studio.session_file import save_session
 from studio.state import DesignView, Session
+from studio.study import unmet_by
 from studio.study_view import StudyView, study_view
 
 BRAND = (31, 119, 180)
@@ -510,6 +511,25 @@ class Studio:
             if client is not None:
                 self.notify(client, "Not passed on", str(exc))
         self.refresh()
+
+    def next_unmet(self, stage: str) -> tuple[str, list[str]]:
+        """The stage after ``stage`` and what its shown member misses of that stage's constraints, as that stage
+        would run now (its settings, the editor's target); ("", []) if none or it cannot be built."""
+        session = self.session
+        with session.lock:
+            study, chain = session.study, self.chain()
+            k, r, i = study.index(stage), study.result(stage), study.shown_member(stage)
+            names = study.stage_names()
+            if k is None or r is None or i is None or k + 1 >= len(names):
+                return "", []
+            nxt = next((c for c in chain if c.name == names[k + 1]), None)
+            if nxt is None:
+                return "", []
+            try:
+                spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
+            except ValueError:
+                return "", []
+            return nxt.name, unmet_by(r, i, spec.problem.constraints)
 
     def view_stage(self, stage: str, client: viser.ClientHandle | None) -> None:
         """Show a stage of the lineage again (its front, candidates, and its shown member animated)."""

@@ -537,8 +537,39 @@ def test_passing_on_an_infeasible_member_asks_first_and_a_feasible_one_does_not(
     press(panel.use, Client())
     assert asked == ["Pass on an infeasible member of subtask1?"] and used == []
     studio.session.study.shown["subtask1"] = good
+    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", []))
     press(panel.use, Client())
     assert asked == ["Pass on an infeasible member of subtask1?"] and used == ["subtask1"]
+    # Feasible here, but it misses the next stage's constraints: asked too (a rehearsal passed subtask 2's K3 with
+    # I = 30.2 on to subtask 3, I <= 20, and its run began with no feasible member).
+    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", ["mse 7.1 > 6"]))
+    press(panel.use, Client())
+    assert asked[-1] == "Pass on a member that misses subtask2's constraints?" and used == ["subtask1"]
+
+
+def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s_mask(studio):
+    from core.optimize.lineage import next_feasible
+    from studio.chains import find, stage_spec
+    from studio.study import unmet_by
+
+    stage_runs.run_stage(studio.session, "subtask1", pop=24, gens=3, seed=3)
+    study = studio.session.study
+    r = study.result("subtask1")
+    nxt = find(studio.chain(), "subtask2")
+    problem = stage_spec(nxt, study.settings_for(nxt), studio.session.view.target).problem
+    ok = next_feasible(r, problem)
+    seen = set()
+    for i in np.flatnonzero(r.feasible):
+        study.shown["subtask1"] = int(i)
+        name, missed = studio.next_unmet("subtask1")
+        assert name == "subtask2" and missed == unmet_by(r, int(i), problem.constraints)
+        assert (not missed) == bool(ok[i]), (i, missed)
+        seen.add(bool(missed))
+        for text in missed:  # "mse 7.1 > 6": the member's value and the limit it passes
+            metric, value, op, bound = text.split()
+            assert op == ">" and float(value) > float(bound) and metric in r.metrics
+    assert seen == {True, False}  # both kinds of member were met
+    assert studio.next_unmet("subtask3") == ("", [])  # no result there
 
 
 def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760_with_its_chart_whole():

@@ -177,4 +177,13 @@ class PickPanel:
                     f"#{i} does not meet {stage}'s constraints: **{'; '.join(unmet)}**.\n\nThe next stage will "
                     "search around it anyway.", "Pass it on", lambda: self.studio.use_for_next(stage, client))
             return
+        # A member that meets this stage's constraints may miss the next one's (subtask 2's K3 with I = 30.2 passed
+        # to subtask 3, I <= 20): its run then starts with no feasible member. The automatic pick avoids that.
+        nxt, missed = self.studio.next_unmet(stage)
+        if missed and client is not None:
+            confirm(client, f"Pass on a member that misses {nxt}'s constraints?",
+                    f"#{i} meets {stage}'s constraints but not {nxt}'s: **{'; '.join(missed)}**.\n\n{nxt} will "
+                    "search around it; its first generations may have no feasible member.", "Pass it on",
+                    lambda: self.studio.use_for_next(stage, client))
+            return
         self.studio.use_for_next(stage, client)

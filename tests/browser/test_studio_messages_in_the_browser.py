@@ -30,6 +30,7 @@ from test_studio_stages_in_the_browser import (
     expand,
     field,
     notification,
+    pass_on,
     run_stage,
     wait_for,
 )
@@ -231,7 +232,7 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
     assert f"target {target}" in html or f"target {target.split(':', 1)[-1]}" in html or "target cycloid" in html
 
     # Once passed on, the member keeps a "passed on" ring when another one is picked to look at.
-    page.get_by_role("button", name="Use for next stage", exact=True).click()
+    pass_on(page, studio, "subtask2")
     expect(page.get_by_label("Stage", exact=True)).to_have_value(SUBTASK3)
     choose(page, "Candidate", next(c.label for c in candidates(r) if c.member == first))
     wait_for(lambda: "passed on" in (page.evaluate(PLOT_NAMES_JS, title) or []), "the passed-on ring")

@@ -133,6 +133,18 @@ def expect_params(page: Any, design: Any) -> None:
     wait_for(shows, "the page to show the design")
 
 
+def pass_on(page: Any, studio: Any, stage: str) -> None:
+    """Press "Use for next stage"; a shown member that misses the next stage's constraints is passed on through the
+    prompt that asks first (it names them)."""
+    nxt, missed = studio.next_unmet(stage)
+    page.get_by_role("button", name="Use for next stage", exact=True).click()
+    if missed:
+        dialog = page.get_by_role("dialog")
+        expect(dialog).to_contain_text(f"misses {nxt}'s constraints")
+        expect(dialog).to_contain_text(missed[0])
+        dialog.get_by_role("button", name="Pass it on").click()
+
+
 def notification(page: Any, title: str, reason: str) -> Any:
     return page.locator(".mantine-Notification-root").filter(has_text=title).filter(has_text=reason).first
 
@@ -192,7 +204,7 @@ def test_picking_a_candidate_animates_it_and_use_for_next_stage_starts_there(pag
     wait_for(lambda: canvas.screenshot() != before, "the scene to show the picked candidate")
     assert studio.session.study.result("subtask2").picked == r2.picked  # shown, not yet passed on
 
-    page.get_by_role("button", name="Use for next stage", exact=True).click()
+    pass_on(page, studio, "subtask2")
     expect(page.get_by_label("Stage", exact=True)).to_have_value(SUBTASK3)
     expect(page.get_by_label("Start from", exact=True)).to_have_value("the previous stage's pick")
     assert studio.session.study.result("subtask2").picked == other.member
