@@ -798,3 +798,29 @@ def test_the_trace_chart_grows_with_its_legend() -> None:
 
     # CMOEMT's four lines shrank the plot to ~100 px under the legend in the side panel.
     assert trace_aspect(1) == trace_aspect(2) == 0.8 and trace_aspect(4) > trace_aspect(3) > 0.8
+
+
+def test_a_three_objective_front_with_flat_objectives_opens_on_a_projection_once(studio):
+    from studio.panels.pareto import THREE_D, flat_view
+
+    F = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [np.nan, 5.0, 1.0]])
+    names = ("f1", "f2", "f3")
+    assert flat_view(F, names) == "f1 vs f2"  # the NaN row is not drawn, so it does not count
+    assert flat_view(F[:, [1, 0, 2]][:2], names) == "f1 vs f2"  # only f2 varies: it and the first flat one
+    assert flat_view(np.array([[0.0, 1.0, 2.0], [0.0, 2.0, 1.0]]), names) == "f2 vs f3"
+    assert flat_view(np.array([[1.0, 1.0, 2.0], [0.0, 2.0, 1.0]]), names) is None
+    # Subtask 1's front is one design with f2 = f3 = 0 for every member: the 3-D chart was one diamond in an
+    # empty box. It opens on f1 against f2, and the caption says why; a designer's later choice of 3-D stays.
+    stage_runs.run_stage(studio.session, "subtask1", pop=40, gens=10)
+    r = studio.session.study.result("subtask1")
+    assert (r.F[np.isfinite(r.F).all(axis=1), 1:] == 0).all()  # converged: placement meets f2 and f3
+    with studio.session.lock:
+        studio.session.study.viewing = "subtask1"
+        studio.session.study.touch()
+    panel = studio.pareto
+    studio.refresh()
+    assert panel.view.value == "f1 vs f2" and panel.axes() == (0, 1)
+    assert "f2 = 0 and f3 = 0 for every member" in panel.caption.content
+    press(panel.view, Client(), THREE_D)
+    studio.refresh()
+    assert panel.view.value == THREE_D and panel.axes() is None

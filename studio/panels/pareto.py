@@ -10,11 +10,13 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
+import numpy as np
 import plotly.graph_objects as go
 import viser
 
 from studio.charts import chart_title, target_text
 from studio.figures import compact_3d, make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
+from studio.panels._inputs import set_value
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import algorithm_name, status_text
 from studio.study_view import StudyView
@@ -128,6 +130,33 @@ def projections(objectives: tuple[str, ...]) -> dict[str, tuple[int, int] | None
     return out
 
 
+def flat_view(F: np.ndarray, objectives: tuple[str, ...]) -> str | None:
+    """The projection to open on when one of the first three objectives is the same for every drawn member (subtask
+    1's f2 = f3 = 0: placement meets them exactly), and which: the 3-D cloud was one diamond in an empty box. None
+    when all three vary (or nothing is drawn)."""
+    G = F[:, :3]
+    G = G[np.isfinite(G).all(axis=1)]
+    if len(objectives) < 3 or len(G) == 0:
+        return None
+    varies = [bool(np.ptp(G[:, k]) > 0) for k in range(3)]
+    if all(varies):
+        return None
+    a = next((k for k in range(3) if varies[k]), 0)
+    b = next((k for k in range(3) if k != a and varies[k]), next(k for k in range(3) if k != a))
+    a, b = sorted((a, b))
+    return f"{objectives[a]} vs {objectives[b]}"
+
+
+def same_for_all(F: np.ndarray, objectives: tuple[str, ...]) -> str:
+    """``f2 = 0 and f3 = 0 for every member``: the first three objectives that do not vary, with their value."""
+    G = F[:, :3]
+    G = G[np.isfinite(G).all(axis=1)]
+    if len(G) == 0:
+        return ""
+    flat = [f"{objectives[k]} = {float(G[0, k]):.3g}" for k in range(min(3, G.shape[1])) if np.ptp(G[:, k]) == 0]
+    return f"{' and '.join(flat)} for every member" if flat else ""
+
+
 class ParetoPanel:
     """A plotly chart of the shown stage, a View choice (3-D or a projection) for three objectives, a large
     floating copy of the chart, the algorithm's trace, and a caption."""
@@ -136,6 +165,7 @@ class ParetoPanel:
         self.studio = studio
         gui = studio.server.gui
         self._key: object = None
+        self._flat_for: tuple[object, ...] = ()  # the run the View last opened on a projection for (flat_view)
         self._drawn_at = 0.0
         self._sv: StudyView | None = None
         # per page that opened it: its window, chart, and title line length
@@ -191,6 +221,11 @@ class ParetoPanel:
         if tuple(self.view.options) != options:
             self.view.options = options
         self.view.visible = n >= 3
+        flat = None if r is None or n < 3 else flat_view(r.F, r.objectives)
+        run = (sv.viewing, id(sv.specs.get(sv.viewing or "")))  # a run's spec: the same through its generations
+        if flat is not None and run != self._flat_for and self.axes() is None:
+            self._flat_for = run  # once per run: the designer may still choose the 3-D cloud
+            set_value(self.view, flat)
         fig = pareto_figure(sv, self.axes())
         if fig is None:
             # The trace goes with its chart: a previous stage's or topology's would sit under "no result".
@@ -218,6 +253,8 @@ class ParetoPanel:
             spec = sv.specs.get(sv.viewing) if sv.viewing is not None else None
             labels = dict(spec.problem.labels) if spec is not None else {}
             what += ": " + " · ".join(objective_label(o, labels) for o in r.objectives[:3])
+        if n >= 3 and r is not None and (same := same_for_all(r.F, r.objectives)):
+            what += f"; {same}"
         self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
 
     def charts(self) -> tuple[LazyPlotly, ...]:
