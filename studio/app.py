@@ -24,7 +24,7 @@ from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
 from studio.charts import png, stop_png_browser
 from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
-from studio.frames import DEFAULT_ASPECT, FPS, INSET_NOTE, SceneFrames, inset_caption
+from studio.frames import DEFAULT_ASPECT, FPS, INSET_EXPORT_TITLE, INSET_NOTE, INSET_TITLE, SceneFrames, inset_caption
 from studio.geometry import SCENE_SCALE, frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
 from studio.pacer import Pacer
@@ -608,7 +608,13 @@ class Studio:
 
     def scene_file(self) -> tuple[str, bytes]:
         view = self.session.view
-        html = self.scene.record_html(view.target.period)
+        # Nothing can be picked in a recording: its inset is titled without "(click to pick)" while it is made.
+        title = self.inset.title
+        title.text = INSET_EXPORT_TITLE
+        try:
+            html = self.scene.record_html(view.target.period)
+        finally:
+            title.text = INSET_TITLE
         return f"{slug(view.preset or view.design.mechanism.name)}-scene.html", html.encode()
 
     def load_session_bytes(self, name: str, content: bytes, client: viser.ClientHandle | None) -> bool:

@@ -47,6 +47,7 @@ Z_LINES, Z_MARKERS = 0.0005, 0.001
 DESIGN_TITLE = "Mechanism (design frame)"
 LEG_TITLE = "Bench trajectory (leg frame)"
 INSET_TITLE = "Candidates (click to pick)"
+INSET_EXPORT_TITLE = "Candidates"  # the scene's HTML recording: nothing can be picked in it
 INSET_NOTE = "after a run: its knee candidates\n(K1 ...) and best members"
 # The room the layout keeps under the inset for its note or its axes caption (``inset_caption``): three lines of
 # this many characters. The caption was one line of up to 60 and ran past the canvas on a 1024-pixel screen.

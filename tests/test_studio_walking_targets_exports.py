@@ -208,6 +208,30 @@ def test_the_pareto_html_is_self_contained() -> None:
     assert not re.search(r"<script[^>]+src=", page)  # plotly.js is inlined, nothing is fetched
 
 
+def recorded(page: str) -> list[dict]:
+    """The scene messages a viser HTML export embeds (base64 of a length and a zstd frame holding a length, the
+    msgpack of the messages and their binary buffers)."""
+    import base64
+
+    import msgspec
+    import zstandard
+
+    data = base64.b64decode(re.search(r'__VISER_EMBED_DATA__="([^"]+)"', page).group(1))
+    raw = zstandard.ZstdDecompressor().decompress(data[8:], max_output_size=1 << 28)
+    n = int.from_bytes(raw[:8], "little")
+    return [m for _, m in msgspec.msgpack.decode(raw[8 : 8 + n])["messages"]]
+
+
+def label_text(messages: list[dict], name: str) -> str:
+    """A label's text once the recording's messages are played: its creation's, then its updates'."""
+    text = ""
+    for m in messages:
+        if m.get("name") == name:
+            text = m.get("props", {}).get("text", text) if m["type"] == "LabelMessage" else text
+            text = m.get("updates", {}).get("text", text)
+    return text
+
+
 def test_the_scene_export_is_a_self_contained_viser_page_of_the_animation() -> None:
     from studio.app import Studio
 
@@ -218,5 +242,10 @@ def test_the_scene_export_is_a_self_contained_viser_page_of_the_animation() -> N
         assert name.endswith("-scene.html")
         assert "window.__VISER_EMBED_DATA__=" in page
         assert not re.search(r"<script[^>]+src=[\"']https?:", page)
+        # Nothing can be picked in the recording: its inset is not titled "(click to pick)"; the live one still is.
+        messages = recorded(page)
+        assert label_text(messages, "/candidates/title") == "Candidates"
+        assert label_text(messages, "/texts/design_title").startswith("Mechanism")  # the reading itself is right
+        assert studio.inset.title.text == "Candidates (click to pick)"
     finally:
         studio.close()
