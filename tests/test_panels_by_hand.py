@@ -86,9 +86,13 @@ def test_an_uploaded_curve_becomes_the_target_and_back_to_the_cycloid_is_enabled
     assert not panel.cycloid.disabled
     # x,y rows only: no time law, so the status says how it is compared.
     assert "(no times: compared at the best cyclic shift)" in panel.status.content
+    # The cycloid's fields are hidden meanwhile: "L = 300, H = 100" beside a curve read as the curve's size.
+    cycloid = [panel.inputs[k].handle for k in ("length", "height", "period")]
+    assert not any(h.visible for h in cycloid)
     press(panel.cycloid, c)
     assert not studio.session.view.target.is_curve and panel.cycloid.disabled
     assert "no times" not in panel.status.content
+    assert all(h.visible for h in cycloid) and studio.session.view.target.length == 300.0  # kept meanwhile
 
 
 @pytest.mark.parametrize(("scale", "spans"), [(1000.0, "200,000 mm"), (0.001, "0.2 mm")], ids=["um", "m"])

@@ -31,7 +31,7 @@ HEIGHTS = (("h6", "h6 target [mm]", "the primary mode's step height h6, rtclm1's
 
 
 class TargetPanel:
-    """Number fields for the cycloid (editing one returns to the cycloid), a CSV upload, and a status line."""
+    """Number fields for the cycloid (hidden while a curve is the target), a CSV upload, and a status line."""
 
     def __init__(self, studio: Studio, order: float) -> None:
         self.studio = studio
@@ -82,8 +82,9 @@ class TargetPanel:
         rtclm = is_rtclm(view.design.mechanism.name)
         for key, field in self.inputs.items():
             field.show(float(getattr(t, key)))
-            if key in ("h6", "h4"):
-                field.handle.visible = rtclm
+            # The cycloid's L, H and T are hidden while a curve is the target: "L = 300, H = 100" read as the
+            # curve's size. The cycloid keeps them; "Back to the compound cycloid" shows them again.
+            field.handle.visible = rtclm if key in ("h6", "h4") else not t.is_curve
         self.cycloid.disabled = not t.is_curve
         note = "" if t.has_time else " (no times: compared at the best cyclic shift)"
         line = f"Target: {t.label()}{note}, in the design frame."

@@ -116,9 +116,12 @@ def test_a_population_of_1e9_is_refused_not_silently_read_as_19(page: Any, studi
 
 def test_a_value_set_by_the_server_shows_in_the_field_without_an_edit(page: Any, studio: Any) -> None:
     box = field(page, "r4 [mm]")
-    studio.session.set_param("r4", 129.125)
+    studio.session.set_param("r4", 129.25)
     studio.refresh()
-    expect(box).to_have_value("129.125")
+    expect(box).to_have_value("129.25")
+    studio.session.set_param("r4", 129.609144)  # a run's pick: shown to 0.01 mm, as a preset's values are
+    studio.refresh()
+    expect(box).to_have_value("129.61")
     studio.session.set_param("r4", 130.0)
     studio.refresh()
     expect(box).to_have_value("130")  # whole values without ".0"
@@ -173,8 +176,10 @@ def test_a_foot_path_uploaded_in_the_leg_frame_becomes_the_design_frame_target(
     np.testing.assert_allclose(out.apply(np.array(curve.points)), foot, atol=1e-5)
     assert max(y for _, y in curve.points) <= 1e-9  # in the design frame the swing hangs below, as the cycloid's
     expect(page.get_by_text(re.compile(r"Target: curve foot\.csv .*in the design frame"))).to_be_visible()
+    expect(field(page, "L [mm]")).to_be_hidden()  # the cycloid's size beside a curve read as the curve's
     page.get_by_role("button", name="Back to the compound cycloid").click()
     wait_for(lambda: not studio.session.view.target.is_curve, "the cycloid back")
+    expect(field(page, "L [mm]")).to_be_visible()
     choose(page, "CSV frame", "design frame (mechanism view)")
     close_notices(page)
 

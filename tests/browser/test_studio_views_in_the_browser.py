@@ -59,10 +59,12 @@ def close_notices(page: Any) -> None:
 
 
 def open_target_panel(page: Any) -> None:
-    """Open the (collapsed by default) Target panel, unless an earlier test left it open."""
-    if not field(page, "L [mm]").is_visible():
+    """Open the (collapsed by default) Target panel, unless an earlier test left it open (L, H and T are hidden
+    while a curve is the target: its upload button says it is open)."""
+    upload = page.get_by_role("button", name="Upload CSV curve")
+    if not upload.is_visible():
         expand(page, "Target")
-    expect(field(page, "L [mm]")).to_be_visible()
+    expect(upload).to_be_visible()
 
 
 def bench(page: Any) -> dict[str, Any]:
