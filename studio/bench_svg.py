@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from studio import palette
+from studio.spots import Box, cover, spill
 
 F64 = NDArray[np.float64]
 WIDTH = 320.0  # viewBox width (px); the chart scales to the panel's width
@@ -112,7 +113,6 @@ SPOTS = ((0.0, -7.0, "middle"), (0.0, 15.0, "middle"), (6.0, 4.0, "start"), (-6.
          (5.0, -6.0, "start"), (-5.0, -6.0, "end"), (5.0, 14.0, "start"), (-5.0, 14.0, "end"),
          (0.0, -18.0, "middle"), (0.0, 26.0, "middle"))
 
-Box = tuple[float, float, float, float]
 
 
 def label_box(x: float, y: float, anchor: str, text: str) -> Box:
@@ -120,10 +120,6 @@ def label_box(x: float, y: float, anchor: str, text: str) -> Box:
     w = CHAR_W * len(text)
     x0 = x - w / 2 if anchor == "middle" else x if anchor == "start" else x - w
     return x0, y - ASCENT, x0 + w, y + DESCENT
-
-
-def _cover(a: Box, b: Box) -> float:
-    return max(0.0, min(a[2], b[2]) - max(a[0], b[0])) * max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
 
 
 def label_spots(points: list[tuple[float, float]], texts: list[str], bounds: Box) -> list[tuple[float, float, str]]:
@@ -138,9 +134,7 @@ def label_spots(points: list[tuple[float, float]], texts: list[str], bounds: Box
 
     def cost(k: int, spot: tuple[float, float, str], others: list[Box]) -> float:
         box = label_box(*spot, texts[k])
-        c = 10.0 * sum(_cover(box, o) for o in others)
-        c += 8.0 * (max(0.0, bounds[0] - box[0]) + max(0.0, box[2] - bounds[2]) + max(0.0, bounds[1] - box[1])
-                    + max(0.0, box[3] - bounds[3]))
+        c = 10.0 * sum(cover(box, o) for o in others) + 8.0 * spill(box, bounds)
         # Nearer another point than its own, a label reads as that point's.
         cx, cy = 0.5 * (box[0] + box[2]), 0.5 * (box[1] + box[3])
         x, y = points[k]

@@ -15,6 +15,7 @@ import plotly.graph_objects as go
 from numpy.typing import NDArray
 
 from studio import palette
+from studio.spots import Box, first_clear, least_cover, spill
 
 F64 = NDArray[np.float64]
 
@@ -40,7 +41,7 @@ POSITIONS = ("top center", "bottom center", "middle right", "middle left", "top 
              "bottom left")
 
 
-def _label_box(x: float, y: float, text: str, position: str) -> tuple[float, float, float, float]:
+def _label_box(x: float, y: float, text: str, position: str) -> Box:
     """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker at (x, y), as plotly's ``textposition`` puts it."""
     w, h, r = CHAR_PX * len(text) + 2.0, LINE_PX, MARKER_PX
     vert, horiz = position.split(" ")
@@ -52,39 +53,33 @@ def _label_box(x: float, y: float, text: str, position: str) -> tuple[float, flo
     return cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2
 
 
-def _overlaps(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
-
-
 def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[float]]) -> list[str | None]:
     """A ``textposition`` for each labelled point ``(n, 2)`` (in priority order), or None where every position
     would cover a label placed before it (hover still names it). A position is first sought inside the plot area and
-    clear of the labelled markers too, then inside the plot area over a marker (a label past the edge is cut), then
-    clear of labels only."""
+    clear of the labelled markers too, then inside the plot area over as little of them as it can (the first free
+    one printed "best I" across K5's diamond beside a spot that grazed it), then clear of labels only (a label past
+    the edge is cut)."""
     (x0, x1), (y0, y1) = ranges
     px = np.column_stack([(xy[:, 0] - x0) / max(x1 - x0, 1e-300) * PLOT_PX[0],
                           (xy[:, 1] - y0) / max(y1 - y0, 1e-300) * PLOT_PX[1]])
     r = MARKER_PX
+    plot: Box = (0.0, 0.0, PLOT_PX[0], PLOT_PX[1])
     markers = [(x - r, y - r, x + r, y + r) for x, y in px if np.isfinite(x) and np.isfinite(y)]
-    labels: list[tuple[float, float, float, float]] = []
+    labels: list[Box] = []
     out: list[str | None] = []
     for (x, y), text in zip(px, texts, strict=True):
         chosen = None
         if np.isfinite(x) and np.isfinite(y):
             own = (x - r, y - r, x + r, y + r)
-            for strict in (2, 1, 0):  # inside and clear of markers; inside (over a marker); anywhere
-                for pos in POSITIONS:
-                    box = _label_box(x, y, text, pos)
-                    if any(_overlaps(box, b) for b in labels):
-                        continue
-                    inside = box[0] >= 0 and box[1] >= 0 and box[2] <= PLOT_PX[0] and box[3] <= PLOT_PX[1]
-                    if strict and not inside or strict == 2 and any(_overlaps(box, m) for m in markers if m != own):
-                        continue
-                    chosen = pos
-                    labels.append(box)
-                    break
-                if chosen:
-                    break
+            others = [m for m in markers if m != own]
+            boxes = {pos: _label_box(x, y, text, pos) for pos in POSITIONS}
+            free = [pos for pos in POSITIONS if first_clear([boxes[pos]], labels) is not None]
+            inside = [pos for pos in free if spill(boxes[pos], plot) == 0.0]
+            clear = [pos for pos in inside if first_clear([boxes[pos]], others) is not None]
+            least = least_cover([boxes[pos] for pos in inside], others)
+            chosen = clear[0] if clear else inside[least] if least is not None else free[0] if free else None
+            if chosen is not None:
+                labels.append(boxes[chosen])
         out.append(chosen)
     return out
 

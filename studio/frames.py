@@ -32,6 +32,7 @@ from studio.geometry import (
     nice_step,
     to_scene,
 )
+from studio.spots import first_clear
 from studio.state import DesignView
 from studio.walking import WalkFrames
 
@@ -118,10 +119,6 @@ def scale_bar(x0: float, y: float, span: float, h: float, key: str) -> tuple[F64
     return seg, _text(key, f"{length:g} mm", x0 + length + 0.5 * h, y, "center-left", SMALL_TEXT * h)
 
 
-def _overlaps(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
-
-
 def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: float,
                   offset: F64) -> tuple[SceneText, ...]:
     """Feature-point labels in the leg view (``h`` mm high): points closer than a label's height print as one
@@ -140,7 +137,8 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
         spots = [(x, y + 0.4 * h, "bottom-center"), (x, y - 0.4 * h, "top-center"),
                  (x + 0.6 * h, y, "center-left"), (x - 0.6 * h, y, "center-right")]
         tries = [_text(f"feature_{k}", text, sx, sy, a, h, offset) for sx, sy, a in spots]
-        out.append(next((t for t in tries if not any(_overlaps(t.box, o.box) for o in out)), tries[0]))
+        free = first_clear([t.box for t in tries], [o.box for o in out])
+        out.append(tries[0 if free is None else free])
     return tuple(out)
 
 
@@ -167,7 +165,8 @@ def marker_texts(markers: tuple[tuple[str, tuple[float, float]], ...], h: float,
                  (x - g, y, "center-right")]
         tries = [_text(f"tag_{k}", tag, sx, sy, a, h) for sx, sy, a in spots]
         others = placed + [d for j, d in enumerate(discs) if j != k]
-        got = next((t for t in tries if not any(_overlaps(t.box, o) for o in others)), None)
+        free = first_clear([t.box for t in tries], others)
+        got = None if free is None else tries[free]
         out.append(got)
         if got is not None:
             placed.append(got.box)

@@ -370,7 +370,8 @@ def test_feature_points_that_would_print_over_each_other_share_one_label():
 
 
 def test_candidate_labels_never_cover_each_other_or_another_sphere():
-    from studio.frames import _overlaps, marker_texts
+    from studio.frames import marker_texts
+    from studio.spots import overlaps as _overlaps
 
     # Three spheres nearly on top of each other at the front's end, one alone (the README picture's K6, best I, K8).
     markers = (("K1", (0.0, 0.0)), ("K6", (50.0, 0.0)), ("best I", (53.0, 0.5)), ("K8", (56.0, 0.0)))

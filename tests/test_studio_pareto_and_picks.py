@@ -225,7 +225,8 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
     # A front crowded into a corner of the chart by far dominated members (seen with MOEA/D-CMT's predesign): every
     # label "top center" printed K1..K5 and "best ..." over each other. Now each takes the first position clear of
     # the labels before it (K1 first); one that finds none is left to the hover, which names every candidate.
-    from studio.figures import _label_box, _overlaps, place_labels
+    from studio.figures import _label_box, place_labels
+    from studio.spots import overlaps as _overlaps
 
     rng = np.random.default_rng(3)
     front = np.column_stack([0.012 + 0.004 * np.linspace(0, 1, 8), 6.0 - 2.0 * np.linspace(0, 1, 8) ** 0.5])

@@ -1,0 +1,36 @@
+"""Where a label goes: boxes ``(x0, y0, x1, y1)`` tried in order against boxes already taken (other labels,
+markers). One set of rules for the studio's three label placers: the bench chart's (``studio.bench_svg``), the
+Pareto chart's (``studio.figures``) and the scene's (``studio.frames``); each keeps its own tries and order."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+Box = tuple[float, float, float, float]
+
+
+def overlaps(a: Box, b: Box) -> bool:
+    """True if the boxes share some area (touching edges do not)."""
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def cover(a: Box, b: Box) -> float:
+    """The area the boxes share."""
+    return max(0.0, min(a[2], b[2]) - max(a[0], b[0])) * max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+
+
+def spill(box: Box, bounds: Box) -> float:
+    """How far ``box`` reaches past ``bounds``, summed over its four sides (0 inside)."""
+    return (max(0.0, bounds[0] - box[0]) + max(0.0, box[2] - bounds[2]) + max(0.0, bounds[1] - box[1])
+            + max(0.0, box[3] - bounds[3]))
+
+
+def first_clear(tries: Sequence[Box], taken: Sequence[Box]) -> int | None:
+    """The index of the first box of ``tries`` that overlaps none of ``taken``; None if each overlaps one."""
+    return next((k for k, box in enumerate(tries) if not any(overlaps(box, t) for t in taken)), None)
+
+
+def least_cover(tries: Sequence[Box], taken: Sequence[Box]) -> int | None:
+    """The index of the box of ``tries`` that covers least of ``taken`` (the first among equals); None if no tries."""
+    costs = [sum(cover(box, t) for t in taken) for box in tries]
+    return min(range(len(costs)), key=costs.__getitem__) if costs else None
