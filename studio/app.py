@@ -71,6 +71,7 @@ REQUEST_HOLD_MAX = 2.0
 # A page whose canvas aspect changed by more than this (a resized window), its camera not moved by the designer,
 # is framed again: a demo moved to a projector's resolution cut the mechanism and slid the inset under the panel.
 RESIZE = 0.02
+FIT_LATEST = 4.0  # s after connecting: a page not framed yet is framed with the aspect it last reported
 
 
 def later(delay: float, fn: Any, *args: Any) -> None:
@@ -322,7 +323,10 @@ class Studio:
         aspect, pos = framed
         here = np.asarray(cam.position, dtype=np.float64)
         moved = not np.allclose(here, pos, rtol=0.0, atol=1e-3 * max(1e-9, float(np.linalg.norm(pos))))
-        return not moved and abs(cam.aspect / aspect - 1.0) > RESIZE
+        # A report sent before the page applied its framing still shows the initial camera: not the designer's move.
+        # (Taken for one, the canvas's final size went unframed: a tall design's top was cut after a reload.)
+        early = np.allclose(here, self.server.initial_camera.position, atol=1e-4)
+        return (not moved or early) and abs(cam.aspect / aspect - 1.0) > RESIZE
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         """Refit the views to this client's canvas once it shows the initial camera.
@@ -349,8 +353,15 @@ class Studio:
                 # The page has drawn: now its charts (and with them plotly.js) can follow without holding it up.
                 later(PLOTLY_AFTER, self._attach_charts, client)
 
+        def unfitted() -> None:  # a page whose reports never showed the initial camera is framed all the same
+            if not fitted.is_set() and client.client_id in self.server.get_clients():
+                fitted.set()
+                self._loading.pop(client.client_id, None)
+                self._fit_client(client)
+
         client.camera.on_update(on_camera)
         later(PLOTLY_LATEST, self._attach_charts, client)  # a page that reports no camera
+        later(FIT_LATEST, unfitted)
 
     def _attach_charts(self, client: viser.ClientHandle) -> None:
         """Give a page that has drawn its plotly charts (studio/panels/_lazy.py); once per page."""

@@ -5,6 +5,8 @@ the pages still there get every figure."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import plotly.graph_objects as go
 import pytest
@@ -14,6 +16,7 @@ from viser import _messages
 from studio import pacer as pacer_module
 from studio.pacer import Pacer
 from studio.panels._lazy import LazyPlotly
+from studio.state import Session
 
 
 class FakeClient:
@@ -217,5 +220,27 @@ def test_every_line_and_point_cloud_carries_a_colour_per_vertex(preset):
             for node in nodes:
                 points, colors = np.asarray(node.points), np.asarray(node.colors)
                 assert colors.dtype == np.uint8 and colors.shape == points.shape[:-1] + (3,), node.name
+    finally:
+        studio.close()
+
+
+def test_a_canvas_resized_before_the_page_applied_its_framing_is_framed_again() -> None:
+    # After a reload a tall design's top was cut off: the page's report of its final canvas size still showed the
+    # initial camera (our framing not applied yet), which read as the designer's own move, so it was never refitted.
+    from studio.app import Studio
+
+    studio = Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        initial = np.asarray(studio.server.initial_camera.position, dtype=np.float64)
+        framed = initial + np.array([0.0, 0.05, 0.2])
+        studio._framed[5] = (1.6, framed)
+
+        def report(position: np.ndarray, aspect: float) -> bool:
+            return studio._resized(5, SimpleNamespace(position=position, aspect=aspect))
+
+        assert report(initial, 0.8)  # the early report: framed again for the canvas it gives
+        assert report(framed, 0.8)  # at our framing, the window resized
+        assert not report(framed, 1.6) and not report(initial, 1.6)  # nothing changed shape
+        assert not report(framed + np.array([0.3, 0.0, 0.0]), 0.8)  # the designer moved the camera: left alone
     finally:
         studio.close()
