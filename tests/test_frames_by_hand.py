@@ -14,7 +14,6 @@ from studio import palette
 from studio.frames import (
     TEXT_SCALE,
     SceneText,
-    _overlaps,
     _text,
     build_frames,
     feature_texts,
@@ -26,6 +25,7 @@ from studio.frames import (
     vertex_colours,
 )
 from studio.geometry import EDGE_CRANK, EDGE_GROUND, EDGE_LINK, SCENE_SCALE, link_edges
+from studio.spots import overlaps as _overlaps
 from studio.state import Session, build_view
 
 S = SCENE_SCALE

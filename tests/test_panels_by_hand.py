@@ -611,11 +611,17 @@ def test_three_objectives_offer_the_3d_cloud_and_each_pair_of_the_first_three():
 def test_the_pareto_caption_says_what_is_drawn(studio, front):
     import dataclasses
 
+    from studio.panels.pareto import THREE_D
+
     panel = studio.pareto
     sv = front.view(3)
     panel._key = None
     panel.show(sv)
+    # The hand-made front has f3 = 1 for every member: it opens on f1 against f2 and says so; 3-D on request.
+    assert panel.caption.content == "**subtask1** (f1 vs f2; f3 = 1 for every member). Camera icon: save as PNG."
+    press(panel.view, Client(), THREE_D)
     assert panel.caption.content.startswith("**subtask1** (3-D: f1 = MSE (mm) · ")
+    assert panel.caption.content.endswith("; f3 = 1 for every member). Camera icon: save as PNG.")
     F2 = front.result.F[:, :2]
     two = dataclasses.replace(front.result, objectives=("f1", "f2"), F=F2)
     panel._key = None

@@ -31,8 +31,9 @@ def test_a_pareto_label_takes_a_clear_spot_inside_else_the_one_over_least_of_the
     px = xy * np.array(PLOT_PX)
     r, plot = MARKER_PX, (0.0, 0.0, *PLOT_PX)
     labels = []
-    for k, ((x, y), text, pos) in enumerate(zip(px, texts, got, strict=True)):
-        others = [(qx - r, qy - r, qx + r, qy + r) for j, (qx, qy) in enumerate(px) if j != k]
+    for (x, y), text, pos in zip(px, texts, got, strict=True):
+        own = (x - r, y - r, x + r, y + r)  # a marker on the same spot is its own: no label can avoid it
+        others = [m for m in ((qx - r, qy - r, qx + r, qy + r) for qx, qy in px) if m != own]
         boxes = {p: _label_box(x, y, text, p) for p in POSITIONS}
         free = [p for p in POSITIONS if not any(overlaps(boxes[p], b) for b in labels)]
         inside = [p for p in free if spill(boxes[p], plot) == 0.0]
