@@ -15,7 +15,7 @@ import plotly.graph_objects as go
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.spots import Box, first_clear, least_cover, spill
+from studio.spots import Box, cover, first_clear, spill
 
 F64 = NDArray[np.float64]
 
@@ -37,12 +37,43 @@ def _axis_range(values: F64, focus: F64) -> list[float] | None:
 # more room): the positions tried in order, a label's size, and the marker it sits beside.
 PLOT_PX = (240.0, 190.0)
 CHAR_PX, LINE_PX, MARKER_PX = 6.5, 13.0, 7.0
-POSITIONS = ("top center", "bottom center", "middle right", "middle left", "top right", "top left", "bottom right",
-             "bottom left")
+NEAR = ("top center", "bottom center", "middle right", "middle left", "top right", "top left", "bottom right",
+        "bottom left")
+# A step further out, past a neighbour's marker: plotly has no offset, so the text is padded toward its marker
+# (no-break spaces beside it, an empty line above or below it). Tried after every near position.
+FAR = ("far top center", "far bottom center", "far middle right", "far middle left")
+POSITIONS = NEAR + FAR
+PAD_SPACES = 4  # no-break spaces of a far label: ~3.3 px each in plotly's 12 px type
+FAR_PX = 13.0
+DOT_PX = 4.5  # half a front or dominated member's marker (9 px)
+FAR_COST = 25.0  # px² of dots a label may hide rather than stand a step off its marker (a dot is ~81 px²)
 
 
 def _label_box(x: float, y: float, text: str, position: str) -> Box:
-    """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker at (x, y), as plotly's ``textposition`` puts it."""
+    """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker at (x, y), as plotly's ``textposition`` puts it
+    (a ``far`` position one step further out, as :func:`label_text` pads it)."""
+    far = position.startswith("far ")
+    vert, horiz = position.removeprefix("far ").split(" ")
+    x0, y0, x1, y1 = _near_box(x, y, text, f"{vert} {horiz}")
+    if not far:
+        return x0, y0, x1, y1
+    dx = FAR_PX if horiz == "right" else -FAR_PX if horiz == "left" else 0.0
+    dy = LINE_PX if vert == "top" else -LINE_PX if vert == "bottom" else 0.0
+    return x0 + dx, y0 + dy, x1 + dx, y1 + dy
+
+
+def label_text(text: str, position: str) -> str:
+    """The text plotly draws for a label at ``position`` (from :func:`place_labels`): a far one padded toward its
+    marker."""
+    if not position.startswith("far "):
+        return text
+    vert, horiz = position.removeprefix("far ").split(" ")
+    pad = "\u00a0" * PAD_SPACES
+    return {"right": pad + text, "left": text + pad}.get(horiz) or (text + "<br>\u00a0" if vert == "top"
+                                                                     else "\u00a0<br>" + text)
+
+
+def _near_box(x: float, y: float, text: str, position: str) -> Box:
     w, h, r = CHAR_PX * len(text) + 2.0, LINE_PX, MARKER_PX
     vert, horiz = position.split(" ")
     cx = x if horiz == "center" else (x + r + w / 2 if horiz == "right" else x - r - w / 2)
@@ -53,18 +84,28 @@ def _label_box(x: float, y: float, text: str, position: str) -> Box:
     return cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2
 
 
-def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[float]]) -> list[str | None]:
+def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[float]],
+                 points: F64 | None = None) -> list[str | None]:
     """A ``textposition`` for each labelled point ``(n, 2)`` (in priority order), or None where every position
-    would cover a label placed before it (hover still names it). A position is first sought inside the plot area and
-    clear of the labelled markers too, then inside the plot area over as little of them as it can (the first free
-    one printed "best I" across K5's diamond beside a spot that grazed it), then clear of labels only (a label past
-    the edge is cut)."""
+    would cover a label placed before it (hover still names it). Among the positions inside the plot area and clear
+    of the labels placed before it, the one of least :func:`label_cost`: over another candidate's marker only if
+    every one is, then over as few of the other drawn ``points`` ``(m, 2)`` as it can, beside its marker rather
+    than a step further out (the first free one printed "best I" across K5's diamond, and labels sat on the
+    front's dots). With none inside, the first clear of labels (a label past the edge is cut). Draw it with
+    :func:`label_text`."""
     (x0, x1), (y0, y1) = ranges
-    px = np.column_stack([(xy[:, 0] - x0) / max(x1 - x0, 1e-300) * PLOT_PX[0],
-                          (xy[:, 1] - y0) / max(y1 - y0, 1e-300) * PLOT_PX[1]])
-    r = MARKER_PX
+
+    def to_px(v: F64) -> F64:
+        return np.column_stack([(v[:, 0] - x0) / max(x1 - x0, 1e-300) * PLOT_PX[0],
+                                (v[:, 1] - y0) / max(y1 - y0, 1e-300) * PLOT_PX[1]])
+
+    px = to_px(xy)
+    r, d = MARKER_PX, DOT_PX
     plot: Box = (0.0, 0.0, PLOT_PX[0], PLOT_PX[1])
     markers = [(x - r, y - r, x + r, y + r) for x, y in px if np.isfinite(x) and np.isfinite(y)]
+    pts = to_px(points) if points is not None and len(points) else np.zeros((0, 2))
+    dots = [(x - d, y - d, x + d, y + d) for x, y in pts
+            if np.isfinite(x) and np.isfinite(y) and -d < x < PLOT_PX[0] + d and -d < y < PLOT_PX[1] + d]
     labels: list[Box] = []
     out: list[str | None] = []
     for (x, y), text in zip(px, texts, strict=True):
@@ -75,13 +116,21 @@ def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[
             boxes = {pos: _label_box(x, y, text, pos) for pos in POSITIONS}
             free = [pos for pos in POSITIONS if first_clear([boxes[pos]], labels) is not None]
             inside = [pos for pos in free if spill(boxes[pos], plot) == 0.0]
-            clear = [pos for pos in inside if first_clear([boxes[pos]], others) is not None]
-            least = least_cover([boxes[pos] for pos in inside], others)
-            chosen = clear[0] if clear else inside[least] if least is not None else free[0] if free else None
+            if inside:
+                chosen = min(inside, key=lambda pos: label_cost(boxes[pos], pos, others, dots))  # first of equals
+            elif free:
+                chosen = free[0]
             if chosen is not None:
                 labels.append(boxes[chosen])
         out.append(chosen)
     return out
+
+
+def label_cost(box: Box, position: str, markers: Sequence[Box], dots: Sequence[Box]) -> float:
+    """What a label at ``box`` hides: the candidates' ``markers`` first (each px² of one outweighs a label over the
+    whole front), then the drawn ``dots``, and a little for standing a step off its marker."""
+    return (1e4 * sum(cover(box, m) for m in markers) + sum(cover(box, t) for t in dots)
+            + (FAR_COST if position.startswith("far ") else 0.0))
 
 
 def short_label(label: str) -> str:
@@ -200,8 +249,9 @@ def make_pareto_figure(
                 common.update(text=text, mode="markers+text", textposition="top center")
             else:  # labels that would cover another are left to the hover
                 where = [placed.get(int(i)) for i in idx]
-                common.update(text=[t if w else "" for t, w in zip(text, where, strict=True)], mode="markers+text",
-                              textposition=[w or "top center" for w in where])
+                common.update(text=[label_text(t, w) if w else "" for t, w in zip(text, where, strict=True)],
+                              mode="markers+text",
+                              textposition=[(w or "top center").removeprefix("far ") for w in where])
         else:
             common["mode"] = "markers"
         pts = coords[idx]
@@ -213,7 +263,8 @@ def make_pareto_figure(
     size = 4 if three else 7
     if not three and ranges is not None and all(r is not None for r in ranges) and labelled:
         ok = [i for i in labelled if bool(np.asarray(drawable)[i])]
-        where = place_labels(coords[ok], [label_of[i] for i in ok], ranges)  # type: ignore[arg-type]
+        where = place_labels(coords[ok], [label_of[i] for i in ok], ranges,  # type: ignore[arg-type]
+                             coords[drawable & ~np.isin(np.arange(len(F)), ok)])
         placed.update(zip(ok, where, strict=True))
     # A ringed candidate (picked, passed on) carries its label on the ring, which plotly sets off by the ring's
     # size: beside its own marker the red ring crossed the label's first letter ("pest f1").

@@ -28,9 +28,3 @@ def spill(box: Box, bounds: Box) -> float:
 def first_clear(tries: Sequence[Box], taken: Sequence[Box]) -> int | None:
     """The index of the first box of ``tries`` that overlaps none of ``taken``; None if each overlaps one."""
     return next((k for k, box in enumerate(tries) if not any(overlaps(box, t) for t in taken)), None)
-
-
-def least_cover(tries: Sequence[Box], taken: Sequence[Box]) -> int | None:
-    """The index of the box of ``tries`` that covers least of ``taken`` (the first among equals); None if no tries."""
-    costs = [sum(cover(box, t) for t in taken) for box in tries]
-    return min(range(len(costs)), key=costs.__getitem__) if costs else None
