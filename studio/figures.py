@@ -15,7 +15,7 @@ import plotly.graph_objects as go
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.spots import Box, cover, first_clear, spill
+from studio.spots import Box, covers, first_clear, spill
 
 F64 = NDArray[np.float64]
 
@@ -117,7 +117,8 @@ def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[
             free = [pos for pos in POSITIONS if first_clear([boxes[pos]], labels) is not None]
             inside = [pos for pos in free if spill(boxes[pos], plot) == 0.0]
             if inside:
-                chosen = min(inside, key=lambda pos: label_cost(boxes[pos], pos, others, dots))  # first of equals
+                costs = label_costs([boxes[pos] for pos in inside], inside, others, dots)
+                chosen = inside[int(np.argmin(costs))]  # the first of equals
             elif free:
                 chosen = free[0]
             if chosen is not None:
@@ -126,11 +127,12 @@ def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[
     return out
 
 
-def label_cost(box: Box, position: str, markers: Sequence[Box], dots: Sequence[Box]) -> float:
-    """What a label at ``box`` hides: the candidates' ``markers`` first (each px² of one outweighs a label over the
+def label_costs(boxes: Sequence[Box], positions: Sequence[str], markers: Sequence[Box],
+                dots: Sequence[Box]) -> NDArray[np.float64]:
+    """What labels at ``boxes`` hide: the candidates' ``markers`` first (each px² of one outweighs a label over the
     whole front), then the drawn ``dots``, and a little for standing a step off its marker."""
-    return (1e4 * sum(cover(box, m) for m in markers) + sum(cover(box, t) for t in dots)
-            + (FAR_COST if position.startswith("far ") else 0.0))
+    far = np.array([p.startswith("far ") for p in positions], dtype=np.float64)
+    return 1e4 * covers(boxes, markers) + covers(boxes, dots) + FAR_COST * far
 
 
 def short_label(label: str) -> str:

@@ -6,6 +6,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+from numpy.typing import NDArray
+
 Box = tuple[float, float, float, float]
 
 
@@ -28,3 +31,13 @@ def spill(box: Box, bounds: Box) -> float:
 def first_clear(tries: Sequence[Box], taken: Sequence[Box]) -> int | None:
     """The index of the first box of ``tries`` that overlaps none of ``taken``; None if each overlaps one."""
     return next((k for k, box in enumerate(tries) if not any(overlaps(box, t) for t in taken)), None)
+
+
+def covers(boxes: Sequence[Box], taken: Sequence[Box]) -> NDArray[np.float64]:
+    """``(len(boxes),)``: the area each box shares with all of ``taken`` (:func:`cover` summed, on arrays: a chart
+    tries a dozen spots against hundreds of dots)."""
+    a = np.asarray(boxes, dtype=np.float64).reshape(-1, 1, 4)
+    b = np.asarray(taken, dtype=np.float64).reshape(1, -1, 4)
+    w = np.clip(np.minimum(a[..., 2], b[..., 2]) - np.maximum(a[..., 0], b[..., 0]), 0.0, None)
+    h = np.clip(np.minimum(a[..., 3], b[..., 3]) - np.maximum(a[..., 1], b[..., 1]), 0.0, None)
+    return (w * h).sum(axis=1)

@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from studio.spots import cover, first_clear, overlaps, spill
+from studio.spots import cover, covers, first_clear, overlaps, spill
 
 
 def test_boxes_by_hand() -> None:
@@ -16,6 +16,10 @@ def test_boxes_by_hand() -> None:
     assert not overlaps(a, c) and cover(a, c) == 0.0  # touching edges share no area
     assert spill(a, (0.0, 0.0, 2.0, 1.0)) == 0.0 and spill(b, (0.0, 0.0, 2.0, 1.0)) == 1.0 + 1.0
     assert first_clear([a, b, c], [(0.5, 0.2, 0.6, 0.3)]) == 1 and first_clear([a], [a]) is None
+    # Summed over what is taken, for many tries at once: the same areas as one at a time.
+    np.testing.assert_allclose(covers([a, b, c], [b, c]), [cover(a, b) + cover(a, c), cover(b, b) + cover(b, c),
+                                                           cover(c, b) + cover(c, c)])
+    assert covers([a], []).tolist() == [0.0] and covers([], [a]).shape == (0,)
 
 
 @settings(max_examples=60, deadline=None)
