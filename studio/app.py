@@ -18,7 +18,6 @@ import numpy as np
 import viser
 
 from core.formats.files import slug
-from core.formats.session import parse_json
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
@@ -42,7 +41,7 @@ from studio.panels.target import TargetPanel
 from studio.panels.walking import WalkingPanel
 from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
-from studio.session_file import save_session
+from studio.session_file import read_session_bytes, save_session
 from studio.state import DesignView, Session
 from studio.study import unmet_by
 from studio.study_view import StudyView, study_view
@@ -631,7 +630,27 @@ class Studio:
     def load_session_bytes(self, name: str, content: bytes, client: viser.ClientHandle | None) -> bool:
         """Replace the session by an uploaded one; a malformed file is refused, naming the problem."""
         try:
-            other = Session.from_dict(parse_json(content))
+            other = read_session_bytes(content)
+        except ValueError as exc:
+            if client is not None:
+                self.notify(client, "Session not loaded", f"{name or 'upload'}: {exc}. The current session is kept.")
+            return False
+        return self.replace_session(other, name, client)
+
+    def replace_session(self, other: Session, name: str, client: viser.ClientHandle | None) -> bool:
+        """Make a loaded session the current one; the current one is first saved beside the session file
+        (``<name>.before-load.json``), if the studio keeps one. False (and said) if it cannot be replaced now."""
+        kept = None
+        if self.session_path is not None and self.session.holds_work():
+            kept = self.session_path.with_name(self.session_path.stem + ".before-load.json")
+            try:
+                save_session(self.session, kept)
+            except (ValueError, OSError) as exc:
+                if client is not None:
+                    self.notify(client, "Session not loaded", f"the current session could not be kept as {kept} "
+                                f"({exc}); download it first. Nothing was changed.")
+                return False
+        try:
             self.session.restore(other)
         except ValueError as exc:
             if client is not None:
@@ -639,10 +658,9 @@ class Studio:
             return False
         self.refresh(fit_camera=True)
         if client is not None:  # viser's own "File uploaded successfully." said nothing of the session
-            study = self.session.study
-            last = study.status.stage
-            self.notify(client, "Session loaded", f"{name or 'upload'}: {self.session.view.design.mechanism.title}, "
-                        f"{len(study.branches)} branch(es)" + (f", last run {last}" if last else ""), color="green")
+            was = f" The previous session was saved as {kept}." if kept is not None else ""
+            self.notify(client, "Session loaded", f"{name or 'upload'}: {self.session.summary()}.{was}",
+                        color="green")
         return True
 
     def autosave(self) -> None:

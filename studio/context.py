@@ -6,6 +6,7 @@ panel can be driven by anything that offers these members (``studio.app.Studio``
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Literal, Protocol
 
 import viser
@@ -19,6 +20,7 @@ class StudioContext(Protocol):
     session: Session
     server: viser.ViserServer
     runner: Runner
+    session_path: Path | None
 
     def chain(self) -> tuple[ChainStage, ...]: ...
 
@@ -58,5 +60,7 @@ class StudioContext(Protocol):
     def scene_file(self) -> tuple[str, bytes]: ...
 
     def load_session_bytes(self, name: str, content: bytes, client: viser.ClientHandle | None) -> bool: ...
+
+    def replace_session(self, other: Session, name: str, client: viser.ClientHandle | None) -> bool: ...
 
     def autosave(self) -> None: ...

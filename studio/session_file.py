@@ -26,6 +26,13 @@ def save_session(session: Session, path: Path) -> None:
     os.replace(tmp, path)
 
 
+def read_session_bytes(content: bytes) -> Session:
+    """A session from an upload's bytes; ValueError naming the problem."""
+    if len(content) > MAX_SESSION_BYTES:
+        raise ValueError(f"a session is at most {MAX_SESSION_BYTES // 2**20} MB")
+    return Session.from_dict(parse_json(content))
+
+
 def load_session(path: Path) -> Session:
     """A session from a JSON file; ValueError naming the problem."""
     try:

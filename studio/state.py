@@ -697,6 +697,23 @@ class Session:
                 target = self._target_for(name, opening_preset(name)) if presets_for(name) else None
             return self._commit(self._rebuild(design, None, target), cause="branch restore")
 
+    def holds_work(self) -> bool:
+        """True when replacing this session would lose something the designer made: a stage result, a branch, an
+        edit or an Undo history."""
+        with self.lock:
+            return (self.study.pipeline is not None or bool(self.study.branches) or bool(self.view.edited)
+                    or bool(self.undone))
+
+    def summary(self) -> str:
+        """``Stephenson-I six-bar, 3 stage results, 6 branches, last run subtask3``: what a session holds, in words."""
+        with self.lock:
+            study = self.study
+            runs = sum(r is not None for r in study.pipeline.results) if study.pipeline is not None else 0
+            last = study.status.stage
+            return (f"{self.view.design.mechanism.title}, {runs} stage result{'s' * (runs != 1)}, "
+                    f"{len(study.branches)} branch{'es' * (len(study.branches) != 1)}"
+                    + (f", last run {last}" if last else ""))
+
     def restore(self, other: Session) -> None:
         """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""
         with self.lock:

@@ -834,3 +834,45 @@ def test_a_three_objective_front_with_flat_objectives_opens_on_a_projection_once
     press(panel.view, Client(), THREE_D)
     studio.refresh()
     assert panel.view.value == THREE_D and panel.axes() is None
+
+
+def test_loading_a_session_over_work_asks_first_and_keeps_the_current_one_beside_the_session_file(tmp_path,
+                                                                                                  monkeypatch):
+    # A rehearsal's "Load session" replaced six branches and an RTCLM run without a word; the autosave followed.
+    import json
+
+    import studio.panels.files as files
+    from studio.app import Studio
+    from studio.session_file import load_session
+
+    path = tmp_path / "work.json"
+    studio = Studio(Session.default(), host="127.0.0.1", port=0, session_path=path)
+    studio.animator.stop()  # the crank angle stays put: the session compares whole
+    try:
+        other = Session.default("watt1/paper")
+        content = json.dumps(other.to_dict()).encode()
+        asked: list[tuple[str, str]] = []
+        yes: list = []
+        monkeypatch.setattr(files, "ask_to_replace",
+                            lambda client, title, text, on_load, on_download: (asked.append((title, text)),
+                                                                               yes.append(on_load)))
+        c = Client()
+        press(studio.files.load, c, upload(b"{not json", "broken.json"))  # refused before anything is asked
+        assert not asked and c.notes[-1][0] == "Session not loaded"
+        press(studio.files.load, c, upload(content, "watt.json"))  # nothing made yet: loaded at once
+        assert not asked and studio.session.view.design.mechanism.name == "watt1"
+        assert not (tmp_path / "work.before-load.json").exists()
+        studio.session.set_param("r4", studio.session.view.values["r4"] * 1.002)
+        stage_runs.run_stage(studio.session, "subtask1", pop=12, gens=2)
+        made = studio.session.to_dict()
+        press(studio.files.load, c, upload(json.dumps(Session.default().to_dict()).encode(), "x3.json"))
+        assert asked[-1][0] == "Load x3.json?" and studio.session.to_dict() == made  # asked; nothing changed yet
+        assert "It replaces the current session: **Watt-I six-bar, 1 stage result, 0 branches, last run " \
+               "subtask1**" in asked[-1][1] and f"It is first saved as {tmp_path / 'work.before-load.json'}" \
+               in asked[-1][1]
+        yes[-1]()
+        assert studio.session.view.design.mechanism.name == "stephenson1"
+        kept = load_session(tmp_path / "work.before-load.json")
+        assert kept.to_dict() == made and "previous session was saved as" in c.notes[-1][1]
+    finally:
+        studio.close()

@@ -7,9 +7,12 @@ gets a red notification naming the problem and changes nothing.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import viser
+
+from studio.session_file import read_session_bytes
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -26,7 +29,8 @@ class FilesPanel:
             self.download = gui.add_button("Download session", icon=viser.Icon.DOWNLOAD,
                                            hint="the whole session as JSON: design, target, pipeline, branches")
             self.load = gui.add_upload_button("Load session", icon=viser.Icon.UPLOAD, mime_type="application/json",
-                                              hint="a session JSON saved by the studio (the current one is replaced)")
+                                              hint="a session JSON saved by the studio; it replaces the current one "
+                                                   "(asks first when that holds work)")
             self.design = gui.add_button("Design (JSON)", icon=viser.Icon.FILE_DOWNLOAD,
                                          hint="the current design; clm simulate --design reads it")
             self.dxf = gui.add_button("Drawing (DXF)", icon=viser.Icon.FILE_DOWNLOAD,
@@ -81,7 +85,49 @@ class FilesPanel:
         return handler
 
     def _on_load(self, event: viser.GuiEvent[Any]) -> None:
-        if event.client is None:
+        """Load an uploaded session; one that would replace work asks first (it replaced six branches and a run
+        without a word, and the autosave followed at once)."""
+        client = event.client
+        if client is None:
             return
         f = self.load.value
-        self.studio.load_session_bytes(f.name, f.content, event.client)
+        name = f.name or "upload"
+        try:
+            other = read_session_bytes(f.content)
+        except ValueError as exc:
+            self.studio.notify(client, "Session not loaded", f"{name}: {exc}. The current session is kept.")
+            return
+        if not self.studio.session.holds_work():
+            self.studio.replace_session(other, name, client)
+            return
+        kept = self.studio.session_path
+        where = (f"It is first saved as {kept.with_name(kept.stem + '.before-load.json')}." if kept is not None
+                 else "The studio keeps no session file: download the current session first to keep it.")
+        ask_to_replace(client, f"Load {name}?",
+                       f"It replaces the current session: **{self.studio.session.summary()}**.\n\n{where}\n\n"
+                       f"{name} holds: {other.summary()}.",
+                       on_load=lambda: self.studio.replace_session(other, name, client),
+                       on_download=lambda: client.send_file_download(*self.studio.session_file(),
+                                                                     save_immediately=True))
+
+
+def ask_to_replace(client: viser.ClientHandle, title: str, text: str, on_load: Callable[[], object],
+                   on_download: Callable[[], object]) -> None:
+    """A modal on ``client``'s page: download the current session (the modal stays), load the new one, or cancel."""
+    modal = client.gui.add_modal(title)
+    with modal:
+        client.gui.add_markdown(text)
+        download = client.gui.add_button("Download the current session", icon=viser.Icon.DOWNLOAD)
+        load = client.gui.add_button("Load it", color="red")
+        cancel = client.gui.add_button("Cancel")
+
+    def on_load_click(_: Any) -> None:
+        modal.close()
+        on_load()
+
+    def on_download_click(_: Any) -> None:
+        on_download()
+
+    download.on_click(on_download_click)
+    load.on_click(on_load_click)
+    cancel.on_click(lambda _: modal.close())

@@ -29,6 +29,7 @@ from test_studio_stages_in_the_browser import (
     download,
     expand,
     field,
+    load_session,
     notification,
     pass_on,
     run_stage,
@@ -253,7 +254,7 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
         studio.session.study = Study()
     studio.refresh()
     expect(page.get_by_label("Stage", exact=True)).not_to_have_value(SUBTASK3)
-    page.locator('input[type="file"][accept="application/json"]').set_input_files(str(saved))
+    load_session(page, studio, saved)
     expect(page.get_by_label("Stage", exact=True)).to_have_value(SUBTASK3)
     expect(page.get_by_label("Start from", exact=True)).to_have_value("the previous stage's pick")
     assert np.array_equal(studio.session.study.result("subtask2").X, r.X)

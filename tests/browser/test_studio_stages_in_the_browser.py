@@ -145,6 +145,18 @@ def pass_on(page: Any, studio: Any, stage: str) -> None:
         dialog.get_by_role("button", name="Pass it on").click()
 
 
+def load_session(page: Any, studio: Any, path: Path) -> None:
+    """Upload a session file; over a session that holds work the page asks first, and it is loaded."""
+    asks = studio.session.holds_work()
+    upload = page.locator('input[type="file"][accept="application/json"]')
+    upload.evaluate("e => { e.value = ''; }")  # as viser's button does before it opens the file dialog
+    upload.set_input_files(str(path))
+    if asks:
+        dialog = page.get_by_role("dialog")
+        expect(dialog).to_contain_text("It replaces the current session")
+        dialog.get_by_role("button", name="Load it").click()
+
+
 def notification(page: Any, title: str, reason: str) -> Any:
     return page.locator(".mantine-Notification-root").filter(has_text=title).filter(has_text=reason).first
 
@@ -233,7 +245,19 @@ def test_a_session_downloads_and_loads_back(page: Any, studio: Any, tmp_path: Pa
     wait_for(lambda: studio.session.view.values["r4"] == 129.0, "the edit to reach the server")
     with studio.session.lock:
         studio.session.study.keep_branch("test")
+    # It replaced six branches and a run without a word: now it asks, says what would go, and offers a download.
+    changed = studio.session.to_dict()
     page.locator('input[type="file"][accept="application/json"]').set_input_files(str(path))
+    dialog = page.get_by_role("dialog")
+    expect(dialog).to_contain_text("It replaces the current session: Stephenson-I six-bar, 1 stage result, 1 branch")
+    expect(dialog).to_contain_text("download the current session first")  # this studio keeps no session file
+    with page.expect_download() as got:
+        dialog.get_by_role("button", name="Download the current session").click()
+    assert json.loads(Path(got.value.path()).read_text()) == changed
+    dialog.get_by_role("button", name="Cancel").click()
+    expect(dialog).to_have_count(0)
+    assert studio.session.to_dict() == changed  # Cancel loads nothing
+    load_session(page, studio, path)
     wait_for(lambda: studio.session.to_dict() == saved, "the session to load back")
     expect_params(page, studio.session.view.design)
     expect(page.locator('table.clm-history tr[data-stage="subtask2"]')).to_have_attribute("data-status", "complete")

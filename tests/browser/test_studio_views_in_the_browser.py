@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 from playwright.sync_api import expect
-from test_studio_stages_in_the_browser import choose, expand, field, wait_for
+from test_studio_stages_in_the_browser import choose, expand, field, load_session, wait_for
 
 RTCLM = "RTCLM, primary mode (Watt-I six-bar driven at A)"
 # Everything drawn in the scene is darker than this (links, paths, text); the grid and frames are lighter.
@@ -260,7 +260,7 @@ def flat_session(tmp_path: Path) -> Path:
 
 
 def test_a_flat_bench_path_keeps_a_readable_chart_with_equal_scales(page: Any, studio: Any, tmp_path: Path) -> None:
-    page.locator('input[type="file"][accept="application/json"]').set_input_files(str(flat_session(tmp_path)))
+    load_session(page, studio, flat_session(tmp_path))
     wait_for(lambda: studio.session.view.design.mechanism.name == "fourbar", "the flat design to load")
     wait_for(lambda: any(tr["name"] == "target" and np.ptp(tr["y"]) < 5 for tr in bench(page)["traces"]),
              "the flat design's chart")
