@@ -7,6 +7,8 @@ values without parsing layout.
 from __future__ import annotations
 
 import html
+import math
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -25,12 +27,17 @@ def _e(s: object) -> str:
     return html.escape(str(s), quote=True)
 
 
-def box_html(box: Box, units: dict[str, str], title: str = "") -> str:
-    """The search box: per parameter lower, centre (the pick it is built around), upper, and a bar
-    showing the box inside the parameter's global bounds (fixed parameters greyed)."""
+def box_html(box: Box, units: dict[str, str], title: str = "", near: Mapping[str, float] | None = None) -> str:
+    """The search box: per parameter lower, start (the design the run starts from: the pick or the editor's design
+    the box is built around), upper, and a bar showing the box inside the parameter's global bounds (fixed
+    parameters greyed). An angle (rad) is written a whole turn over where that puts its start nearest ``near`` (the
+    editor's values): the box keeps angles in [-pi, pi], so g = 3.26 in the editor read -3.023 here."""
     rows = []
     for j, name in enumerate(box.names):
         lo, c, hi = float(box.lower[j]), float(box.center[j]), float(box.upper[j])
+        turn = 0.0
+        if near is not None and units.get(name) == "rad" and name in near:
+            turn = 2.0 * math.pi * round((float(near[name]) - c) / (2.0 * math.pi))
         glo, ghi = float(box.bound_lo[j]), float(box.bound_hi[j])
         width = ghi - glo if ghi > glo else 1.0
         left = 100.0 * np.clip((lo - glo) / width, 0.0, 1.0)
@@ -47,11 +54,13 @@ def box_html(box: Box, units: dict[str, str], title: str = "") -> str:
             f'{" data-fixed" if fixed else ""}>'
             f'<td style="padding:1px 6px 1px 0">{_e(name)}'
             f'<span style="opacity:0.6"> {_e(units.get(name, ""))}</span></td>'
-            f'<td style="{NUM}">{lo:.4g}</td><td style="{NUM};font-weight:600">{c:.4g}</td>'
-            f'<td style="{NUM}">{hi:.4g}</td><td style="width:35%">{bar}</td></tr>'
+            f'<td style="{NUM}">{lo + turn:.4g}</td><td style="{NUM};font-weight:600">{c + turn:.4g}</td>'
+            f'<td style="{NUM}">{hi + turn:.4g}</td><td style="width:35%">{bar}</td></tr>'
         )
+    # "start", not "centre": on predesign's global box the column is the design the run starts from, not the middle.
     head = (f'<tr style="opacity:0.7"><th style="text-align:left">param</th><th style="{NUM}">lower</th>'
-            f'<th style="{NUM}">centre</th><th style="{NUM}">upper</th><th>in global bounds</th></tr>')
+            f'<th style="{NUM}" title="the design the run starts from">start</th><th style="{NUM}">upper</th>'
+            f'<th>in global bounds</th></tr>')
     caption = f'<div style="font-size:0.8em;padding:0 0.75em 2px">{_e(title)}</div>' if title else ""
     return caption + f'<table class="clm-box" style="{STYLE}">{head}{"".join(rows)}</table>'
 

@@ -157,6 +157,27 @@ def test_the_search_box_row_lists_lower_centre_upper_and_greys_a_fixed_parameter
     assert "background:#bbb" in b and "#1f77b4" not in b
 
 
+def test_an_angle_in_the_search_box_is_written_as_the_editor_writes_it():
+    # g = 3.26 in the Parameters panel read -3.023 in the box (3.26 - 2 pi): the box keeps angles in [-pi, pi].
+    import math
+
+    c = 3.26 - 2 * math.pi
+    box = Box(names=("g", "r1"), lower=np.array([c - 0.2, 20.0]), upper=np.array([c + 0.2, 60.0]),
+              center=np.array([c, 40.0]), bound_lo=np.array([-math.pi, 0.0]), bound_hi=np.array([math.pi, 100.0]),
+              periodic=np.array([True, False]), fixed=np.array([False, False]))
+    units = {"g": "rad", "r1": "mm"}
+
+    def cells(html: str, name: str) -> list[str]:
+        row = html.split(f'data-param="{name}"')[1].split("</tr>")[0]
+        return re.findall(r'<td style="text-align:right[^"]*">([^<]*)</td>', row)
+
+    near = box_html(box, units, near={"g": 3.26, "r1": 540.0})
+    assert cells(near, "g") == ["3.06", "3.26", "3.46"] and cells(near, "r1") == ["20", "40", "60"]  # lengths stay
+    assert f'data-center="{c!r}"' in near  # the box itself is not changed
+    assert cells(box_html(box, units), "g") == [f"{c - 0.2:.4g}", f"{c:.4g}", f"{c + 0.2:.4g}"]
+    assert ">start</th>" in near and ">centre</th>" not in near  # on predesign's global box it is not the middle
+
+
 def test_the_lineage_table_shows_feasible_and_front_counts_in_their_columns():
     rows = [HistoryRow("subtask1", "Subtask 1", "complete", "30", 17, 5, "K1", "MSE 3.1", "from X3")]
     html = history_html(rows)

@@ -121,9 +121,9 @@ class StagesPanel:
         if sv.box is None:
             self.box.content = f'<div style="font-size:0.8em;padding:0 0.75em">{sv.box_note}</div>'
         else:
-            mech = self.studio.session.view.design.mechanism
-            units = {p.name: p.unit for p in mech.params}
-            self.box.content = box_html(sv.box, units, f"{sv.next_stage}: {sv.box_note}")
+            view = self.studio.session.view
+            units = {p.name: p.unit for p in view.design.mechanism.params}
+            self.box.content = box_html(sv.box, units, f"{sv.next_stage}: {sv.box_note}", near=view.values)
 
     @staticmethod
     def _status(sv: StudyView) -> str:
