@@ -122,6 +122,16 @@ def one_design_html(stage: str) -> str:
             "there is no trade-off to pick from.</div>")
 
 
+def next_verdict_html(i: int, nxt: str, missed: list[str]) -> str:
+    """A warning under the verdict when member i misses the next stage's constraints (``h_s 7.91 > 6.5``): a pick
+    that met its own stage's read fine until "Use for next stage" asked about it; empty when it meets them."""
+    if not missed:
+        return ""
+    text = (f"⚠ #{i} misses {html.escape(nxt)}'s constraints: {html.escape('; '.join(missed))} "
+            f"(passed on, {html.escape(nxt)} starts around it all the same)")
+    return f'<div class="clm-next-verdict" style="{VERDICT}color:#b45309">{text}</div>'
+
+
 def verdict_html(r: StageResult, i: int, stage: str, other_target: str = "") -> str:
     """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``).
     ``other_target``: the target the stage ran against, when the editor's is another (the rows below, MSE

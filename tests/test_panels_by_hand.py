@@ -574,6 +574,17 @@ def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s
             assert op == ">" and float(value) > float(bound) and metric in r.metrics
     assert seen == {True, False}  # both kinds of member were met
     assert studio.next_unmet("subtask3") == ("", [])  # no result there
+    # The Pick panel says so before "Use for next stage" asks: the stage's own pick read fine until then.
+    for i in np.flatnonzero(r.feasible):
+        study.shown["subtask1"] = int(i)
+        with studio.session.lock:
+            study.viewing = "subtask1"
+            study.touch()
+        studio.pick_panel._key = None
+        studio.refresh()
+        table = html.unescape(studio.pick_panel.table.content)
+        missed = studio.next_unmet("subtask1")[1]
+        assert ("misses subtask2's constraints: " + "; ".join(missed) in table) == bool(missed), (i, missed)
 
 
 def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760_with_its_chart_whole():
