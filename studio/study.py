@@ -180,6 +180,22 @@ def unmet_by(r: StageResult, i: int, constraints: tuple[Constraint, ...]) -> lis
     return out
 
 
+WEIGHTED = ("cmoemt", "moead_cmt", "nsga3", "unsga3", "ctaea")  # population = their weight / reference vectors
+
+
+def population_note(r: StageResult) -> str:
+    """``55 members, not the 60 asked: CMOEMT keeps one per weight vector``, when a result holds another number of
+    members than its run asked for ("55 feasible of 55" at population 60 left a designer asking where five went);
+    "" otherwise."""
+    algorithm = r.settings.get("algorithm") if isinstance(r.settings, Mapping) else None
+    asked = algorithm.get("pop_size") if isinstance(algorithm, Mapping) else None
+    if not isinstance(asked, int) or asked == r.pop or r.pop == 0:
+        return ""
+    name = str(algorithm.get("name", "")) if isinstance(algorithm, Mapping) else ""
+    why = f": {algorithm_name(r.settings)} keeps one per weight vector" if name in WEIGHTED else ""
+    return f"{r.pop} members, not the {asked} asked{why}"
+
+
 def algorithm_name(settings: object) -> str:
     """The algorithm's published name (``IMTCMO``, not ``imtcmo``) in a stage result's settings, or "" (a loaded
     session's settings are free-form: an unknown name is shown as it is)."""

@@ -885,3 +885,21 @@ def test_a_branch_of_a_stopped_run_says_it_was_stopped(session: Session) -> None
     assert "stopped" not in branch_stages([r], {})
     cut = replace(r, status="cancelled", generation=2)
     assert branch_stages([cut], {}).endswith(f"by NSGA-II, stopped at 2/{r.n_gen}")
+
+
+def test_a_result_smaller_than_its_run_asked_for_says_why() -> None:
+    # "55 feasible of 55" at population 60: CMOEMT keeps one member per Das-Dennis weight vector (55 for 3
+    # objectives), and nothing on screen said where the other five went.
+    from types import SimpleNamespace
+
+    from core.optimize.evolve.weights import simplex_lattice
+    from studio.study import population_note
+
+    def result(name: str, asked: int, pop: int) -> SimpleNamespace:
+        return SimpleNamespace(settings={"algorithm": {"name": name, "pop_size": asked}}, pop=pop)
+
+    n = len(simplex_lattice(60, 3))
+    assert n == 55
+    assert population_note(result("cmoemt", 60, n)) == "55 members, not the 60 asked: CMOEMT keeps one per weight vector"
+    assert population_note(result("spea2", 60, 58)) == "58 members, not the 60 asked"
+    assert population_note(result("nsga2", 60, 60)) == "" and population_note(SimpleNamespace(settings={}, pop=3)) == ""

@@ -18,7 +18,7 @@ from studio.charts import chart_title, target_text
 from studio.figures import compact_3d, make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
 from studio.panels._inputs import set_value
 from studio.panels._lazy import LazyPlotly, write
-from studio.study import algorithm_name, status_text
+from studio.study import algorithm_name, population_note, status_text
 from studio.study_view import StudyView
 from studio.target import curve_path
 
@@ -255,6 +255,8 @@ class ParetoPanel:
             what += ": " + " · ".join(objective_label(o, labels) for o in r.objectives[:3])
         if n >= 3 and r is not None and (same := same_for_all(r.F, r.objectives)):
             what += f"; {same}"
+        if r is not None and (note := population_note(r)):
+            what += f"; {note}"
         self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
 
     def charts(self) -> tuple[LazyPlotly, ...]:
