@@ -900,6 +900,7 @@ def test_a_result_smaller_than_its_run_asked_for_says_why() -> None:
 
     n = len(simplex_lattice(60, 3))
     assert n == 55
-    assert population_note(result("cmoemt", 60, n)) == "55 members, not the 60 asked: CMOEMT keeps one per weight vector"
+    note = population_note(result("cmoemt", 60, n))
+    assert note == "55 members, not the 60 asked: CMOEMT keeps one per weight vector"
     assert population_note(result("spea2", 60, 58)) == "58 members, not the 60 asked"
     assert population_note(result("nsga2", 60, 60)) == "" and population_note(SimpleNamespace(settings={}, pop=3)) == ""
