@@ -354,6 +354,8 @@ class Session:
     study: Study = field(default_factory=Study)
     undone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Undo brings back
     redone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Redo brings back
+    # The cycloid an upload replaced, as it was (its T too: a curve's period took its place), for going back to it.
+    cycloid: TargetSpec | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
@@ -586,8 +588,11 @@ class Session:
         with self.lock:
             v = self.view
             target = v.target.with_curve(curve)
-            if curve is None and v.target.curve is not None:  # back to the cycloid (the default period), same heights
-                target = TargetSpec(v.target.length, v.target.height, h6=v.target.h6, h4=v.target.h4)
+            if curve is not None and v.target.curve is None:
+                self.cycloid = v.target
+            if curve is None and v.target.curve is not None:  # back to the cycloid it replaced, with today's heights
+                was = self.cycloid or TargetSpec(v.target.length, v.target.height)  # (a loaded session: T's default)
+                target = replace(was, h6=v.target.h6, h4=v.target.h4)
             if target == v.target:
                 return v
             return self._commit(self._rebuild(v.design, v.preset, target))
@@ -720,6 +725,7 @@ class Session:
             if self.study.status.running:
                 raise ValueError("a stage is running; stop it before loading a session")
             self.undone, self.redone = [], []  # a loaded session is another piece of work
+            self.cycloid = None
             self.view = other.view
             self.playback = other.playback
             self.study = other.study

@@ -304,13 +304,16 @@ def test_every_parameter_edit_counts_as_edited_the_first_too(session: Session) -
 def test_back_to_the_cycloid_after_a_curve_keeps_the_cycloids_length_and_height(session: Session) -> None:
     from studio.target import Curve
 
-    session.set_target(length=280.0, height=90.0)
+    session.set_target(length=280.0, height=90.0, period=1.0)
+    before = session.view.target
     t = np.arange(40) / 40
     csv = "x,y\n" + "".join(f"{150 + 100 * np.cos(2 * np.pi * a):.6f},{-40 + 40 * np.sin(2 * np.pi * a):.6f}\n"
                              for a in t)
     session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    assert session.view.target.period == 2.0  # the curve's (no times: 2 s)
     back = session.set_curve(None).target
-    assert back.curve is None and (back.length, back.height) == (280.0, 90.0)
+    # The cycloid as it was: its T too, not the curve's 2 s, and still "(set by hand)".
+    assert back == before and back.label() == "compound cycloid L = 280 mm, H = 90 mm, T = 1 s (set by hand)"
     session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
     assert session.set_target(height=95.0).target.curve is None  # editing the cycloid returns to it
 
