@@ -93,6 +93,21 @@ def test_presets_show_gives_names_units_output_and_source(capsys):
     assert "B-1" in d["source"]
 
 
+def test_a_preset_name_alone_shows_it_and_a_wrong_one_suggests_the_nearest(capsys):
+    # "clm presets stephenson1/X3" answered "invalid choice (choose from 'list', 'show')", and an unknown name
+    # listed all ~150 presets on one line.
+    code, out, _ = run_in_process(capsys, "presets", "stephenson1/X3")
+    assert code == 0 and strict_json(out)["name"] == "stephenson1/X3"
+    code, _, err = run_in_process(capsys, "presets", "show", "stephenson1/X9")
+    assert code == 2 and err.count("\n") == 1
+    assert err.startswith("clm: error: unknown preset 'stephenson1/X9'; did you mean stephenson1/X3, ")
+    assert err.rstrip().endswith(f"('clm presets' lists all {len(presets.PRESETS)})") and "rtclm" not in err
+    code, _, err = run_in_process(capsys, "presets", "zzz")  # nothing near: the count alone
+    assert code == 2 and "did you mean" not in err and "lists all" in err
+    code, out, _ = run_in_process(capsys, "presets", "list")  # the actions still work
+    assert code == 0 and out.startswith("NAME")
+
+
 # --- simulate ----------------------------------------------------------------------------------
 
 

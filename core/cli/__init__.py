@@ -71,11 +71,24 @@ def dumps(obj: dict[str, Any]) -> str:
     return "{\n" + ",\n".join(lines) + "\n}"
 
 
+PRESET_ACTIONS = ("list", "show")
+
+
+def named_show(argv: list[str]) -> list[str]:
+    """``clm presets NAME`` read as ``clm presets show NAME``: a preset's name is the first thing one types, and
+    argparse answered "invalid choice: 'stephenson1/X3' (choose from 'list', 'show')"."""
+    k = next((j for j, a in enumerate(argv) if not a.startswith("-")), -1)  # the subcommand
+    if k >= 0 and argv[k] == "presets" and k + 1 < len(argv) and not argv[k + 1].startswith("-") \
+            and argv[k + 1] not in PRESET_ACTIONS:
+        return [*argv[: k + 1], "show", *argv[k + 1 :]]
+    return argv
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``clm`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     keep_freed_memory()
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser().parse_args(named_show(list(sys.argv[1:] if argv is None else argv)))
         return int(args.func(args))
     except (CLIError, ValueError) as e:
         print(f"clm: error: {e}", file=sys.stderr)

@@ -6,6 +6,8 @@ A preset is addressed as ``mechanism/row`` (``stephenson1/X3``) or by a bare nam
 
 from __future__ import annotations
 
+import difflib
+
 from core.kinematics.mechanisms.stephenson import STEPHENSON1, STEPHENSON3
 from core.kinematics.presets import rtclm as rtclm_presets
 from core.kinematics.presets import walkers as extra_presets
@@ -68,9 +70,12 @@ PRESETS: dict[str, Preset] = _all_presets()
 
 
 def get(name: str) -> Preset:
-    """The preset of that name; ValueError naming the known ones otherwise."""
+    """The preset of that name; ValueError naming the nearest names otherwise (listing all ~150 in one line read as
+    noise: 'clm presets' lists them)."""
     if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; known: {', '.join(sorted(PRESETS))}")
+        near = difflib.get_close_matches(name, PRESETS, n=3, cutoff=0.6)
+        hint = f"did you mean {', '.join(near)}? " if near else ""
+        raise ValueError(f"unknown preset {name!r}; {hint}('clm presets' lists all {len(PRESETS)})")
     return PRESETS[name]
 
 
