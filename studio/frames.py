@@ -432,7 +432,11 @@ def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_
         inset = comp.inset
         texts = [
             _text("design_title", DESIGN_TITLE, d[0], d[3] + 0.6 * h, "bottom-left", h),
-            _text("leg_title", LEG_TITLE, legbox[0], legbox[3] + 0.6 * h, "bottom-left", h),
+            # Above the feature labels over the path's top too (they stand 0.4 of a feature label's height over it):
+            # on the RTCLM's 20 mm foot path the padding is ~1 mm and "t6=t7=t8" printed through the title.
+            _text("leg_title", LEG_TITLE, legbox[0],
+                  max(legbox[3] + 0.6 * h, g[3] + off[1] + (0.4 + LINE) * FEATURE_TEXT * h + 0.4 * h),
+                  "bottom-left", h),
             _text("inset_title", INSET_TITLE, inset[0], inset[3] + 0.6 * h, "bottom-left", h),
             _text("inset_note", NOTE_ROOM, inset[0], inset[1] - 0.6 * small, "top-left", small),
         ]

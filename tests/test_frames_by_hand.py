@@ -25,6 +25,7 @@ from studio.frames import (
     vertex_colours,
 )
 from studio.geometry import EDGE_CRANK, EDGE_GROUND, EDGE_LINK, SCENE_SCALE, link_edges
+from studio.spots import overlaps
 from studio.spots import overlaps as _overlaps
 from studio.state import Session, build_view
 
@@ -210,6 +211,18 @@ def test_titles_sit_above_their_views_and_scale_bars_below(x3):
     assert bars[:3, :, 1].max() < lay.design[1]  # the design view's bar under its lowest point
     assert bars[3:6, :, 1].max() < leg_bottom
     assert bars[:3, :, 0].min() == pytest.approx(lay.design[0])  # starting at its left edge
+
+
+@pytest.mark.parametrize("preset", ["rtclm/clm-case1", "rtclm/clm-case1/auxiliary", "stephenson1/X3", "jansen",
+                                    "klann", "watt1/paper"])
+def test_no_feature_label_prints_through_the_bench_view_s_title(preset):
+    # The RTCLM's foot path is ~20 mm, so the bench view's padding is ~1 mm: "t6=t7=t8" over the path's top printed
+    # through "Bench trajectory (leg frame)".
+    f = build_frames(Session.default(preset).view, show_target=not preset.startswith("rtclm"))  # as the studio
+    title = texts_by_key(f)["leg_title"].box
+    assert f.feature_labels
+    for t in f.feature_labels:
+        assert not overlaps(t.box, title), (t.text, t.box, title)
 
 
 def test_the_text_height_follows_the_larger_side_of_the_whole_composition(x3):
