@@ -62,6 +62,14 @@ LABELS: dict[str, str] = {
     "transmission_4": "auxiliary mode's worst transmission angle (deg)",
     "violation": "primary mode violation (0 ok, 1000+ not)",
     "aux_violation": "auxiliary mode violation (0 ok, 1000+ not)",
+    # Eq. 30-31 by what they measure, each <= 0 when met: "order_6 ≤ 0 · theta1_6 ≤ 0" read as unfinished.
+    **{f"{key}_{m}": f"Eq. {what}, {mode}{unit}"
+       for m, mode in (("6", "primary"), ("4", "auxiliary"))
+       for key, what, unit in (("order", "30 order t1→t2→t5→t4", " (rad)"),
+                               ("theta1", "30 15° − landing angle", " (rad)"),
+                               ("theta2", "30 15° − take-off angle", " (rad)"),
+                               ("eq31_height", "31 h_m/4 − h̄", " (mm)"),
+                               ("eq31_psi2", "31 0.2 − ψ2(25, 25)", ""))},
 }
 
 
