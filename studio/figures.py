@@ -35,8 +35,10 @@ def _axis_range(values: F64, focus: F64) -> list[float] | None:
 
 # Label placement on a 2-D chart (px of the side panel's plot area, where space is scarcest; the large chart has
 # more room): the positions tried in order, a label's size, and the marker it sits beside.
-PLOT_PX = (240.0, 190.0)
+PLOT_PX = (225.0, 165.0)  # a 320 px panel's chart at ASPECT_2D, less its margins, title and legend (the narrowest seen)
 CHAR_PX, LINE_PX, MARKER_PX = 6.5, 13.0, 7.0
+LEGEND_ROOM = 95  # px under the plot: the axis title and a legend of three rows
+RING_PX = 12.0  # a picked or passed-on member's ring: plotly sets its label off by the ring's size
 NEAR = ("top center", "bottom center", "middle right", "middle left", "top right", "top left", "bottom right",
         "bottom left")
 # A step further out, past a neighbour's marker: plotly has no offset, so the text is padded toward its marker
@@ -49,12 +51,12 @@ DOT_PX = 4.5  # half a front or dominated member's marker (9 px)
 FAR_COST = 25.0  # px² of dots a label may hide rather than stand a step off its marker (a dot is ~81 px²)
 
 
-def _label_box(x: float, y: float, text: str, position: str) -> Box:
-    """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker at (x, y), as plotly's ``textposition`` puts it
-    (a ``far`` position one step further out, as :func:`label_text` pads it)."""
+def _label_box(x: float, y: float, text: str, position: str, r: float = MARKER_PX) -> Box:
+    """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker of radius ``r`` at (x, y), as plotly's
+    ``textposition`` puts it (a ``far`` position one step further out, as :func:`label_text` pads it)."""
     far = position.startswith("far ")
     vert, horiz = position.removeprefix("far ").split(" ")
-    x0, y0, x1, y1 = _near_box(x, y, text, f"{vert} {horiz}")
+    x0, y0, x1, y1 = _near_box(x, y, text, f"{vert} {horiz}", r)
     if not far:
         return x0, y0, x1, y1
     dx = FAR_PX if horiz == "right" else -FAR_PX if horiz == "left" else 0.0
@@ -73,8 +75,8 @@ def label_text(text: str, position: str) -> str:
                                                                      else "\u00a0<br>" + text)
 
 
-def _near_box(x: float, y: float, text: str, position: str) -> Box:
-    w, h, r = CHAR_PX * len(text) + 2.0, LINE_PX, MARKER_PX
+def _near_box(x: float, y: float, text: str, position: str, r: float) -> Box:
+    w, h = CHAR_PX * len(text) + 2.0, LINE_PX
     vert, horiz = position.split(" ")
     cx = x if horiz == "center" else (x + r + w / 2 if horiz == "right" else x - r - w / 2)
     cy = y if vert == "middle" else (y + r + h / 2 if vert == "top" else y - r - h / 2)
@@ -85,14 +87,14 @@ def _near_box(x: float, y: float, text: str, position: str) -> Box:
 
 
 def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[float]],
-                 points: F64 | None = None) -> list[str | None]:
+                 points: F64 | None = None, radii: Sequence[float] | None = None) -> list[str | None]:
     """A ``textposition`` for each labelled point ``(n, 2)`` (in priority order), or None where every position
     would cover a label placed before it (hover still names it). Among the positions inside the plot area and clear
     of the labels placed before it, the one of least :func:`label_cost`: over another candidate's marker only if
     every one is, then over as few of the other drawn ``points`` ``(m, 2)`` as it can, beside its marker rather
     than a step further out (the first free one printed "best I" across K5's diamond, and labels sat on the
-    front's dots). With none inside, the first clear of labels (a label past the edge is cut). Draw it with
-    :func:`label_text`."""
+    front's dots). With none inside, the first clear of labels (a label past the edge is cut). ``radii``: each
+    labelled marker's (px; ``MARKER_PX``, a ring's ``RING_PX``). Draw it with :func:`label_text`."""
     (x0, x1), (y0, y1) = ranges
 
     def to_px(v: F64) -> F64:
@@ -100,20 +102,22 @@ def place_labels(xy: F64, texts: Sequence[str], ranges: tuple[list[float], list[
                                 (v[:, 1] - y0) / max(y1 - y0, 1e-300) * PLOT_PX[1]])
 
     px = to_px(xy)
-    r, d = MARKER_PX, DOT_PX
+    rs = [MARKER_PX] * len(px) if radii is None else [float(v) for v in radii]
+    d = DOT_PX
     plot: Box = (0.0, 0.0, PLOT_PX[0], PLOT_PX[1])
-    markers = [(x - r, y - r, x + r, y + r) for x, y in px if np.isfinite(x) and np.isfinite(y)]
+    markers = [(x - r, y - r, x + r, y + r) for (x, y), r in zip(px, rs, strict=True)
+               if np.isfinite(x) and np.isfinite(y)]
     pts = to_px(points) if points is not None and len(points) else np.zeros((0, 2))
     dots = [(x - d, y - d, x + d, y + d) for x, y in pts
             if np.isfinite(x) and np.isfinite(y) and -d < x < PLOT_PX[0] + d and -d < y < PLOT_PX[1] + d]
     labels: list[Box] = []
     out: list[str | None] = []
-    for (x, y), text in zip(px, texts, strict=True):
+    for (x, y), text, r in zip(px, texts, rs, strict=True):
         chosen = None
         if np.isfinite(x) and np.isfinite(y):
             own = (x - r, y - r, x + r, y + r)
             others = [m for m in markers if m != own]
-            boxes = {pos: _label_box(x, y, text, pos) for pos in POSITIONS}
+            boxes = {pos: _label_box(x, y, text, pos, r) for pos in POSITIONS}
             free = [pos for pos in POSITIONS if first_clear([boxes[pos]], labels) is not None]
             inside = [pos for pos in free if spill(boxes[pos], plot) == 0.0]
             if inside:
@@ -266,7 +270,8 @@ def make_pareto_figure(
     if not three and ranges is not None and all(r is not None for r in ranges) and labelled:
         ok = [i for i in labelled if bool(np.asarray(drawable)[i])]
         where = place_labels(coords[ok], [label_of[i] for i in ok], ranges,  # type: ignore[arg-type]
-                             coords[drawable & ~np.isin(np.arange(len(F)), ok)])
+                             coords[drawable & ~np.isin(np.arange(len(F)), ok)],
+                             [RING_PX if i in (shown, passed) else MARKER_PX for i in ok])
         placed.update(zip(ok, where, strict=True))
     # A ringed candidate (picked, passed on) carries its label on the ring, which plotly sets off by the ring's
     # size: beside its own marker the red ring crossed the label's first letter ("pest f1").
@@ -299,10 +304,12 @@ def make_pareto_figure(
     fig.update_layout(
         # 8 px in from the edge: at x = 0 the PNG's title touched its left border.
         title={"text": title, "font": {"size": 13}, "x": 0.0, "xanchor": "left", "pad": {"l": 8}},
-        margin={"l": 55, "r": 40, "t": 45 if title else 10, "b": 10},
+        margin={"l": 55, "r": 40, "t": 45 if title else 10, "b": LEGEND_ROOM},
         modebar={"orientation": "v"},
-        # Below the axis title, outside the plot (legend items wrap on a narrow panel).
-        legend={"orientation": "h", "yanchor": "top", "y": -0.22, "x": 0.0, "font": {"size": 10}},
+        # At the chart's bottom in two columns, under the axis title whatever the plot's height: placed a share of
+        # the plot below it, the legend sat on the axis title in the side panel, and five rows ate the plot.
+        legend={"orientation": "h", "yref": "container", "yanchor": "bottom", "y": 0.0, "x": 0.0,
+                "entrywidth": 0.5, "entrywidthmode": "fraction", "font": {"size": 10}},
         plot_bgcolor="white",
         showlegend=True,
     )
@@ -314,7 +321,7 @@ def make_pareto_figure(
                                     for k, t in zip(("xaxis", "yaxis", "zaxis"), short, strict=True)}
         # 10 % further out than first set: the first axis's title was cut at the right edge, under the mode bar.
         scene["camera"] = {"eye": {"x": 1.7, "y": 1.7, "z": 1.2}}
-        fig.update_layout(scene=scene, margin={"l": 0, "r": 0, "b": 0})
+        fig.update_layout(scene=scene, margin={"l": 0, "r": 0, "b": LEGEND_ROOM})
     else:
         assert ranges is not None
         for axis, k in (("xaxis", 0), ("yaxis", 1)):

@@ -602,16 +602,20 @@ def test_the_large_chart_fits_a_small_canvas_and_stays_at_most_960_by_760_with_i
     assert large_size(SimpleNamespace()) == {"width": 920.0, "height": 759.0}  # no camera report yet
 
 
-def test_a_narrow_large_chart_puts_its_legend_lower_and_leaves_the_side_panels_chart_alone():
-    import plotly.graph_objects as go
+def test_the_pareto_legend_sits_at_the_chart_s_bottom_in_two_columns_in_every_window():
+    # Placed a share of the plot below it, the legend sat on the axis title in the side panel (a three-line title
+    # left a ~70 px plot) and in narrow large windows; five one-entry rows ate the plot.
+    from studio.figures import LEGEND_ROOM, make_pareto_figure
+    from studio.panels.pareto import large_figure
 
-    from studio.panels.pareto import NARROW_LEGEND_Y, large_figure
-
-    fig = go.Figure(go.Scatter(x=[1, 2], y=[3, 4]), layout={"title": {"text": "short"}, "legend": {"y": -0.22}})
-    narrow, wide = large_figure(fig, 48), large_figure(fig, 96)  # 480 and 960 px windows
-    assert narrow.layout.legend.y == NARROW_LEGEND_Y < -0.22
-    assert wide.layout.legend.y == -0.22 and fig.layout.legend.y == -0.22  # the panel's chart is not changed
-
+    fig = make_pareto_figure(np.array([[1.0, 2.0], [2.0, 1.0]]), np.zeros(2), objectives=("f1", "f2"), front=(0, 1),
+                             title="a · b")
+    legend = fig.layout.legend
+    assert (legend.yref, legend.yanchor, legend.y, legend.entrywidth, legend.entrywidthmode) == (
+        "container", "bottom", 0.0, 0.5, "fraction")
+    assert fig.layout.margin.b == LEGEND_ROOM
+    for chars in (48, 96):  # 480 and 960 px windows: the same legend
+        assert large_figure(fig, chars).layout.legend == legend
 
 def test_three_objectives_offer_the_3d_cloud_and_each_pair_of_the_first_three():
     from studio.panels.pareto import THREE_D, projections

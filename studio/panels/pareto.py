@@ -37,15 +37,12 @@ CONFIG = {
 }
 # While a stage runs the chart is redrawn at most this often (s): 2-D and 3-D (WebGL, heavier).
 REDRAW_2D, REDRAW_3D = 0.5, 1.0
-ASPECT_2D, ASPECT_3D = 0.95, 1.35  # the side panel's chart: height over width
+ASPECT_2D, ASPECT_3D = 1.15, 1.55  # the side panel's chart: height over width (a three-line title, the legend)
 # The large chart's window: the chart's height over width, and the window's padding and the tab bar and Close
 # button above the chart (px).
 LARGE_ASPECT, LARGE_PAD, LARGE_CHROME = 0.72, 32, 120
 PANEL_TITLE_CHARS = 42  # a title line the side panel's chart shows whole (13 px type, the mode bar beside it)
 PX_PER_TITLE_CHAR = 10.0  # the large chart's title: characters per line = its window's width / this
-# A large chart narrower than this (a 900 x 700 page's is 480 px) puts its legend lower: at the default's 22 % of a
-# ~180 px plot under it, the legend's first row sat on the x axis title.
-NARROW_LARGE_PX, NARROW_LEGEND_Y = 640, -0.34
 
 
 def pareto_figure(sv: StudyView, axes: tuple[int, int] | None = None) -> go.Figure | None:
@@ -93,13 +90,9 @@ def trace_aspect(lines: int) -> float:
 
 
 def large_figure(fig: go.Figure, chars: int) -> go.Figure:
-    """The large window's copy of the chart: its title broken into lines of ``chars`` characters and, in a narrow
-    window, its legend lower."""
-    out = with_title_wrapped(fig, chars)
-    if chars * PX_PER_TITLE_CHAR < NARROW_LARGE_PX:
-        out = go.Figure(out) if out is fig else out
-        out.update_layout(legend_y=NARROW_LEGEND_Y)
-    return out
+    """The large window's copy of the chart: its title broken into lines of ``chars`` characters (the legend sits at
+    the chart's bottom, under the axis title, in a window of any width)."""
+    return with_title_wrapped(fig, chars)
 
 
 def passed_on(sv: StudyView) -> int | None:

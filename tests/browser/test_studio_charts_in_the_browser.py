@@ -46,8 +46,14 @@ def test_three_objectives_read_as_projections_and_in_a_large_window(page: Any, s
     expect(title).to_contain_text("Stephenson-I six-bar · subtask1")
     expect(title).to_contain_text("target cycloid")
     expect(chart.locator(".xtitle")).to_contain_text(a)
-    wait_for(lambda: (bb := chart.bounding_box()) is not None and bb["height"] < 1.05 * bb["width"],
+    wait_for(lambda: (bb := chart.bounding_box()) is not None and bb["height"] < 1.25 * bb["width"],
              "a projection's 2-D chart height")
+    # Readable in the side panel: the plot keeps most of the chart's width in height, and the legend sits under
+    # the axis title (a three-line title and a five-row legend left a ~70 px plot with the legend on the title).
+    plot, xtitle, legend = (chart.locator(sel).first.bounding_box() for sel in (".nsewdrag", ".xtitle", ".legend"))
+    assert plot is not None and xtitle is not None and legend is not None
+    assert plot["height"] >= 0.7 * plot["width"], plot  # 0.58 before (250 x 144 px here)
+    assert legend["y"] >= xtitle["y"] + xtitle["height"] + 4, (legend, xtitle)  # it touched the title before
 
     # Floated after it held the chart, the window drew it twice, and plotly's margin redraw of the first copy threw
     # on its purged node: an uncaught TypeError at every opening (lag walk, session 25).
