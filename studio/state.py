@@ -281,10 +281,14 @@ def check_value(param: Param, value: object, k: float = 1.0) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ValueError(f"{param.name} must be a number ({param.unit}), got {value!r}")
     v = float(value)
+    lo, hi = entry_bounds(param, k)
+    # Bounds first: 1e9 for a length read "must be within +-1e+06 mm" (the file format's limit), not its own bounds.
+    # (A length at or below 0 still reads "must be > 0".)
+    if param.kind != "angle" and math.isfinite(v) and not (param.kind == "length" and v <= 0) and not lo <= v <= hi:
+        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds [{lo:g}, {hi:g}] {param.unit}")
     problem = value_problem(param, v)  # what any design file refuses too
     if problem is not None:
         raise ValueError(problem)
-    lo, hi = entry_bounds(param, k)
     if param.kind != "angle" and not lo <= v <= hi:
         raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds [{lo:g}, {hi:g}] {param.unit}")
     return v
