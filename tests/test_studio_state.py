@@ -147,8 +147,8 @@ def test_a_valid_edit_re_solves_and_marks_the_parameter_edited(session: Session)
         ("r4", 600.0, "outside its bounds"),
         ("r6", -501.0, "outside its bounds"),
         ("x_a", 1e4, "outside its bounds"),
-        ("r4", 1e9, "r4 = 1e+09 mm is outside its bounds ["),  # not the file format's "within +-1e+06 mm"
-        ("r6", -1e9, "r6 = -1e+09 mm is outside its bounds ["),
+        ("r4", 1e9, r"r4 = 1e\+09 mm is outside its bounds \["),  # not the file format's "within +-1e+06 mm"
+        ("r6", -1e9, r"r6 = -1e\+09 mm is outside its bounds \["),
         ("r4", "12", "must be a number"),
         ("r4", 500.0, "does not assemble"),
         ("nope", 1.0, "no parameter"),
