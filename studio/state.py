@@ -255,8 +255,24 @@ def assembly_reason(view: DesignView) -> str | None:
     first = float(np.degrees(sol.theta[np.argmax(bad)]))
     return (
         f"the mechanism does not assemble over {100.0 * bad.mean():.0f} % of the crank cycle "
-        f"(first at {first:.0f} deg; violation {sol.violation[0]:.2f} mm)"
+        f"(first at {first:.0f} deg; violation {sol.violation[0]:.2f} mm)" + grashof_note(view)
     )
+
+
+def grashof_note(view: DesignView) -> str:
+    """Why a four-bar's crank cannot turn fully, by Grashof's rule (``; non-Grashof: s + l = 310 > p + q = 270``),
+    or "" (another mechanism, or a four-bar the rule allows)."""
+    if view.design.mechanism.name != "fourbar":
+        return ""
+    v = view.values
+    names = {"r1": "the crank AB", "r2": "the coupler BC", "r3": "the rocker DC", "r4": "the ground AD"}
+    s, p, q, big = sorted(v[k] for k in names)
+    if s + big > p + q:
+        return f"; non-Grashof: s + l = {s + big:.4g} > p + q = {p + q:.4g} mm, so no link turns fully"
+    shortest = min(names, key=lambda k: v[k])
+    if shortest in ("r2", "r3") and v[shortest] < min(v["r1"], v["r4"]):  # a double rocker: AB only rocks
+        return f"; Grashof, but the shortest link is {names[shortest]} ({v[shortest]:.4g} mm), so AB only rocks"
+    return ""
 
 
 def leg_scale(mechanism: Mechanism, target: TargetSpec) -> float:

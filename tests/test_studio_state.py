@@ -474,3 +474,23 @@ def test_a_session_past_what_a_file_may_hold_keeps_its_last_save_and_the_studio_
         assert load_session(path).view.values["r4"] == 131.0 and studio._save_error is None
     finally:
         studio.close()
+
+
+@pytest.mark.parametrize(("name", "value", "note"), [
+    ("r2", 250.0, "; non-Grashof: s + l = 310 > p + q = 270 mm, so no link turns fully"),  # 60+250 > 120+150
+    ("r3", 30.0, "; Grashof, but the shortest link is the rocker DC (30 mm), so AB only rocks"),
+])
+def test_a_four_bar_that_cannot_turn_its_crank_says_which_grashof_case_it_is(name, value, note) -> None:
+    # The refusal said where the four-bar stops assembling; a designer (or a class) wants Grashof's reason too.
+    s = Session.default("fourbar/chebyshev")
+    with pytest.raises(ValueError, match=r"does not assemble over") as got:
+        s.set_param(name, value)
+    assert str(got.value).endswith(note)
+    s.set_param("r1", 160.0)  # the ground (120) is then the shortest: a drag link, the crank turns fully
+    assert s.view.assembles
+
+
+def test_other_mechanisms_get_no_grashof_note() -> None:
+    from studio.state import grashof_note
+
+    assert grashof_note(Session.default().view) == ""
