@@ -142,6 +142,52 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     return tuple(out)
 
 
+PIVOT_SPOTS = ((1.0, -1.0, "top-left"), (1.0, 1.0, "bottom-left"), (-1.0, -1.0, "top-right"),
+               (-1.0, 1.0, "bottom-right"))  # (x, y) sides of the pivot, and the anchor that puts the label there
+
+
+def pivot_label_spots(names: tuple[str, ...], pivots: np.ndarray, links: np.ndarray, h: float,
+                      off: float) -> tuple[tuple[tuple[float, float, float], str], ...]:
+    """Each ground pivot's label position (scene units) and anchor: the corner of the pivot, ``off`` away, that the
+    links cross in the fewest crank samples (the first, lower right, among equals). Always lower right, Jansen's
+    "Q" sat on a link at most angles and read as a second "O".
+
+    Args:
+        pivots: ``(k, 3)`` pivots; links: ``(n_samples, n_edges, 2, 3)`` link segments (scene units).
+        h: the labels' height.
+    """
+    seg = np.asarray(links, dtype=np.float64)[..., :2]
+    a, d = seg[:, :, 0, :], seg[:, :, 1, :] - seg[:, :, 0, :]  # (n_s, n_e, 2): start and direction
+    out: list[tuple[tuple[float, float, float], str]] = []
+    for name, p in zip(names, np.asarray(pivots, dtype=np.float64), strict=True):
+        w, th = text_width(name, h), text_height(name, h)
+        best: tuple[tuple[float, float, float], str] = ((float(p[0]), float(p[1]), float(p[2])), "top-left")
+        least = np.inf
+        for sx, sy, anchor in PIVOT_SPOTS:
+            x0, y0 = p[0] + sx * off, p[1] + sy * off
+            xa, xb = (x0, x0 + w) if sx > 0 else (x0 - w, x0)
+            ya, yb = (y0 - th, y0) if sy < 0 else (y0, y0 + th)
+            crossed = int(_crosses_box(a, d, (xa, ya, xb, yb)).any(axis=1).sum())  # samples a link crosses it in
+            if crossed < least:
+                best, least = ((float(x0), float(y0), float(p[2])), anchor), crossed
+        out.append(best)
+    return tuple(out)
+
+
+def _crosses_box(a: F64, d: F64, box: tuple[float, float, float, float]) -> np.ndarray:
+    """Whether segments ``a + t d`` (t in [0, 1]; ``(..., 2)`` arrays) pass through the open box (Liang-Barsky)."""
+    lo, hi = np.zeros(a.shape[:-1]), np.ones(a.shape[:-1])
+    for k, (b0, b1) in enumerate(((box[0], box[2]), (box[1], box[3]))):
+        ak, dk = a[..., k], d[..., k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t0, t1 = (b0 - ak) / dk, (b1 - ak) / dk
+        flat = dk == 0.0  # parallel to this slab: in it throughout, or never
+        inside = (ak > b0) & (ak < b1)
+        lo = np.maximum(lo, np.where(flat, np.where(inside, 0.0, np.inf), np.minimum(t0, t1)))
+        hi = np.minimum(hi, np.where(flat, np.where(inside, 1.0, -np.inf), np.maximum(t0, t1)))
+    return lo < hi
+
+
 def joined_names(names: list[str]) -> str:
     """``t2=t5``; a run of four or more consecutive points as ``t1=…=t8`` (eight names ran past the bench view's
     box when every feature point fell on one spot)."""

@@ -15,7 +15,18 @@ import numpy as np
 import viser
 
 from studio import palette
-from studio.frames import DEFAULT_ASPECT, F32, FOV, U8, WALK_TITLE, SceneFrames, SceneText, build_frames, paint
+from studio.frames import (
+    DEFAULT_ASPECT,
+    F32,
+    FOV,
+    U8,
+    WALK_TITLE,
+    SceneFrames,
+    SceneText,
+    build_frames,
+    paint,
+    pivot_label_spots,
+)
 from studio.geometry import (
     F64,
     SCENE_SCALE,
@@ -183,10 +194,11 @@ class MechanismScene:
         off = 0.6 * frames.marker
         scene = self.server.scene
         small = 0.8 * frames.text_height
+        spots = pivot_label_spots(frames.pivot_names, frames.pivots, frames.links, small, off)
         self._labels = [
-            scene.add_label(f"/design/pivot_labels/{name}", name, anchor="top-left", font_size_mode="scene",
-                            font_scene_height=small, position=(float(p[0]) + off, float(p[1]) - off, 0.0))
-            for name, p in zip(frames.pivot_names, frames.pivots, strict=True)
+            scene.add_label(f"/design/pivot_labels/{name}", name, anchor=anchor,  # type: ignore[arg-type]
+                            font_size_mode="scene", font_scene_height=small, position=(x, y, 0.0))
+            for name, ((x, y, _), anchor) in zip(frames.pivot_names, spots, strict=True)
         ] + [
             scene.add_label(f"/leg/feature_labels/{k}", t.text, anchor=t.anchor,  # type: ignore[arg-type]
                             font_size_mode="scene", font_scene_height=t.height, position=t.position)
