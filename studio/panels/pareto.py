@@ -123,12 +123,17 @@ def projections(objectives: tuple[str, ...]) -> dict[str, tuple[int, int] | None
     return out
 
 
+def _drawn(F: np.ndarray) -> np.ndarray:
+    """The first three objectives of the members a chart draws (every one finite)."""
+    G = F[:, :3]
+    return G[np.isfinite(G).all(axis=1)]
+
+
 def flat_view(F: np.ndarray, objectives: tuple[str, ...]) -> str | None:
     """The projection to open on when one of the first three objectives is the same for every drawn member (subtask
     1's f2 = f3 = 0: placement meets them exactly), and which: the 3-D cloud was one diamond in an empty box. None
     when all three vary (or nothing is drawn)."""
-    G = F[:, :3]
-    G = G[np.isfinite(G).all(axis=1)]
+    G = _drawn(F)
     if len(objectives) < 3 or len(G) == 0:
         return None
     varies = [bool(np.ptp(G[:, k]) > 0) for k in range(3)]
@@ -142,11 +147,10 @@ def flat_view(F: np.ndarray, objectives: tuple[str, ...]) -> str | None:
 
 def same_for_all(F: np.ndarray, objectives: tuple[str, ...]) -> str:
     """``f2 = 0 and f3 = 0 for every member``: the first three objectives that do not vary, with their value."""
-    G = F[:, :3]
-    G = G[np.isfinite(G).all(axis=1)]
+    G = _drawn(F)
     if len(G) == 0:
         return ""
-    flat = [f"{objectives[k]} = {float(G[0, k]):.3g}" for k in range(min(3, G.shape[1])) if np.ptp(G[:, k]) == 0]
+    flat = [f"{objectives[k]} = {float(G[0, k]):.3g}" for k in range(G.shape[1]) if np.ptp(G[:, k]) == 0]
     return f"{' and '.join(flat)} for every member" if flat else ""
 
 
