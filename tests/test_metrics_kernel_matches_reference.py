@@ -6,6 +6,8 @@ from dataclasses import fields, replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from core.analysis.evaluate import Evaluation, evaluate, evaluate_paths
 from core.kinematics.design import Design
@@ -54,6 +56,25 @@ def test_kernel_matches_reference_on_odd_paths(n: int) -> None:
     fast = evaluate_paths(P, P, None, obstacle=(20.0, 30.0), trunk=380.0, kernel=True)
     assert_same(ref, fast)
     assert ref.feasible.tolist() == [True, False, False, False, True, True, False]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(-1.5, 1.5), min_size=1, max_size=4),
+    st.sampled_from([64, 91, 360]),
+    st.floats(0.0, 6.3),
+)
+def test_kernel_charges_every_extra_lobe_like_the_reference(amps: list[float], n: int, phase: float) -> None:
+    """y = sin t + sum a_k sin((2k + 1) t): f(t) = 2 y(t) has up to 2(2k + 1) roots, and lobes of every size (equal
+    ones too: a = 0 makes the two main lobes tie). The kernel's root count and violation (every lobe of |f| but the
+    two largest, less LOBE_TOL) are the reference's (session 27 saw the kernel charge the two main lobes once)."""
+    th = 2 * np.pi * np.arange(n) / n + phase
+    y = np.sin(th) + sum(a * np.sin((2 * k + 3) * th) for k, a in enumerate(amps))
+    P = np.stack([150 * np.cos(th), 50 * y], -1)[None]
+    ref = evaluate_paths(P, P, None, kernel=False)
+    fast = evaluate_paths(P, P, None, kernel=True)
+    assert fast.path_violation[0] == pytest.approx(ref.path_violation[0], rel=1e-9, abs=1e-9)
+    assert (fast.path_violation[0] == 0.0) == (ref.path_violation[0] == 0.0)
 
 
 @pytest.mark.parametrize("parallel", [False, True])

@@ -133,17 +133,26 @@ def _one(px, py, dpx, dpy, qx, qy, T, period, a, b, offs2, ph2, offs4, ph4, W, i
     if n_roots == 0:
         viol = NO_ROOT_VIOLATION
     elif n_roots > 2:
-        for i in range(n):
-            peak[i] = 0.0
+        for k in range(n_roots):
+            peak[k] = 0.0
         cnt = 0
         for i in range(n):
             lab = cnt % n_roots  # sample i's lobe: a crossing at i is between i and i + 1
             peak[lab] = max(peak[lab], abs(f[i]))
             if (f[i] >= 0.0) != (f[_wrap(i + 1, n)] >= 0.0):
                 cnt += 1
-        srt = np.sort(peak)
-        for k in range(len(srt) - 2):
-            viol += 0.5 * max(srt[k] - LOBE_TOL, 0.0)
+        # Every lobe but the two largest (found in one pass; no sort, and no sum-then-subtract round-off).
+        k1, k2 = 0, 1
+        if peak[1] > peak[0]:
+            k1, k2 = 1, 0
+        for k in range(2, n_roots):
+            if peak[k] > peak[k1]:
+                k1, k2 = k, k1
+            elif peak[k] > peak[k2]:
+                k2 = k
+        for k in range(n_roots):
+            if k != k1 and k != k2:
+                viol += 0.5 * max(peak[k] - LOBE_TOL, 0.0)
     S[N_ROOTS] = n_roots
     S[ROOT_VIOL] = viol
     q1 = (best_i + best_u) % n
