@@ -48,6 +48,25 @@ def _fmt(v: float, exact: bool = False) -> str:
     return f"{v:.3g}" if a < 1.0 else f"{v:.4g}"
 
 
+def _fmt_pair(a: float, b: float, exact: bool = False) -> tuple[str, str]:
+    """Two values of one Pick-table row with the same decimals, so their digits line up ("0.0190" beside "0.0162",
+    not "0.019"): 4 significant digits of the larger from 1 on, 3 below; very large or small rows, violations and
+    values under 1e-4 keep ``_fmt``'s own form."""
+    finite = [abs(v) for v in (a, b) if math.isfinite(v) and v != 0.0]
+    m = max(finite, default=0.0)
+    if exact or m == 0.0 or m < 1e-3 or m >= 1e5:
+        return _fmt(a, exact), _fmt(b, exact)
+    d = max(0, (4 if m >= 1.0 else 3) - 1 - math.floor(math.log10(m)))
+
+    def one(v: float) -> str:
+        if not math.isfinite(v) or 0.0 < abs(v) < 1e-4:
+            return _fmt(v)
+        t = f"{v:.{d}f}"
+        return t[1:] if t.startswith("-") and float(t) == 0.0 else t  # no "-0.00"
+
+    return one(a), one(b)
+
+
 def objective_text(result: StageResult, i: int) -> str:
     return ", ".join(f"{o} {_fmt(float(result.F[i, k]))}" for k, o in enumerate(result.objectives))
 
@@ -117,7 +136,7 @@ def comparison(result: StageResult, member: int, start: Mapping[str, float], nam
     for n in names:
         cand = float(result.metrics[n][member])
         exact = n in ("violation", "violation_mm")
-        rows.append((labels.get(n, n), _fmt(float(start.get(n, math.nan)), exact), _fmt(cand, exact)))
+        rows.append((labels.get(n, n), *_fmt_pair(float(start.get(n, math.nan)), cand, exact)))
     return rows
 
 

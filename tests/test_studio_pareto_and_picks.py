@@ -333,3 +333,16 @@ def test_candidate_values_read_as_a_designer_would_say_them() -> None:
     assert [_fmt(v) for v in (4.08e-07, -2.9e-08, 0.0, 5.2e-4, 0.4472, 4.1017, 123456.0, float("nan"))] == \
         ["≈0", "≈0", "0", "0.00052", "0.447", "4.102", "1.23e+05", "-"]
     assert _fmt(1e-9, exact=True) == "1e-09"  # a violation: any is infeasible, and "≈0" read as feasible
+
+
+def test_a_pick_row_writes_start_and_candidate_with_the_same_decimals() -> None:
+    """Rehearsal 2 read "0.019" beside "0.0162" in one row: both values of a row now line up."""
+    from studio.candidates import _fmt_pair
+
+    assert _fmt_pair(0.019, 0.0162) == ("0.0190", "0.0162")
+    assert _fmt_pair(4.1017, 12.3) == ("4.10", "12.30")  # 4 digits of the larger
+    assert _fmt_pair(150.0, -0.0004) == ("150.0", "0.0")  # no "-0.0"
+    assert _fmt_pair(0.5, float("nan")) == ("0.500", "-")
+    assert _fmt_pair(2.0, 3e-7) == ("2.000", "≈0")
+    assert _fmt_pair(1e-9, 0.0, exact=True) == ("1e-09", "0")  # a violation keeps every digit
+    assert _fmt_pair(123456.0, 1.0) == ("1.23e+05", "1")
