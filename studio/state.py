@@ -42,8 +42,9 @@ from studio.walking import WalkFrames, WalkSpec, build_walk
 
 F64 = NDArray[np.float64]
 
-SESSION_VERSION = 5  # 3: stage results stored once by hash, arrays packed (studio.session_pack); 4: branches
-# keep the target their stages ran against and the study's state, curves stored once; 5: RTCLM heights in targets
+SESSION_VERSION = 6  # 3: stage results stored once by hash, arrays packed (studio.session_pack); 4: branches
+# keep the target their stages ran against and the study's state, curves stored once; 5: RTCLM heights in targets;
+# 6: the cycloid an uploaded curve replaced
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0
@@ -611,7 +612,7 @@ class Session:
             if curve is not None and v.target.curve is None:
                 self.cycloid = v.target
             if curve is None and v.target.curve is not None:  # back to the cycloid it replaced, with today's heights
-                was = self.cycloid or TargetSpec(v.target.length, v.target.height)  # (a loaded session: T's default)
+                was = self.cycloid or TargetSpec(v.target.length, v.target.height)  # (a version-5 file: T's default)
                 target = replace(was, h6=v.target.h6, h4=v.target.h4)
             if target == v.target:
                 return v
@@ -674,6 +675,8 @@ class Session:
                 "walk": v.walk.to_dict(),
                 "playback": {"playing": pb.playing, "speed": pb.speed, "angle": pb.angle},
                 "study": pack_study(self.study.to_dict()),
+                **({"cycloid": self.cycloid.to_dict()} if self.cycloid is not None and v.target.curve is not None
+                   else {}),
             }
 
     @classmethod
@@ -705,6 +708,13 @@ class Session:
         session = cls(view, study=Study.from_dict(study, target))
         session.set_speed(float(pb.speed))
         session.playback = Playback(pb.playing, float(pb.speed), float(pb.angle) % (2.0 * math.pi))
+        if f.cycloid is not None and target.curve is not None:
+            try:
+                session.cycloid = TargetSpec.from_dict(f.cycloid)
+            except ValueError as exc:
+                raise ValueError(f"cycloid: {exc}") from None
+            if session.cycloid.curve is not None:
+                raise ValueError("cycloid: must be a compound cycloid (L, H, T), not a curve")
         return session
 
     def restore_branch(self, j: int) -> DesignView:
@@ -745,7 +755,7 @@ class Session:
             if self.study.status.running:
                 raise ValueError("a stage is running; stop it before loading a session")
             self.undone, self.redone = [], []  # a loaded session is another piece of work
-            self.cycloid = None
+            self.cycloid = other.cycloid
             self.view = other.view
             self.playback = other.playback
             self.study = other.study

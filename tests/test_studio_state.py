@@ -320,6 +320,32 @@ def test_back_to_the_cycloid_after_a_curve_keeps_the_cycloids_length_and_height(
     assert session.set_target(height=95.0).target.curve is None  # editing the cycloid returns to it
 
 
+def test_the_replaced_cycloid_survives_a_saved_session(session: Session, tmp_path) -> None:
+    """A session saved while an uploaded curve is the target keeps the cycloid it replaced: after a reload (or a
+    Load session), "Back to the compound cycloid" brings back the designer's L, H and T, not the defaults."""
+    from studio.session_file import load_session, save_session
+    from studio.target import Curve
+
+    session.set_target(length=280.0, height=90.0, period=1.0)
+    before = session.view.target
+    t = np.arange(40) / 40
+    csv = "x,y\n" + "".join(f"{150 + 100 * np.cos(2 * np.pi * a):.6f},{-40 + 40 * np.sin(2 * np.pi * a):.6f}\n"
+                             for a in t)
+    session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    save_session(session, tmp_path / "s.json")
+    loaded = load_session(tmp_path / "s.json")
+    assert loaded.set_curve(None).target == before
+    other = Session(session.view)  # Load session into a running studio takes it over too
+    other.restore(load_session(tmp_path / "s.json"))
+    assert other.set_curve(None).target == before
+    # Without an upload there is nothing to keep, and a bad cycloid is named.
+    data = json.loads((tmp_path / "s.json").read_text())
+    assert "cycloid" in data and "cycloid" not in loaded.to_dict()
+    data["cycloid"] = {"L": -5, "H": 90, "T": 1}
+    with pytest.raises(ValueError, match="^cycloid: "):
+        Session.from_dict(data)
+
+
 def test_restoring_a_loaded_session_takes_its_playback_too(session: Session, x3_session_data: dict) -> None:
     data = json.loads(json.dumps(x3_session_data))
     data["playback"] = {"playing": False, "speed": 3.0, "angle": 1.0}

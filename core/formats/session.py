@@ -16,9 +16,10 @@ from msgspec import Meta, Struct
 from core.formats.typed import decode, unique_keys
 
 SESSION_FORMAT = "clm-studio-session"
-READS_VERSIONS = (1, 2, 3, 4, 5)  # 1: no walk, no study; 3: stage results once, by hash (studio.session_pack);
+READS_VERSIONS = (1, 2, 3, 4, 5, 6)  # 1: no walk, no study; 3: stage results once, by hash (studio.session_pack);
 # 4: branches keep their target and study state, curves once by hash; 5: a target may carry the RTCLM's h6 and h4
-# (an older studio then says "unsupported session version 5", not "unknown target key 'h6'")
+# (an older studio then says "unsupported session version 5", not "unknown target key 'h6'"); 6: the cycloid an
+# uploaded curve replaced, for "Back to the compound cycloid" after a reload
 MAX_SESSION_BYTES = 64 * 2**20
 Label = Annotated[str, Meta(min_length=1, max_length=200)]
 
@@ -57,13 +58,14 @@ class SessionFile(Struct, forbid_unknown_fields=True, frozen=True):
     """A CLM Studio session: the editor's design, target, walking view and playback, and the study."""
 
     format: Literal["clm-studio-session"]
-    version: Literal[1, 2, 3, 4, 5]
+    version: Literal[1, 2, 3, 4, 5, 6]
     design: dict[str, Any]
     target: dict[str, Any]
     preset: str | None = None
     walk: dict[str, Any] = {}
     playback: PlaybackFile = PlaybackFile()
     study: StudyFile | None = None
+    cycloid: dict[str, Any] | None = None  # version 6: the cycloid the uploaded target curve replaced
 
 
 def parse_json(content: str | bytes) -> Any:
