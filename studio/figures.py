@@ -51,6 +51,15 @@ DOT_PX = 4.5  # half a front or dominated member's marker (9 px)
 FAR_COST = 25.0  # px² of dots a label may hide rather than stand a step off its marker (a dot is ~81 px²)
 
 
+def _one_tick(values: F64) -> dict[str, object]:
+    """A single tick at the value every drawn member shares (subtask 1's f2 = 0 read "-0.006 ... 0.006": a scale
+    for a spread there is not); {} when the values vary or nothing is drawn."""
+    v = values[np.isfinite(values)]
+    if len(v) == 0 or np.ptp(v) > 0:
+        return {}
+    return {"tickmode": "array", "tickvals": [float(v[0])], "ticktext": [f"{float(v[0]):.4g}"]}
+
+
 def _label_box(x: float, y: float, text: str, position: str, r: float = MARKER_PX) -> Box:
     """(x0, y0, x1, y1) in px (y up) of ``text`` beside a marker of radius ``r`` at (x, y), as plotly's
     ``textposition`` puts it (a ``far`` position one step further out, as :func:`label_text` pads it)."""
@@ -328,7 +337,7 @@ def make_pareto_figure(
             rng = ranges[k]
             fig.update_layout({axis: {"title": {"text": titles[k], "standoff": 4}, "showgrid": True,
                                       "gridcolor": "#e5e5e5", "zeroline": False, "nticks": 7, "automargin": True,
-                                      **({"range": rng} if rng else {})}})
+                                      **({"range": rng} if rng else {}), **_one_tick(coords[drawable, k])}})
     return fig
 
 

@@ -346,3 +346,14 @@ def test_a_pick_row_writes_start_and_candidate_with_the_same_decimals() -> None:
     assert _fmt_pair(2.0, 3e-7) == ("2.000", "≈0")
     assert _fmt_pair(1e-9, 0.0, exact=True) == ("1e-09", "0")  # a violation keeps every digit
     assert _fmt_pair(123456.0, 1.0) == ("1.23e+05", "1")
+
+
+def test_an_objective_every_member_shares_gets_one_tick_at_its_value() -> None:
+    """Subtask 1's f1-against-f2 projection (placement makes f2 = 0 for all) read "-0.006 ... 0.006" on its f2
+    axis, a scale for a spread there is not: the axis now has one tick, at 0; a varying axis keeps plotly's."""
+    from studio.figures import make_pareto_figure
+
+    F = np.array([[3.6, 0.0, 0.0], [4.1, 0.0, 0.0], [4.4, 0.0, 0.0], [np.nan, 1.0, 0.0]])
+    fig = make_pareto_figure(F, np.zeros(4), objectives=("f1", "f2", "f3"), front=(0,), axes=(0, 1))
+    assert list(fig.layout.yaxis.tickvals) == [0.0] and list(fig.layout.yaxis.ticktext) == ["0"]
+    assert fig.layout.xaxis.tickvals is None
