@@ -7,6 +7,7 @@ import numpy as np
 
 from core.kinematics.presets import get
 from core.optimize import AlgorithmSpec, Stage, StageSpec, make_problem
+from studio.state import SESSION_VERSION
 from studio.study import status_text
 
 X2 = get("stephenson1/X2").design()
@@ -292,7 +293,7 @@ def test_a_pipeline_run_against_two_uploaded_curves_opens_where_neither_is_store
     s.select_mechanism("jansen")  # the pipeline becomes a branch (its target: the latest run's curve)
     data = json.loads(json.dumps(s.to_dict()))
     curves = data["study"]["curves"]
-    assert data["version"] == 5
+    assert data["version"] == SESSION_VERSION
     assert {c["points"][0][0] for c in curves.values()} == {300.0, 290.0}  # both stages' curves travel with it
     # Another machine: an empty target store.
     monkeypatch.setattr(target, "CURVE_DIR", tmp_path / "store")
