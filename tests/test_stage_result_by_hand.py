@@ -68,3 +68,26 @@ def test_the_parent_pick_survives_json(result: StageResult) -> None:
     r = dataclasses.replace(result, parent_pick=7, picked=2)
     back = StageResult.from_json(r.to_json())
     assert back.parent_pick == 7 and back.picked == 2
+
+
+def test_best_of_a_metric_that_is_no_objective_is_taken_on_the_front() -> None:
+    """``best:S`` took the smallest S over the whole population once, a member another beat on both objectives
+    (rehearsal 3: h_s and I four times smaller, S 0.001 points larger); the paper's X_i lie on the front. Off the
+    front only when no front member is a candidate (a pick_where or next-stage mask that excludes them all)."""
+    from core.optimize.lineage import choose
+
+    F2 = np.array([[1.0, 1.0], [2.0, 2.0], [0.5, 3.0], [3.0, 0.2]])
+    cv = np.zeros(4)
+    r = dataclasses.replace(small_result(), X=small_result().X[np.arange(4) % small_result().pop], F=F2,
+                            G=np.zeros((4, 1)), cv=cv, constraints=("violation<=0.0",), picked=None,
+                            metrics={"S": np.array([5.0, 1.0, 3.0, 4.0]), "I": np.array([1.0, 0.1, 9.0, 9.0])},
+                            shortlist=decision.shortlist(F2, cv))
+    assert set(r.front) == {0, 2, 3}  # member 1 is dominated by member 0
+    assert r.choose("best:S") == 2  # the smallest S on the front, not member 1's 1.0
+    assert choose(r, "best:S", mask=np.array([True, True, True, True])) == 2
+    assert choose(r, "best:S", mask=np.array([True, True, False, True])) == 3
+    assert choose(r, "best:S", mask=np.array([False, True, False, False])) == 1  # no front member to take
+    # pick_where I <= 1: front member 0 meets it, so it is preferred to the dominated member 1 with a smaller S
+    from core.optimize.problem import Constraint
+
+    assert choose(r, "best:S", where=(Constraint("I", upper=1.0),), mask=np.array([True, True, False, True])) == 0

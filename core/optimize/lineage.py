@@ -19,7 +19,7 @@ from core.optimize.design_config import DesignConfig, StageConfig, placeholder
 from core.optimize.multistart import SEED_STRIDE, Chain, MultiStart, Starts, rank_chains, select_chain
 from core.optimize.pipeline import Pipeline
 from core.optimize.problem import Constraint, ProblemSpec, make_problem
-from core.optimize.result import PickRule, StageResult, best_metric
+from core.optimize.result import PickRule, StageResult, best_on_front
 from core.optimize.stage import Progress, StageSpec, derived_seed
 from core.optimize.subtasks import LIMIT_METRICS, resolve_limits
 from core.optimize.workers import resolve as resolve_workers
@@ -100,7 +100,8 @@ def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None =
         if name in result.objectives:
             j = decision.best_per_objective(F, cv)[result.objectives.index(name)]
             return int(idx[j])
-        best = best_metric(result.metrics[name], mask & result.feasible, name) if name in result.metrics else None
+        best = best_on_front(result.metrics[name], mask & result.feasible, result.front, name) \
+            if name in result.metrics else None
         return best if best is not None else result.choose(rule)
     sl = decision.shortlist(F, cv)
     k = int(rule.split(":", 1)[1]) if isinstance(rule, str) and ":" in rule else 0
