@@ -8,17 +8,19 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from core.study.report import case_report, markdown
 from core.study.stats import front_quality, normaliser, summary, verdict
 
-BETTER, WORSE = [5.0, 6.0, 7.0, 8.0, 9.0], [1.0, 2.0, 3.0, 4.0, 4.5]  # rank-sum p = 0.012
+BETTER, WORSE = [5.0, 6.0, 7.0, 8.0, 9.0], [1.0, 2.0, 3.0, 4.0, 4.5]  # rank-sum p = 2/252 (exact)
 
 
 def test_the_verdict_follows_the_metrics_direction_and_needs_significance() -> None:
     assert verdict(BETTER, WORSE, True) == "+" and verdict(WORSE, BETTER, True) == "-"
     assert verdict(BETTER, WORSE, False) == "-" and verdict(WORSE, BETTER, False) == "+"
-    assert verdict([1.0, 2.0, 3.0, 4.0], [1.5, 2.5, 3.5, 4.5], True) == "≈"  # p = 0.56
+    assert verdict([1.0, 2.0, 3.0, 4.0], [1.5, 2.5, 3.5, 4.5], True) == "≈"  # p = 0.69 (exact)
     assert verdict(BETTER, WORSE, None) == "≈"  # a metric without a better direction
 
 
@@ -101,3 +103,34 @@ def test_a_label_cannot_end_the_reports_script_and_run_its_own() -> None:
     assert "A\\u003c/script>\\u003cscript>document.title" in page
     for script in page.split("<script>")[2:]:  # the figures' (the first is plotly.js)
         assert "<" not in script.split("</script>")[0]
+
+
+def test_three_runs_against_three_are_never_significant() -> None:
+    """Rehearsal 3: the smoke study's report marked "+" and "-" with 3 runs against 3 (the normal approximation's
+    p = 0.0495); the exact p of a complete separation at that size is 2/20 = 0.1."""
+    from core.study.stats import rank_sum_p
+
+    assert rank_sum_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]) == pytest.approx(0.1)
+    assert verdict([4.0, 5.0, 6.0], [1.0, 2.0, 3.0], True) == "≈"
+    assert rank_sum_p([1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0]) == pytest.approx(2 / 70)  # 4 + 4 can tell
+    assert verdict([5.0, 6.0, 7.0, 8.0], [1.0, 2.0, 3.0, 4.0], True) == "+"
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(0, 6), min_size=2, max_size=7), st.lists(st.integers(0, 6), min_size=2, max_size=7))
+def test_the_exact_rank_sum_p_counts_every_split_of_the_pooled_ranks(a: list[int], b: list[int]) -> None:
+    """Against brute force over every split (ties as mid-ranks), and against scipy's exact test without ties."""
+    from itertools import combinations
+
+    from scipy.stats import mannwhitneyu, rankdata
+
+    from core.study.stats import rank_sum_p
+
+    r = rankdata(np.array(a + b, dtype=float))
+    n, mean = len(a), len(a) * (len(r) + 1) / 2
+    seen = abs(r[:n].sum() - mean)
+    sums = [r[list(c)].sum() for c in combinations(range(len(r)), n)]
+    brute = sum(abs(s - mean) >= seen - 1e-9 for s in sums) / len(sums)
+    assert rank_sum_p(a, b) == pytest.approx(brute, rel=1e-12)
+    if len(set(a + b)) == len(a + b):
+        assert rank_sum_p(a, b) == pytest.approx(mannwhitneyu(a, b, method="exact").pvalue, rel=1e-9)
