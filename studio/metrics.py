@@ -16,22 +16,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from core.analysis.evaluate import CONSTRAINT_NAMES, DEFAULT_OBSTACLE, Evaluation, evaluate_paths, why_infeasible
+from core.analysis.evaluate import (
+    CONSTRAINT_NAMES,
+    CONSTRAINT_TEXT,
+    DEFAULT_OBSTACLE,
+    Evaluation,
+    evaluate_paths,
+    why_infeasible,
+)
 from core.analysis.features import FEATURE_NAMES
 from core.analysis.targets import Target
 from core.kinematics.solver import Solution, worst_transmission
 from studio.tables import INSET
 
 F64 = NDArray[np.float64]
-
-# What each Eq. 30-31 constraint asks, for "why not" (same order as CONSTRAINT_NAMES).
-CONSTRAINT_TEXT = {
-    "order": "order t1 -> t2 -> t5 -> t4 (Eq. 30)",
-    "theta1": "landing angle theta1 >= 15 deg",
-    "theta2": "take-off angle theta2 >= 15 deg",
-    "h_bar": "mean swing height h_bar > h_m / 4 (Eq. 31)",
-    "psi2": "psi2 > 20 % (Eq. 31)",
-}
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import core.cli
 from core.analysis.evaluate import evaluate
 from core.analysis.targets import compound_cycloid
 from core.cli import main
@@ -17,13 +16,6 @@ from core.kinematics.presets import get
 
 REQUIRED = ("feasible", "violation", "l_s", "h_s", "S", "I", "theta1", "theta2", "width", "y_min", "step_length",
             "h_m", "h_bar", "psi2", "psi4", "mse", "feature_points")
-
-
-@pytest.fixture(autouse=True)
-def wired(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Until the lead adds it to core.cli.COMMANDS, register the command for these tests."""
-    if "evaluate" not in core.cli.COMMANDS:
-        monkeypatch.setattr(core.cli, "COMMANDS", (*core.cli.COMMANDS, "evaluate"))
 
 
 def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
@@ -78,7 +70,8 @@ def test_a_curve_without_times_says_what_its_constant_speed_makes_up(tmp_path: P
     lines = out.splitlines()
     assert lines[1].startswith("  the curve has no times: the foot is taken to move at constant speed along it")
     assert "(I, theta1, theta2, the feature points, the stance, MSE)" in lines[2]
-    assert lines[-1].endswith(" psi2 " + lines[-1].rsplit(" psi2 ", 1)[1]) and not lines[-1].endswith(" 1")
+    cons = next(ln for ln in lines if ln.startswith("  constraints (<= 0 satisfied)"))
+    assert cons.endswith(" psi2 " + cons.rsplit(" psi2 ", 1)[1]) and not cons.endswith(" 1")
     f.write_text("x,y,t\n" + "\n".join(f"{a:.17g},{b:.17g},{k / 180:.17g}" for k, (a, b) in enumerate(p)))
     code, out, err = run(capsys, "evaluate", "--curve", str(f))
     assert code == 0 and "no times" not in out
@@ -227,3 +220,23 @@ def test_a_target_without_times_gets_the_optimizers_shape_error_and_only_the_pap
     for spec, papers in (("cycloid:L=300.0,H=80", True), ("cycloid:L=250", False), ("cycloid:H=100", True)):
         assert main(["evaluate", "--preset", "stephenson1/X3", "--target", spec]) == 0
         assert ("the paper's S" in capsys.readouterr().out) == papers
+
+
+def test_an_rtclm_mode_names_its_height_and_target_and_the_gait_verdict_is_one_line(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Rehearsal 3: `--mode auxiliary` printed "None: feasible", an RTCLM's h_m was not called h6 or h4, its S was
+    printed as "the paper's S" of a 300 mm stride, and "feasible" stood above violated gait constraints without a
+    word."""
+    code, out, _ = run(capsys, "evaluate", "--preset", "rtclm/clm-case1", "--mode", "auxiliary")
+    assert code == 0 and out.startswith("rtclm/clm-case1 (auxiliary mode): ")
+    assert "h_m = h4" in out and "target 220 mm (case 1)" in out and "the paper's S" not in out
+    code, out, _ = run(capsys, "evaluate", "--preset", "rtclm/clm-case1")
+    assert "h_m = h6" in out and "target 50 mm" in out
+    code, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X3")
+    verdict = [ln for ln in out.splitlines() if ln.strip().startswith("gait constraints")]
+    assert len(verdict) == 1 and verdict[0].endswith("1 unmet: landing angle theta1 >= 15 deg")  # 3.2 deg
+    assert "h_m = " not in out and "the paper's S" in out
+    code, out, _ = run(capsys, "evaluate", "--preset", "stephenson1/X0")
+    assert [ln for ln in out.splitlines() if "gait constraints" in ln][0].endswith(": all met")
+    code, out, _ = run(capsys, "simulate", "--preset", "rtclm/clm-case1", "--mode", "auxiliary")
+    assert out.startswith("rtclm/clm-case1 (auxiliary mode): ")

@@ -33,6 +33,13 @@ Backend = Literal["auto", "numpy", "numba"]
 
 CONSTRAINT_NAMES = ("order", "theta1", "theta2", "h_bar", "psi2")
 CONSTRAINT_UNITS = ("rad", "rad", "rad", "mm", "1")
+CONSTRAINT_TEXT = {  # each constraint as a designer says it met
+    "order": "order t1 -> t2 -> t5 -> t4 (Eq. 30)",
+    "theta1": "landing angle theta1 >= 15 deg",
+    "theta2": "take-off angle theta2 >= 15 deg",
+    "h_bar": "mean swing height h_bar > h_m / 4 (Eq. 31)",
+    "psi2": "psi2 > 20 % (Eq. 31)",
+}
 DEFAULT_OBSTACLE = (25.0, 25.0)
 MIN_SAMPLES = 8  # fewer samples cannot place two landing roots and a swing; 0 or 1 used to hang the kernel
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from core.analysis.evaluate import (
     CONSTRAINT_NAMES,
+    CONSTRAINT_TEXT,
     CONSTRAINT_UNITS,
     DEFAULT_OBSTACLE,
     MIN_SAMPLES,
@@ -102,7 +103,7 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
         info: dict[str, Any] = {"source": str(args.curve), "frame": "leg" if args.leg_frame else "design",
                 "time_law": curve.has_time}
         return ev, str(args.curve), info
-    from core.cli.simulate import load_design
+    from core.cli.simulate import design_label, load_design
 
     design, preset = load_design(args)
     if target is not None and args.target is not None and args.target.split(":", 1)[0] != "cycloid" \
@@ -113,7 +114,26 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     ev = evaluate(design, args.samples, backend=args.backend, **kw)
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
             "output": design.output.to_dict()}
-    return ev, preset if preset is not None else str(args.design), info
+    return ev, design_label(args, preset), info
+
+
+def rtclm_height(mechanism: str, label: str) -> tuple[str, str] | None:
+    """An RTCLM mode's name for h_m and its target in words (``("h6", "50 mm")``), or None for another mechanism;
+    h4's target is the case's when the label names one (``rtclm/case3``), else the five cases'."""
+    import re
+
+    from core.optimize.rtclm import H4_CASES, H6_TARGET, MODE_HEIGHT
+
+    name = MODE_HEIGHT.get(mechanism)
+    if name is None:
+        return None
+    if name == "h6":
+        return name, f"{H6_TARGET:g} mm"
+    case = re.search(r"case(\d)", label)
+    k = int(case.group(1)) if case else None
+    if k in H4_CASES:
+        return name, f"{H4_CASES[k]:g} mm (case {k})"
+    return name, " / ".join(f"{v:g}" for v in H4_CASES.values()) + " mm (cases 1-5)"
 
 
 def papers_stride(spec: str | None) -> bool:
@@ -130,8 +150,9 @@ def _fmt(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}f}" if abs(v) < 1e9 else f"{v:.4g}"  # a 1e300 mm target printed 300 digits
 
 
-def table(ev: Evaluation, label: str, papers: bool = False) -> str:
-    """A readable summary of member 0; ``papers``: also the paper's S (h_s / 300 mm), for its stride."""
+def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, str] | None = None) -> str:
+    """A readable summary of member 0; ``papers``: also the paper's S (h_s / 300 mm), for its stride; ``height``:
+    an RTCLM mode's name for h_m and its target (:func:`rtclm_height`), whose cases drive heights, not a shape."""
     r = ev.record(0)
     deg = math.degrees
     status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g}: {why_infeasible(ev)})"
@@ -147,11 +168,13 @@ def table(ev: Evaluation, label: str, papers: bool = False) -> str:
         ("width (design frame)", _fmt(r["width"]), "mm"),
         ("y_min (design frame)", _fmt(r["y_min"]), "mm"),
         ("step length 2 l_s", _fmt(r["step_length"]), "mm"),
-        ("max crossing height h_m", _fmt(r["h_m"]), "mm"),
+        (f"max crossing height h_m = {height[0]}" if height else "max crossing height h_m", _fmt(r["h_m"]),
+         f"mm (the RTCLM's {height[0]}, target {height[1]})" if height else "mm"),
         ("mean crossing height h_bar", _fmt(r["h_bar"]), "mm"),
         (f"psi2({a:g}, {b:g})", _fmt(100 * r["psi2"], 2), "%"),
         (f"psi4({a:g}, {b:g}), trunk {ev.trunk:g} mm", _fmt(100 * r["psi4"], 2), "%"),
-        ("shape error MSE", _fmt(r["mse"]), "mm"),
+        ("shape error MSE", _fmt(r["mse"]), "mm" if height is None else
+         "mm (against the target below; the RTCLM cases drive h6 and h4, not a shape)"),
     ]
     if np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
@@ -167,6 +190,10 @@ def table(ev: Evaluation, label: str, papers: bool = False) -> str:
     lines.append("  constraints (<= 0 satisfied): " + ", ".join(
         f"{n} {_fmt(v, 4)}" + ("" if u == "1" else f" {u}")  # psi2's is a fraction: no unit
         for (n, v), u in zip(r["constraints"].items(), CONSTRAINT_UNITS, strict=True)))
+    unmet = [n for n, v in r["constraints"].items() if not v <= 0.0]
+    held = "the RTCLM stages hold Eq. 30, and Eq. 31 in the auxiliary mode; the paper's §3 subtasks neither"
+    lines.append(f"  gait constraints Eq. 30-31 ({held}): " + (
+        "all met" if not unmet else f"{len(unmet)} unmet: " + "; ".join(CONSTRAINT_TEXT[n] for n in unmet)))
     return "\n".join(lines)
 
 
@@ -183,7 +210,8 @@ def run(args: argparse.Namespace) -> int:
         rec["constraint_names"] = list(CONSTRAINT_NAMES)
         print(dumps({**rec, **info}))
     else:
-        text = table(ev, label, papers_stride(args.target))
+        height = rtclm_height(str(info.get("mechanism", "")), label)
+        text = table(ev, label, papers_stride(args.target) and height is None, height)
         if info.get("time_law") is False:
             head, _, rest = text.partition("\n")
             text = f"{head}\n{NO_TIMES}\n{rest}"

@@ -71,6 +71,16 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
     return Design(mechanisms.get(MODES[mode]), design.params, design.output), None
 
 
+def design_label(args: argparse.Namespace, preset: str | None) -> str:
+    """What the output calls the design: the preset, or the preset or file in the ``--mode`` it was switched to (a
+    switched preset is no preset any more, and was printed as "None")."""
+    if preset is not None:
+        return preset
+    source = args.preset if args.preset is not None else str(args.design)
+    mode = getattr(args, "mode", None)
+    return f"{source} ({mode} mode)" if mode is not None else source
+
+
 def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
     if args.preset is not None:
         return check_design(presets.get(args.preset).design()), args.preset
@@ -231,6 +241,5 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--samples must be between {MIN_SAMPLES} and {MAX_SAMPLES}, got {args.samples}")
     design, preset = load_design(args)
     sol = design.solve(args.samples, backend=args.backend)
-    label = preset if preset is not None else str(args.design)
-    print(dumps(solution_dict(design, sol, preset)) if args.json else summary(design, sol, label))
+    print(dumps(solution_dict(design, sol, preset)) if args.json else summary(design, sol, design_label(args, preset)))
     return 0
