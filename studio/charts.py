@@ -25,7 +25,7 @@ from core.formats.files import atomic_write, chart_file, read_design_result
 from core.optimize.pipeline import Pipeline
 from core.optimize.result import StageResult
 from core.optimize.rtclm import is_rtclm
-from studio.figures import make_pareto_figure, with_title_wrapped
+from studio.figures import flat_axes, make_pareto_figure, same_for_all, with_title_wrapped
 from studio.study import status_text
 
 WIDTH, HEIGHT = 1000, 800
@@ -91,10 +91,15 @@ def chart_title(r: StageResult, state: str, target: str = "") -> str:
 
 
 def result_figure(r: StageResult, labels: dict[str, str] | None = None, target: str = "") -> go.Figure:
-    """A stage result's chart, titled with its mechanism, stage, status and target (readable on its own)."""
+    """A stage result's chart, titled with its mechanism, stage, status and target (readable on its own). Three
+    objectives of which one is the same for every member are drawn projected onto two, as the studio opens them
+    (subtask 1's f2 = f3 = 0 drew one clipped diamond in an empty 3-D box), and the title says which are flat."""
     title = chart_title(r, status_text(r), target)
+    axes = flat_axes(r.F, r.objectives)
+    if axes is not None and (flat := same_for_all(r.F, r.objectives)):
+        title += f" · {flat}"
     return make_pareto_figure(r.F, r.cv, objectives=r.objectives, labels=labels or {}, front=r.front,
-                              knees=r.shortlist.knees, best=r.shortlist.best, passed=r.picked, title=title)
+                              knees=r.shortlist.knees, best=r.shortlist.best, passed=r.picked, title=title, axes=axes)
 
 
 def target_text(settings: object, curve_names: Mapping[str, str] | None = None) -> str:

@@ -163,6 +163,36 @@ def objective_label(name: str, labels: Mapping[str, str]) -> str:
     return labels.get(name, name)
 
 
+def _drawn(F: F64) -> F64:
+    """The first three objectives of the members a chart draws (every one finite)."""
+    G = F[:, :3]
+    return G[np.isfinite(G).all(axis=1)]
+
+
+def flat_axes(F: F64, objectives: tuple[str, ...]) -> tuple[int, int] | None:
+    """The two objective columns to project onto when one of the first three objectives is the same for every drawn
+    member (the varying ones first), or None when all three vary, there are fewer than three, or nothing is drawn."""
+    G = _drawn(np.asarray(F, dtype=np.float64))
+    if len(objectives) < 3 or len(G) == 0:
+        return None
+    varies = [bool(np.ptp(G[:, k]) > 0) for k in range(3)]
+    if all(varies):
+        return None
+    a = next((k for k in range(3) if varies[k]), 0)
+    b = next((k for k in range(3) if k != a and varies[k]), next(k for k in range(3) if k != a))
+    lo, hi = sorted((a, b))
+    return lo, hi
+
+
+def same_for_all(F: F64, objectives: tuple[str, ...]) -> str:
+    """``f2 = 0 and f3 = 0 for every member``: the first three objectives that do not vary, with their value."""
+    G = _drawn(np.asarray(F, dtype=np.float64))
+    if len(G) == 0:
+        return ""
+    flat = [f"{objectives[k]} = {float(G[0, k]):.3g}" for k in range(G.shape[1]) if np.ptp(G[:, k]) == 0]
+    return f"{' and '.join(flat)} for every member" if flat else ""
+
+
 def make_pareto_figure(
     F: F64,
     cv: F64,

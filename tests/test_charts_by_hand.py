@@ -74,6 +74,24 @@ def test_the_stage_chart_marks_its_knees_its_best_members_and_the_member_passed_
     assert fig.layout.title.text.endswith("· 3 feasible of 5 · front 2 · target cycloid L=1")
 
 
+def test_a_three_objective_stage_with_flat_objectives_is_drawn_on_their_projection():
+    """Rehearsal 3: clm-charts drew subtask 1 (f2 = f3 = 0 for every member) as one clipped diamond in an empty 3-D
+    box, where the studio opens the projection; the PNG now draws f1 against f2 and says which are flat."""
+    F = np.array([[4.1, 0.0, 0.0], [3.9, 0.0, 0.0], [4.4, 0.0, 0.0], [4.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+    fig = charts.result_figure(result(F=F, objectives=("f1", "f2", "f3"), shortlist=SimpleNamespace(knees=(1,),
+                                                                                                     best=(1, 0, 0))))
+    assert not any(t.type == "scatter3d" for t in fig.data) and fig.layout.yaxis.title.text == "f2"
+    assert fig.layout.title.text.endswith(" · f2 = 0 and f3 = 0 for every member")
+    F[:, 1] = np.arange(5.0)
+    fig = charts.result_figure(result(F=F, objectives=("f1", "f2", "f3"), shortlist=SimpleNamespace(knees=(1,),
+                                                                                                     best=(1, 0, 0))))
+    assert fig.layout.title.text.endswith("f3 = 0 for every member") and fig.layout.yaxis.title.text == "f2"
+    F[:, 2] = -np.arange(5.0)
+    fig = charts.result_figure(result(F=F, objectives=("f1", "f2", "f3"), shortlist=SimpleNamespace(knees=(1,),
+                                                                                                     best=(1, 0, 0))))
+    assert any(t.type == "scatter3d" for t in fig.data)  # all three vary: the 3-D cloud
+
+
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("charts") / "run"

@@ -15,7 +15,15 @@ import plotly.graph_objects as go
 import viser
 
 from studio.charts import chart_title, target_text
-from studio.figures import compact_3d, make_pareto_figure, make_trace_figure, objective_label, with_title_wrapped
+from studio.figures import (
+    compact_3d,
+    flat_axes,
+    make_pareto_figure,
+    make_trace_figure,
+    objective_label,
+    same_for_all,
+    with_title_wrapped,
+)
 from studio.panels._inputs import set_value
 from studio.panels._lazy import LazyPlotly, write
 from studio.study import algorithm_name, population_note, status_text
@@ -123,35 +131,12 @@ def projections(objectives: tuple[str, ...]) -> dict[str, tuple[int, int] | None
     return out
 
 
-def _drawn(F: np.ndarray) -> np.ndarray:
-    """The first three objectives of the members a chart draws (every one finite)."""
-    G = F[:, :3]
-    return G[np.isfinite(G).all(axis=1)]
-
-
 def flat_view(F: np.ndarray, objectives: tuple[str, ...]) -> str | None:
     """The projection to open on when one of the first three objectives is the same for every drawn member (subtask
     1's f2 = f3 = 0: placement meets them exactly), and which: the 3-D cloud was one diamond in an empty box. None
     when all three vary (or nothing is drawn)."""
-    G = _drawn(F)
-    if len(objectives) < 3 or len(G) == 0:
-        return None
-    varies = [bool(np.ptp(G[:, k]) > 0) for k in range(3)]
-    if all(varies):
-        return None
-    a = next((k for k in range(3) if varies[k]), 0)
-    b = next((k for k in range(3) if k != a and varies[k]), next(k for k in range(3) if k != a))
-    a, b = sorted((a, b))
-    return f"{objectives[a]} vs {objectives[b]}"
-
-
-def same_for_all(F: np.ndarray, objectives: tuple[str, ...]) -> str:
-    """``f2 = 0 and f3 = 0 for every member``: the first three objectives that do not vary, with their value."""
-    G = _drawn(F)
-    if len(G) == 0:
-        return ""
-    flat = [f"{objectives[k]} = {float(G[0, k]):.3g}" for k in range(G.shape[1]) if np.ptp(G[:, k]) == 0]
-    return f"{' and '.join(flat)} for every member" if flat else ""
+    axes = flat_axes(F, objectives)
+    return None if axes is None else f"{objectives[axes[0]]} vs {objectives[axes[1]]}"
 
 
 class ParetoPanel:
