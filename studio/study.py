@@ -56,6 +56,8 @@ class RunStatus:
         message: the last run's outcome (``complete``, ``cancelled at generation 3``, an error).
         ok: False if the last run failed.
         elapsed: compute time of the run so far (s).
+        compiled: of which numba compiling kernels (s): a fresh install's first run of a kind (the warm-up of
+            ``scripts/studio`` or ``clm-studio --warm-up`` does it ahead).
     """
 
     state: str = "idle"
@@ -65,6 +67,7 @@ class RunStatus:
     message: str = ""
     ok: bool = True
     elapsed: float = 0.0
+    compiled: float = 0.0
 
     @property
     def running(self) -> bool:

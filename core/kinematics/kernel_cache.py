@@ -22,6 +22,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]  # core
 KEEP, IDLE_S = 3, 3600.0
@@ -87,3 +88,29 @@ def configure() -> None:
         from numba.core import config
 
         config.CACHE_DIR = where
+
+
+class CompileTimer:
+    """Seconds numba spends compiling kernels while installed (``with CompileTimer() as t: ...; t.seconds``), read
+    at any time: a fresh install's first run of a stage compiles for ~30 s, which a run's time should name apart
+    from its compute. Every thread's compiles count (numba's listeners are global)."""
+
+    def __init__(self) -> None:
+        from numba.core.event import TimingListener
+
+        self._listener = TimingListener()
+        self._installed: Any = None
+
+    @property
+    def seconds(self) -> float:
+        return float(self._listener.duration) if self._listener.done else 0.0
+
+    def __enter__(self) -> CompileTimer:
+        from numba.core.event import install_listener
+
+        self._installed = install_listener("numba:compile", self._listener)
+        self._installed.__enter__()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._installed.__exit__(*exc)

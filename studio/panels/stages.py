@@ -128,14 +128,18 @@ class StagesPanel:
     @staticmethod
     def _status(sv: StudyView) -> str:
         st = sv.status
+        # Compiling counts once it is a noticeable part (a fresh install's first run of a kind: ~30 s).
+        compiled = (f", {seconds(min(st.compiled, st.elapsed))} of it compiling the numeric kernels, once per install"
+                    if st.compiled >= 0.5 else "")
         if st.state == "running":
-            return f"**Running** {st.stage}: generation {st.generation}/{st.n_gen} ({seconds(st.elapsed)} compute)"
+            return (f"**Running** {st.stage}: generation {st.generation}/{st.n_gen} ({seconds(st.elapsed)} compute"
+                    f"{compiled})")
         if st.state == "stopping":
             return f"**Stopping** {st.stage} after generation {st.generation}…"
         if st.stage is None:
             return "Idle. Choose a stage and press Run."
         mark = "" if st.ok else "⚠ "
-        return f"{mark}Last run: {st.stage} {st.message} ({seconds(st.elapsed)} compute)."
+        return f"{mark}Last run: {st.stage} {st.message} ({seconds(st.elapsed)} compute{compiled})."
 
     # Callbacks -------------------------------------------------------------------------------
 
