@@ -128,7 +128,7 @@ def next_verdict_html(i: int, nxt: str, missed: list[str]) -> str:
     if not missed:
         return ""
     text = (f"⚠ #{i} misses {html.escape(nxt)}'s constraints: {html.escape('; '.join(missed))} "
-            f"(passed on, {html.escape(nxt)} starts around it all the same)")
+            f"(if passed on, {html.escape(nxt)} starts around it all the same)")
     return f'<div class="clm-next-verdict" style="{VERDICT}color:#b45309">{text}</div>'
 
 
