@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from core.kinematics.model import Mechanism
-from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec
+from core.optimize.algorithms import ALGORITHMS, AlgorithmSpec, unknown_algorithm
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.problem import Constraint, ProblemSpec, make_problem, problem_names
 from core.optimize.rtclm import is_rtclm
@@ -107,7 +107,7 @@ class RunSettings:
 
     def __post_init__(self) -> None:
         if self.algorithm not in ALGORITHMS:
-            raise ValueError(f"unknown algorithm {self.algorithm!r}; known: {', '.join(ALGORITHMS)}")
+            raise ValueError(unknown_algorithm(self.algorithm))
         for name, lo, hi in (("pop_size", 2, MAX_POP), ("n_gen", 1, MAX_GEN), ("seed", 0, 2**31 - 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:

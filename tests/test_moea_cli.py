@@ -125,3 +125,17 @@ def test_the_library_checks_option_values_as_the_cli_does(name, options, message
 def test_a_malformed_de_variant_is_named_not_pymoos_unpacking_error(capsys):
     assert main(["moea", "--problem", "mw1", "--algorithm", "gde3", "--option", "variant=DE/rand/bin"]) == 2
     assert "option 'variant' of gde3 must read DE/" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("typed", "meant"), [("NSGA-II", "'nsga2' (NSGA-II)"), ("nsga-2", "'nsga2' (NSGA-II)"),
+                                               ("MOEA/D-CMT", "'moead_cmt' (MOEA/D-CMT)"),
+                                               ("DRLOS-EMCMO", "'drlos_emcmo' (DRLOS-EMCMO)")])
+def test_a_published_algorithm_name_gets_its_registered_name_suggested(typed, meant, capsys):
+    """Rehearsal 3: the studio lists "MOEA/D-CMT (paper)", which `clm moea`, configs and studies refused with the
+    whole list and no hint; the message now names the registered name to type."""
+    from core.optimize.algorithms import unknown_algorithm
+
+    assert main(["moea", "--problem", "mw3", "--algorithm", typed, "--evals", "100"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"clm: error: unknown algorithm {typed!r}; did you mean {meant}? Known: nsga2, ")
+    assert "did you mean" not in unknown_algorithm("xyz")

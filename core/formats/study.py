@@ -35,7 +35,7 @@ import msgspec
 
 from core.formats.typed import MAX_POP, MAX_SEED, decode
 from core.kinematics import presets
-from core.optimize.algorithms import ALGORITHMS
+from core.optimize.algorithms import ALGORITHMS, unknown_algorithm
 
 MAX_RUNS = 100_000
 BEST = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4", "dev")  # pick metrics a case may rank its runs by
@@ -229,7 +229,7 @@ def parse_study(data: dict[str, Any], base: str | Path = ".", path: str = "") ->
     _unique([c.name for c in f.cases], "cases")
     for i, a in enumerate(f.algorithms):
         if a.name not in ALGORITHMS:
-            raise ValueError(f"algorithms[{i}].name: unknown algorithm {a.name!r}; known: {', '.join(ALGORITHMS)}")
+            raise ValueError(f"algorithms[{i}].name: {unknown_algorithm(a.name)}")
     cases = []
     for i, c in enumerate(f.cases):
         cfg = (Path(base) / c.config).resolve()

@@ -281,10 +281,35 @@ def algorithm_names() -> tuple[str, ...]:
     return tuple(ALGORITHMS)
 
 
+def _plain(text: str) -> str:
+    return re.sub(r"[^0-9a-z]", "", text.casefold())
+
+
+def suggestion(name: str) -> str:
+    """``did you mean 'moead_cmt' (MOEA/D-CMT)?`` for a name that is a registered algorithm's published title or
+    its name in other spelling (``NSGA-II``, ``nsga-2``, ``MOEA/D-CMT``), else the nearest names by spelling, else ""
+    (the studio shows titles that configs do not take, so a student typed them)."""
+    import difflib
+
+    plain = _plain(str(name))
+    same = [k for k, a in ALGORITHMS.items() if plain in (_plain(k), _plain(a.title))]
+    near = same or difflib.get_close_matches(plain, [_plain(k) for k in ALGORITHMS], n=3, cutoff=0.6)
+    names = [k for k in ALGORITHMS if k in same or _plain(k) in near]
+    return "did you mean " + " or ".join(f"{k!r} ({ALGORITHMS[k].title})" for k in names) + "?" if names else ""
+
+
+def unknown_algorithm(name: object) -> str:
+    """The one-line refusal of an algorithm name: ``unknown algorithm 'NSGA-II'; did you mean 'nsga2' (NSGA-II)?
+    Known: ...``."""
+    hint = suggestion(str(name))
+    known = ", ".join(ALGORITHMS)
+    return f"unknown algorithm {name!r}; " + (f"{hint} Known: {known}" if hint else f"known: {known}")
+
+
 def validate(spec: AlgorithmSpec) -> None:
     """Raise ValueError naming the problem if the spec cannot be built."""
     if spec.name not in ALGORITHMS:
-        raise ValueError(f"unknown algorithm {spec.name!r}; known: {', '.join(ALGORITHMS)}")
+        raise ValueError(unknown_algorithm(spec.name))
     if not isinstance(spec.pop_size, int) or isinstance(spec.pop_size, bool) or spec.pop_size < 2:
         raise ValueError(f"algorithm pop_size must be an integer >= 2, got {spec.pop_size!r}")
     info = ALGORITHMS[spec.name]
