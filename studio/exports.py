@@ -84,5 +84,6 @@ def drawing_export(view: DesignView, angle: float, kind: str) -> tuple[str, byte
     from core.formats.drawing import drawing, dxf, svg
 
     d = drawing(view.design, angle)
-    name = f"{slug(view.preset or view.design.mechanism.name)}-drawing.{kind}"
+    deg = round(math.degrees(d.angle)) % 360  # the angle drawn, in the name too: two drawings of one design differ
+    name = f"{slug(view.preset or view.design.mechanism.name)}-drawing-{deg}deg.{kind}"
     return name, (svg(d) if kind == "svg" else dxf(d)).encode()

@@ -109,7 +109,7 @@ def test_the_studio_exports_the_shown_design_as_dxf_and_svg(tmp_path):
 
     view = Session.default().view
     name, content = drawing_export(view, 0.5, "dxf")
-    assert name.endswith("-drawing.dxf")
+    assert name.endswith("-drawing-29deg.dxf")  # 0.5 rad
     (tmp_path / name).write_bytes(content)
     doc = ezdxf.readfile(tmp_path / name)
     d = drawing(view.design, 0.5)

@@ -4,6 +4,7 @@ target and stance columns and the design file's source line unchecked)."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import plotly.graph_objects as go
@@ -106,7 +107,10 @@ def test_a_chart_page_carries_its_title():
 
 def test_a_drawing_is_svg_or_dxf_as_asked(x3: Session):
     name, svg = drawing_export(x3.view, 0.0, "svg")
-    assert name == "stephenson1-X3-drawing.svg"
+    assert name == "stephenson1-X3-drawing-0deg.svg"
     assert b"<svg" in svg[:400] and b"SECTION" not in svg
     name, dxf = drawing_export(x3.view, 0.0, "dxf")
-    assert name == "stephenson1-X3-drawing.dxf" and b"SECTION" in dxf and b"<svg" not in dxf
+    assert name == "stephenson1-X3-drawing-0deg.dxf" and b"SECTION" in dxf and b"<svg" not in dxf
+    # The angle drawn is in the name and on the drawing (rehearsal 3: the DXF did not say it, the SVG did).
+    name, dxf = drawing_export(x3.view, math.radians(82.8), "dxf")
+    assert name == "stephenson1-X3-drawing-83deg.dxf" and b"stephenson1 at crank angle 82.8 deg" in dxf

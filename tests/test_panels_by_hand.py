@@ -344,7 +344,9 @@ def test_each_export_button_sends_its_own_file(studio):
     for button in (files.design, files.csv, files.dxf, files.svg):
         press(button, c)
     names = [n for n, _ in c.downloads]
-    assert names == [f"stephenson1-X3-{f}" for f in ("design.json", "trajectories.csv", "drawing.dxf", "drawing.svg")]
+    angle = round(math.degrees(studio.session.playback.angle)) % 360
+    assert names == [f"stephenson1-X3-{f}" for f in ("design.json", "trajectories.csv", f"drawing-{angle}deg.dxf",
+                                                      f"drawing-{angle}deg.svg")]
     _, csv = c.downloads[1]
     assert csv.startswith(b"sample,theta_rad,t_s,")
     assert c.downloads[3][1].lstrip().startswith((b"<svg", b"<?xml"))

@@ -102,7 +102,7 @@ def dxf(d: Drawing) -> str:
     """The drawing as DXF R2010 text: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned
     dimensions), ``GROUND`` (pivot holes and cross marks), ``FRAME`` (dashed lines and dimensions between the
     ground pivots), ``LABELS`` (every point's name; a point of one link alone, as the foot, crossed: no hole),
-    ``PATH`` (the foot path)."""
+    ``PATH`` (the foot path), ``TITLE`` (the mechanism and the crank angle drawn)."""
     import ezdxf
 
     doc = ezdxf.new("R2010", setup=True)
@@ -112,6 +112,7 @@ def dxf(d: Drawing) -> str:
     doc.layers.add("FRAME", color=8)
     doc.layers.add("PATH", color=5)
     doc.layers.add("LABELS", color=7)
+    doc.layers.add("TITLE", color=7)
     pivots = d.pivots()
     for k, body in enumerate(d.links):
         layer = "LINK_" + "-".join(body)
@@ -144,6 +145,12 @@ def dxf(d: Drawing) -> str:
     finite = d.path[np.isfinite(d.path).all(axis=1)]
     if len(finite) > 1:
         msp.add_lwpolyline([tuple(p) for p in finite], close=True, dxfattribs={"layer": "PATH"})
+    # What the drawing shows, under it: the SVG's title said the angle, the DXF did not (the studio draws the
+    # animation's angle, clm export 0 unless --angle: two drawings of one design differed without a word).
+    pts = np.vstack([d.joints[np.isfinite(d.joints).all(axis=1)], finite])
+    msp.add_text(f"{d.mechanism} at crank angle {math.degrees(d.angle):.1f} deg (from the crank phase), mm",
+                 height=LABEL_HEIGHT, dxfattribs={"layer": "TITLE"}).set_placement(
+        (float(pts[:, 0].min()), float(pts[:, 1].min()) - 4 * LABEL_HEIGHT))
     out = io.StringIO()
     doc.write(out)
     return out.getvalue()
