@@ -68,9 +68,12 @@ class PickPanel:
         with self.folder:
             self.candidate = gui.add_dropdown("Candidate", (NONE,), disabled=True,
                                               hint="knee candidates (K1 best), best per objective, then the front "
-                                                   "(up to 60 of it; the Front member slider reaches every member)")
-            self.slider = gui.add_slider("Front member", 1, 2, 1, 1, disabled=True, visible=False,
-                                         hint="the front sorted by its first objective")
+                                                   "(up to 60 of it; the Along the front slider reaches every member)")
+            # "Front member 11" beside "best f1 · #1" read as two numbers for one member (rehearsal 3): the slider
+            # counts places along the front, "#" names members.
+            self.slider = gui.add_slider("Along the front", 1, 2, 1, 1, disabled=True, visible=False,
+                                         hint="place along the front sorted by its first objective (1: the smallest); "
+                                              "a member's own number is its #")
             self.use = gui.add_button("Use for next stage", icon=viser.Icon.ARROW_RIGHT, disabled=True,
                                       hint="pass this candidate on: the next stage searches around it")
             self.table = gui.add_html("")

@@ -188,7 +188,7 @@ def test_a_foot_path_uploaded_in_the_leg_frame_becomes_the_design_frame_target(
 def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_truth(
         page: Any, studio: Any, tmp_path: Path) -> None:
     # Before any run there is no front to slide over: no slider (it used to span 1-2, disabled).
-    expect(page.locator("label", has_text="Front member")).to_have_count(0)
+    expect(page.locator("label", has_text="Along the front")).to_have_count(0)
     r = run_stage(page, studio, SUBTASK2, "subtask2", pop=12, gens=3)
     title = "subtask2 · complete"
     # No "passed on" ring before anything is passed on: not on the automatic pick when another one is looked at.
@@ -211,7 +211,7 @@ def test_after_a_run_the_pick_panel_chart_export_and_a_loaded_session_tell_the_t
     assert len(designs) == len(members)
     # The front slider spans the front (and is not shown for a one-member front).
     n_front = len(front_order(r))
-    slider = page.locator("label", has_text="Front member")
+    slider = page.locator("label", has_text="Along the front")
     if n_front >= 2:
         root = slider.get_attribute("for")
         expect(page.locator(f'[id="{root}"] [role="slider"]')).to_have_attribute("aria-valuemax", str(n_front))
