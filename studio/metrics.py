@@ -96,9 +96,10 @@ def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:
 
 
 def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
-                height: tuple[str, float] | None = None) -> tuple[Row, ...]:
+                height: tuple[str, float] | None = None, stride: float | None = None) -> tuple[Row, ...]:
     """The Metrics table of member i: the paper's metrics, then the kinematic facts. ``height``: the RTCLM mode's
-    name for h_m and its target (``("h6", 50.0)``), which the crossing-height row then names."""
+    name for h_m and its target (``("h6", 50.0)``), which the crossing-height row then names. ``stride``: the
+    target cycloid's L when it is the paper's 300 mm, for S as Appendix B prints it (h_s / 300 mm)."""
     deg = math.degrees
     h_m = float(ev.h_m[i])
     h_label, h_note = "Crossing height hₘ", "max swing height, walking trajectory"
@@ -119,6 +120,9 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
             "against the Target panel's curve, which the RTCLM stages do not use (they drive h6 and h4)"),
         Row("h_s", "Body fluctuation hₛ", float(ev.h_s[i]), "mm", note="max - min of y over the stance"),
         Row("S", "Straightness S", float(ev.S[i]), "%", note="h_s / l_s"),
+        *((Row("S_paper", "S as in Appendix B", 100.0 * float(ev.h_s[i]) / stride, "%",
+               note=f"h_s / {stride:g} mm, the target's stride: the paper's S (X3: 1.93 %); S above divides by this "
+                    "design's own stance length l_s"),) if stride else ()),
         Row("I", "Impact I", float(ev.I[i]), "mm/s", note="|dy/dt| sin(theta1) at landing"),
         Row("theta1", "Landing angle θ₁", deg(float(ev.theta1[i])), "deg", 1),
         Row("theta2", "Take-off angle θ₂", deg(float(ev.theta2[i])), "deg", 1),

@@ -239,7 +239,10 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     walking = build_walk(sol.leg[0], sol.dleg[0], target.period, walk) if ev.feasible[0] else None
     mode = MODE_HEIGHT.get(design.mechanism.name)  # an RTCLM mode: the height its h_m is, and that target
     height = None if mode is None else (mode, float(getattr(target, mode)))
-    return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev, metric_rows(sol, ev, 0, height),
+    # The paper printed S as h_s / 300 mm (its stride), the studio's S is h_s / l_s: both, for the paper's target.
+    stride = target.length if height is None and target.curve is None and target.length == 300.0 else None
+    return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev,
+                      metric_rows(sol, ev, 0, height, stride),
                       stance_mask(ev, n_samples), feature_labels(ev), walk, walking)
 
 

@@ -405,6 +405,17 @@ def test_metrics_table_has_one_addressable_row_per_metric(session: Session) -> N
     assert wanted <= {x.key for x in r}
 
 
+def test_the_papers_s_is_shown_beside_ours_for_the_papers_stride_only(session: Session) -> None:
+    """Rehearsal 3 compared the studio's S 2.00 % of X3 with Appendix B's 1.93 % and found no h_s / 300 mm, which
+    `clm evaluate` prints: the paper's S is a row under S for the paper's 300 mm cycloid, and only then."""
+    r = rows(session.view)
+    assert r["S_paper"].value == pytest.approx(100 * float(session.view.evaluation.h_s[0]) / 300.0)
+    assert r["S_paper"].value < r["S"].value  # X3's stance is shorter than 300 mm
+    assert "S_paper" not in rows(session.set_target(length=280.0))
+    session.load_preset("rtclm/clm-case1")
+    assert "S_paper" not in rows(session.view)  # its target is heights
+
+
 def test_paper_metric_rows_show_the_evaluation_in_display_units(session: Session) -> None:
     ev, r = session.view.evaluation, rows(session.view)
     for key in ("mse", "h_s", "S", "I", "l_s", "h_m", "h_bar", "width", "y_min"):
