@@ -51,6 +51,21 @@ DOT_PX = 4.5  # half a front or dominated member's marker (9 px)
 FAR_COST = 25.0  # px² of dots a label may hide rather than stand a step off its marker (a dot is ~81 px²)
 
 
+Y_TITLE_CHARS = 18  # a vertical axis title longer than this ran past a side panel's ~165 px plot ("idth penalty")
+
+
+def _two_lines(title: str) -> str:
+    """A long vertical axis title broken before its unit (or at the space nearest its middle): "f2 = width penalty
+    (mm^2)" was cut at both ends beside a side panel's plot."""
+    if len(title) <= Y_TITLE_CHARS or " " not in title:
+        return title
+    cut = title.rfind(" (")
+    if cut <= 0:
+        spaces = [i for i, c in enumerate(title) if c == " "]
+        cut = min(spaces, key=lambda i: abs(i - len(title) / 2))
+    return f"{title[:cut]}<br>{title[cut + 1:]}"
+
+
 def _one_tick(values: F64) -> dict[str, object]:
     """A single tick at the value every drawn member shares (subtask 1's f2 = 0 read "-0.006 ... 0.006": a scale
     for a spread there is not); {} when the values vary or nothing is drawn."""
@@ -365,7 +380,8 @@ def make_pareto_figure(
         assert ranges is not None
         for axis, k in (("xaxis", 0), ("yaxis", 1)):
             rng = ranges[k]
-            fig.update_layout({axis: {"title": {"text": titles[k], "standoff": 4}, "showgrid": True,
+            text = titles[k] if axis == "xaxis" else _two_lines(titles[k])
+            fig.update_layout({axis: {"title": {"text": text, "standoff": 4}, "showgrid": True,
                                       "gridcolor": "#e5e5e5", "zeroline": False, "nticks": 7, "automargin": True,
                                       **({"range": rng} if rng else {}), **_one_tick(coords[drawable, k])}})
     return fig

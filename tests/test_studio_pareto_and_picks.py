@@ -91,7 +91,7 @@ def test_three_objectives_give_a_3d_chart_and_one_objective_plots_against_the_vi
     fig = make_pareto_figure(F1, cv, objectives=("dh6",), labels={"dh6": "|h6 - h6_t| (mm)"}, front=(3,))
     t = traces(fig)
     assert list(t["infeasible"].y) == [1.5, 1.5, 1.5]
-    assert fig.layout.yaxis.title.text == "violation (0 = feasible)"
+    assert fig.layout.yaxis.title.text == "violation<br>(0 = feasible)"  # a long vertical title: two lines
     lo, hi = fig.layout.yaxis.range
     assert -0.1 < lo < 0 < 1.5 <= hi  # from 0 up: the feasible members on the floor, the violations above
     done = make_pareto_figure(F1, np.zeros(10), objectives=("dh6",), front=(3,), knees=(3,))
@@ -357,3 +357,8 @@ def test_an_objective_every_member_shares_gets_one_tick_at_its_value() -> None:
     fig = make_pareto_figure(F, np.zeros(4), objectives=("f1", "f2", "f3"), front=(0,), axes=(0, 1))
     assert list(fig.layout.yaxis.tickvals) == [0.0] and list(fig.layout.yaxis.ticktext) == ["0"]
     assert fig.layout.xaxis.tickvals is None
+    # Rehearsal 3's side panel cut "f2 = width penalty (mm^2)" to "idth penalty (mm^2)": broken before its unit.
+    fig = make_pareto_figure(F, np.zeros(4), objectives=("f1", "f2", "f3"), front=(0,), axes=(0, 1),
+                             labels={"f1": "f1 = MSE (mm)", "f2": "f2 = width penalty (mm^2)"})
+    assert fig.layout.yaxis.title.text == "f2 = width penalty<br>(mm^2)"
+    assert fig.layout.xaxis.title.text == "f1 = MSE (mm)"
