@@ -38,7 +38,8 @@ def design_json(view: DesignView) -> bytes:
 
 
 def _cell(v: float) -> str:
-    return "" if not math.isfinite(v) else repr(float(v))
+    """A value with every digit; empty for a missing one, and 0.0 for -0.0 (a spreadsheet showed "-0")."""
+    return "" if not math.isfinite(v) else repr(float(v) + 0.0)
 
 
 def trajectories_csv(view: DesignView) -> bytes:

@@ -73,6 +73,9 @@ def test_the_columns_hold_the_path_in_each_frame_and_the_target_in_each_frame(x3
     # The two frames differ for X3 (its output stage is a pantograph, k = -1): a swap would show.
     assert np.abs(cols["x_leg_mm"] - cols["x_design_mm"]).max() > 10.0
     assert np.abs(cols["x_target_leg_mm"] - cols["x_target_mm"]).max() > 10.0
+    # No "-0.0" cell (rehearsal 3: the cycloid's first y_target_mm read -0.0), and nothing else changed by it.
+    text = trajectories_csv(view).decode()
+    assert view.target_design[0, 1] == 0.0 and ",-0.0," not in text and not text.replace("\n", ",").count(",-0.0,")
 
 
 def test_stance_is_one_from_landing_to_take_off_and_zero_in_the_swing(x3: Session):
