@@ -77,8 +77,17 @@ def flat_metrics(m: dict[str, Any]) -> dict[str, float]:
 
 
 def finished_runs(rows: list[dict[str, Any]]) -> list[StudyRun]:
-    return [StudyRun(r["case"], r["algorithm"], int(r["seed"]), flat_metrics(r["metrics"] or {}), r["result_path"],
-                     str(r.get("title") or ""))
+    """The done cells with their metrics, HV and IGD+ among them (measured in each case's normalised space, as the
+    report measures them: the Studies panel offered neither, though the report's table starts with them)."""
+    from core.study.stats import run_values
+
+    quality: dict[int, dict[str, float]] = {}
+    for case in dict.fromkeys(r["case"] for r in rows):
+        for r, v in run_values([r for r in rows if r["case"] == case]):
+            quality[id(r)] = {k: v[k] for k in ("hv", "igd_plus") if k in v}
+    return [StudyRun(r["case"], r["algorithm"], int(r["seed"]), {**flat_metrics(r["metrics"] or {}),
+                                                                 **quality.get(id(r), {})},
+                     r["result_path"], str(r.get("title") or ""))
             for r in rows if r["status"] == "done" and r["result_path"]]
 
 

@@ -54,6 +54,23 @@ def test_studies_are_found_and_read_without_writing(studies):
         study_rows(studies / "not-a-study")
 
 
+def test_each_run_carries_the_reports_hv_and_igd_plus_and_the_dropdown_names_metrics_as_the_report(studies):
+    """Rehearsal 3: the Metric dropdown offered `n_eval`, `wall_time` and no HV or IGD+, the report's first rows."""
+    from core.study.report import LABELS
+    from core.study.stats import run_values
+    from studio.panels.studies import metric_name
+
+    _, rows = study_rows(studies / "tiny_dir")
+    runs = finished_runs(rows)
+    want = {(r["algorithm"], int(r["seed"])): v for r, v in run_values([r for r in rows if r["case"] == "subtask2"])}
+    for run in runs:
+        v = want[(run.algorithm, run.seed)]
+        assert run.metrics["hv"] == pytest.approx(v["hv"]) and run.metrics["igd_plus"] == pytest.approx(v["igd_plus"])
+    assert all(0.0 <= r.metrics["hv"] for r in runs) and max(r.metrics["hv"] for r in runs) > 0
+    assert metric_name("wall_time") == "time (s)" == LABELS["wall_time"] and metric_name("hv") == "HV"
+    assert box_figure(runs, "subtask2", "igd_plus").layout.yaxis.title.text == "IGD+"
+
+
 def test_an_older_study_is_read_without_migrating_it_and_a_broken_one_is_refused(tmp_path):
     import sqlite3
 

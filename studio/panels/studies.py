@@ -20,7 +20,12 @@ if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
 NONE = "(none)"
-FIRST = ("mse", "S", "I", "h_s")  # offered first when a study has them
+FIRST = ("mse", "S", "I", "h_s", "hv", "igd_plus", "feasible_ratio")  # offered first when a study has them
+
+
+def metric_name(key: str) -> str:
+    """A metric as the report names it (``time (s)``, ``IGD+``); a rehearsal read ``wall_time`` in the dropdown."""
+    return LABELS.get(key, key)
 
 
 def box_figure(runs: list[StudyRun], case: str, metric: str) -> go.Figure:
@@ -58,7 +63,9 @@ class StudiesPanel:
             self.study = gui.add_dropdown("Study", (NONE,), disabled=True)
             self.summary = gui.add_markdown("")
             self.case = gui.add_dropdown("Case", (NONE,), disabled=True)
-            self.metric = gui.add_dropdown("Metric", FIRST, initial_value="mse")
+            self.metric = gui.add_dropdown("Metric", tuple(metric_name(k) for k in FIRST),
+                                           initial_value=metric_name("mse"))
+            self._metric_key = {metric_name(k): k for k in FIRST}  # the dropdown's names -> the runs' keys
             self.run = gui.add_dropdown("Run", (NONE,), disabled=True, hint="a finished run: its picked design")
             self.load = gui.add_button("Load its design", icon=viser.Icon.ARROW_RIGHT, disabled=True,
                                        hint="the run's picked design goes into the editor (the study is not changed)")
@@ -106,8 +113,9 @@ class StudiesPanel:
         self.summary.content = f"**{name}**: {len(self._runs)} runs done, {failed} failed. {said}"
         keys = list(dict.fromkeys(k for r in self._runs for k in r.metrics))
         metrics = tuple(k for k in FIRST if k in keys) + tuple(k for k in keys if k not in FIRST)
-        self.metric.options = metrics or FIRST
-        set_value(self.metric, (metrics or FIRST)[0])
+        self._metric_key = {metric_name(k): k for k in metrics or FIRST}
+        self.metric.options = tuple(self._metric_key)
+        set_value(self.metric, next(iter(self._metric_key)))
         cases = tuple(dict.fromkeys(r.case for r in self._runs)) or (NONE,)
         self.case.options = cases
         self.case.disabled = not self._runs
@@ -118,7 +126,8 @@ class StudiesPanel:
         self._draw()
 
     def _draw(self) -> None:
-        case, metric = str(self.case.value), str(self.metric.value)
+        case = str(self.case.value)
+        metric = self._metric_key.get(str(self.metric.value), str(self.metric.value))
         if not self._runs or case == NONE:
             self.plot.visible = False
             return
