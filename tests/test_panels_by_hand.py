@@ -877,6 +877,29 @@ def test_a_three_objective_front_with_flat_objectives_opens_on_a_projection_once
     assert panel.view.value == THREE_D and panel.axes() is None
 
 
+def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(studio):
+    """Rehearsal 3: a design JSON (clm presets show) was refused by "Load session" with no other way in, so the
+    README's edit loop dead-ended at the studio. It becomes the editor's design; the session's work stays."""
+    import json
+
+    from core.formats.design import design_to_dict
+    from core.kinematics.presets import get as preset
+
+    c = Client()
+    d = design_to_dict(preset("watt1/paper").design())
+    before = studio.session.view.design
+    press(studio.files.load, c, upload(json.dumps(d).encode(), "my-leg.json"))
+    assert c.notes[-1][0] == "Design loaded" and "my-leg.json is the editor's design now" in c.notes[-1][1]
+    view = studio.session.view
+    assert view.design.mechanism.name == "watt1" and view.preset is None
+    np.testing.assert_array_equal(view.design.params, preset("watt1/paper").design().params)
+    assert studio.session.undo().design == before  # Undo takes it back
+    d["params"]["r4"] = -5.0
+    press(studio.files.load, c, upload(json.dumps(d).encode(), "bad-leg.json"))
+    assert c.notes[-1][0] == "Design not loaded" and "bad-leg.json: " in c.notes[-1][1] and "r4" in c.notes[-1][1]
+    assert studio.session.view.design == before
+
+
 def test_loading_a_session_over_work_asks_first_and_keeps_the_current_one_beside_the_session_file(tmp_path,
                                                                                                   monkeypatch):
     # A rehearsal's "Load session" replaced six branches and an RTCLM run without a word; the autosave followed.

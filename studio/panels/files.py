@@ -28,9 +28,12 @@ class FilesPanel:
         with self.folder:
             self.download = gui.add_button("Download session", icon=viser.Icon.DOWNLOAD,
                                            hint="the whole session as JSON: design, target, pipeline, branches")
-            self.load = gui.add_upload_button("Load session", icon=viser.Icon.UPLOAD, mime_type="application/json",
-                                              hint="a session JSON saved by the studio; it replaces the current one "
-                                                   "(asks first when that holds work)")
+            self.load = gui.add_upload_button("Load session or design", icon=viser.Icon.UPLOAD,
+                                              mime_type="application/json",
+                                              hint="a session JSON saved by the studio replaces the current session "
+                                                   "(asks first when that holds work); a design JSON (clm presets "
+                                                   "show, Design (JSON)) becomes the editor's design (Undo takes it "
+                                                   "back)")
             self.design = gui.add_button("Design (JSON)", icon=viser.Icon.FILE_DOWNLOAD,
                                          hint="the current design; clm simulate --design reads it")
             self.dxf = gui.add_button("Drawing (DXF)", icon=viser.Icon.FILE_DOWNLOAD,
@@ -92,6 +95,8 @@ class FilesPanel:
             return
         f = self.load.value
         name = f.name or "upload"
+        if self._load_design(client, name, f.content):
+            return
         try:
             other = read_session_bytes(f.content)
         except ValueError as exc:
@@ -109,6 +114,33 @@ class FilesPanel:
                        on_load=lambda: self.studio.replace_session(other, name, client),
                        on_download=lambda: client.send_file_download(*self.studio.session_file(),
                                                                      save_immediately=True))
+
+
+    def _load_design(self, client: viser.ClientHandle, name: str, content: bytes) -> bool:
+        """A design file (``mechanism`` and ``params``, as ``clm presets show`` and Design (JSON) write it) becomes
+        the editor's design; False for anything else (a session, or what the session reader refuses and names).
+        Rehearsal 3: the README's loop (presets show > my.json, edit, simulate --design) dead-ended at the studio."""
+        from core.formats.design import design_from_dict
+        from core.formats.session import MAX_SESSION_BYTES, parse_json
+
+        if len(content) > MAX_SESSION_BYTES:
+            return False
+        try:
+            data = parse_json(content)
+        except ValueError:
+            return False
+        if not (isinstance(data, dict) and "mechanism" in data and "params" in data and "format" not in data):
+            return False
+        try:
+            design = design_from_dict(data)
+            self.studio.session.set_design(design, by_hand=True, cause=f"design {name}")
+        except ValueError as exc:
+            self.studio.notify(client, "Design not loaded", f"{name}: {exc}. The editor's design is kept.")
+            return True
+        self.studio.refresh()
+        self.studio.notify(client, "Design loaded", f"{name} is the editor's design now "
+                           f"({design.mechanism.title}); Undo takes it back", color="green")
+        return True
 
 
 def ask_to_replace(client: viser.ClientHandle, title: str, text: str, on_load: Callable[[], object],
