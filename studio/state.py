@@ -743,14 +743,20 @@ class Session:
                     or bool(self.undone))
 
     def summary(self) -> str:
-        """``Stephenson-I six-bar, 3 stage results, 6 branches, last run subtask3``: what a session holds, in words."""
+        """``Stephenson-I six-bar, 3 stage results, 6 branches, last run subtask3; editor: stephenson1/X3 (edited),
+        MSE 4.76 mm``: what a session holds, in words (two sessions of one pipeline read alike without the editor's
+        design, which a rehearsal had changed)."""
         with self.lock:
-            study = self.study
+            study, v = self.study, self.view
             runs = sum(r is not None for r in study.pipeline.results) if study.pipeline is not None else 0
             last = study.status.stage
-            return (f"{self.view.design.mechanism.title}, {runs} stage result{'s' * (runs != 1)}, "
+            who = v.preset or "a design of its own"
+            mse = float(v.evaluation.mse[0])
+            return (f"{v.design.mechanism.title}, {runs} stage result{'s' * (runs != 1)}, "
                     f"{len(study.branches)} branch{'es' * (len(study.branches) != 1)}"
-                    + (f", last run {last}" if last else ""))
+                    + (f", last run {last}" if last else "")
+                    + f"; editor: {who}{' (edited)' if v.edited else ''}"
+                    + (f", MSE {mse:.3g} mm" if math.isfinite(mse) else ", not assembled"))
 
     def restore(self, other: Session) -> None:
         """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""

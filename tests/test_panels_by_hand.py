@@ -932,8 +932,10 @@ def test_loading_a_session_over_work_asks_first_and_keeps_the_current_one_beside
         press(studio.files.load, c, upload(json.dumps(Session.default().to_dict()).encode(), "x3.json"))
         assert asked[-1][0] == "Load x3.json?" and studio.session.to_dict() == made  # asked; nothing changed yet
         assert "It replaces the current session: **Watt-I six-bar, 1 stage result, 0 branches, last run " \
-               "subtask1**" in asked[-1][1] and f"It is first saved as {tmp_path / 'work.before-load.json'}" \
-               in asked[-1][1]
+               "subtask1; editor: watt1/paper (edited), MSE " in asked[-1][1] \
+               and f"It is first saved as {tmp_path / 'work.before-load.json'}" in asked[-1][1]
+        assert "x3.json holds: Stephenson-I six-bar, 0 stage results, 0 branches; editor: stephenson1/X3, MSE 4.1 mm" \
+            in asked[-1][1]  # the editor's design tells two sessions of one pipeline apart
         yes[-1]()
         assert studio.session.view.design.mechanism.name == "stephenson1"
         kept = load_session(tmp_path / "work.before-load.json")
