@@ -64,6 +64,21 @@ def test_presets_table_lists_every_preset_with_its_mechanism(capsys):
     assert rows == {name: p.mechanism.name for name, p in presets.PRESETS.items()}
 
 
+def test_in_a_terminal_the_presets_table_fits_its_width(capsys):
+    """Rehearsal 3: the paper's RTCLM rows (300-character sources) wrapped the table unreadably in a terminal.
+    Cut to the width there, with a line saying how to see them whole; piped (above), nothing is cut."""
+    from core.cli.presets import listing
+
+    items = sorted(presets.PRESETS.values(), key=lambda p: p.name)
+    text = listing(items, 100)
+    lines = text.splitlines()
+    assert all(len(line) <= 100 for line in lines) and any(line.endswith("…") for line in lines)
+    assert lines[-1] == "(sources cut to the terminal's width: 'clm presets --wide' prints them whole)"
+    assert {line.split()[0] for line in lines[1:-1]} == set(presets.PRESETS)
+    whole = listing(items)
+    assert max(len(line) for line in whole.splitlines()) > 200 and "…" not in whole
+
+
 def test_presets_json_lists_every_preset_as_a_loadable_design(capsys):
     code, out, _ = run_in_process(capsys, "presets", "--json")
     assert code == 0

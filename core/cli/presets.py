@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
+import sys
 from typing import Any
 
 from core.formats.design import design_to_dict
@@ -24,6 +26,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "that 'clm simulate --design' reads back.",
     )
     p.add_argument("--json", action="store_true", help="list every preset as JSON")
+    p.add_argument("--wide", action="store_true", help="print every source whole (in a terminal they are cut to "
+                                                        "its width)")
     actions = p.add_subparsers(dest="action", metavar="ACTION")
     # Its own dest: the subcommand's default would overwrite `clm presets --json list`'s flag.
     actions.add_parser("list", help="list presets (the default)").add_argument(
@@ -42,8 +46,24 @@ def run(args: argparse.Namespace) -> int:
     if args.json or getattr(args, "list_json", False):
         print(json.dumps([preset_dict(p) for p in items], indent=2))
         return 0
+    # In a terminal each line is cut to its width: the paper's RTCLM rows carry 300-character sources (what was
+    # replaced, ours against the paper's heights) that wrapped the table unreadably. Piped, nothing is cut.
+    width = None if args.wide or not sys.stdout.isatty() else shutil.get_terminal_size((120, 24)).columns
+    print(listing(items, width))
+    return 0
+
+
+def listing(items: list[presets.Preset], width: int | None = None) -> str:
+    """The table of presets; with ``width``, each source cut to fit (ending in "…") and a last line saying how to
+    see them whole."""
     rows = [("NAME", "MECHANISM", "SOURCE")] + [(p.name, p.mechanism.name, p.source) for p in items]
     w0, w1 = (max(len(r[i]) for r in rows) for i in (0, 1))
+    room = None if width is None else max(width - w0 - w1 - 4, 20)
+    lines, cut = [], False
     for name, mech, source in rows:
-        print(f"{name:<{w0}}  {mech:<{w1}}  {source}".rstrip())
-    return 0
+        if room is not None and len(source) > room:
+            source, cut = source[: room - 1].rstrip() + "…", True
+        lines.append(f"{name:<{w0}}  {mech:<{w1}}  {source}".rstrip())
+    if cut:
+        lines.append("(sources cut to the terminal's width: 'clm presets --wide' prints them whole)")
+    return "\n".join(lines)
