@@ -240,3 +240,10 @@ def test_an_rtclm_mode_names_its_height_and_target_and_the_gait_verdict_is_one_l
     assert [ln for ln in out.splitlines() if "gait constraints" in ln][0].endswith(": all met")
     code, out, _ = run(capsys, "simulate", "--preset", "rtclm/clm-case1", "--mode", "auxiliary")
     assert out.startswith("rtclm/clm-case1 (auxiliary mode): ")
+
+
+def test_a_folder_that_is_no_run_is_named_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Rehearsal 3: a folder without result.json read "cannot read result file '.../result.json'"."""
+    code, _, err = run(capsys, "evaluate", "--design", str(tmp_path))
+    assert code == 2 and err.strip() == (f"clm: error: {tmp_path} is a folder without a result.json: not a 'clm "
+                                         "design --out' run; give a design JSON or a run's folder")

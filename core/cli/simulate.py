@@ -87,6 +87,9 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
     path: Path = args.design
     if not path.exists():
         raise CLIError(f"design file {str(path)!r} not found")
+    if path.is_dir() and not (path / "result.json").is_file():
+        raise CLIError(f"{path} is a folder without a result.json: not a 'clm design --out' run; give a design JSON "
+                       "or a run's folder")
     if path.is_dir() or _is_run(path):  # a `clm design` run (its folder or result.json): its final pick
         return run_pick(path / "result.json" if path.is_dir() else path), None
     text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
