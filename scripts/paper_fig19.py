@@ -1,0 +1,55 @@
+"""The RTCLM deviations of docs/paper-study.md, as the paper's Fig. 19 defines them, from a study's runs.
+
+    python scripts/paper_fig19.py runs/paper
+
+Per algorithm and case, the run of smallest |dh4| + |dh6| of the seeds (the paper: the best of at least three);
+absolute = the sum over cases of |dh4| + |dh6| over 5, relative h6 / h4 = the sum of |dh| / target over 5 (per
+mille); then every run's median |dh4| and feasible ratio per case.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from core.optimize.rtclm import H4_CASES, H6_TARGET
+from core.study.store import current_rows, read_study
+
+
+def main(directory: str) -> None:
+    meta, rows = read_study(directory)
+    study = meta.get("study") if isinstance(meta.get("study"), dict) else None
+    rows = [r for r in current_rows(study, rows) if r["status"] == "done" and r["case"].startswith("rtclm_case")]
+    labels = (study or {}).get("labels") or {}
+    algs = [a for a in labels if any(r["algorithm"] == a for r in rows)] or list(dict.fromkeys(r["algorithm"]
+                                                                                                for r in rows))
+    print("| algorithm | absolute (mm) | relative h6 (‰) | relative h4 (‰) | picks meeting the stage's constraints "
+          "(all runs) |")
+    print("|---|---|---|---|---|")
+    medians = []
+    for a in algs:
+        ab = r6 = r4 = 0.0
+        ok = n = 0
+        dh4, feas = [], []
+        for k in range(1, 6):
+            runs = [r for r in rows if r["algorithm"] == a and r["case"] == f"rtclm_case{k}"]
+            picks = [r["metrics"]["pick"] for r in runs]
+            best = min(picks, key=lambda p: abs(p["dh4"]) + abs(p["dh6"]))
+            ab += abs(best["dh4"]) + abs(best["dh6"])
+            r6 += abs(best["dh6"]) / H6_TARGET
+            r4 += abs(best["dh4"]) / H4_CASES[k]
+            ok += sum(bool(r["metrics"].get("pick_feasible")) for r in runs)
+            n += len(runs)
+            dh4.append(float(np.median([abs(p["dh4"]) for p in picks])))
+            feas.append(float(np.median([r["metrics"]["feasible_ratio"] for r in runs])))
+        name = labels.get(a, a)
+        print(f"| {name} | {ab / 5:.2f} | {1000 * r6 / 5:.1f} | {1000 * r4 / 5:.1f} | {ok}/{n} |")
+        medians.append(f"{name}: median |dh4| per case {' / '.join(f'{v:.1f}' for v in dh4)} mm; median feasible "
+                       f"ratio {' / '.join(f'{v:.3f}' for v in feas)}")
+    print()
+    print("\n".join(medians))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
