@@ -76,6 +76,9 @@ def test_design_writes_result_json_and_a_csv_per_stage(outputs: tuple[Path, Path
     np.testing.assert_array_equal([float(r["h_s"]) for r in rows], res.F[:, 0])
     np.testing.assert_array_equal([float(r["r1"]) for r in rows], res.X[:, 4])
     assert sum(int(r["front"]) for r in rows) == len(res.front)
+    # Constraint columns are not "g[...]" beside the crank phase g (rehearsal 3 read them as one family).
+    assert [k for k in rows[0] if k.startswith("constraint[")] == [f"constraint[{c}]" for c in res.constraints]
+    assert not any(k.startswith("g[") for k in rows[0])
 
 
 def test_design_prints_a_summary_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -84,6 +87,7 @@ def test_design_prints_a_summary_table(tmp_path: Path, capsys: pytest.CaptureFix
     cap = capsys.readouterr()
     lines = cap.out.splitlines()
     assert lines[1].split()[:4] == ["stage", "status", "gen", "time"]
+    assert "MSE (mm)" in lines[1] and "S (%)" in lines[1] and "I (mm/s)" in lines[1]  # metrics with units
     assert lines[2].split()[:3] == ["subtask1", "complete", "1"]
     assert "[1/2 subtask1]" in cap.err and "[2/2 subtask2]" in cap.err  # progress on stderr
 

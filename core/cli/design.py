@@ -110,7 +110,7 @@ def stage_rows(res: StageResult) -> tuple[list[str], list[list[Any]]]:
     names = list(res.mechanism.param_names)
     metrics = [k for k in res.metrics if k not in res.objectives]
     header = (["member", "feasible", "front", "knee_rank", "picked", "cv"] + names + list(res.objectives)
-              + [f"g[{c}]" for c in res.constraints] + metrics)
+              + [f"constraint[{c}]" for c in res.constraints] + metrics)  # "g[...]" sat beside the parameter g
     knee = {i: r for r, i in enumerate(res.shortlist.knees)}
     front = set(res.front)
     rows = []
@@ -197,6 +197,11 @@ def table(header: list[str], rows: list[list[Any]]) -> str:
     return "\n".join(lines)
 
 
+# The summary's metric columns with their units (rehearsal 3 read bare "f2 f3" and asked what and in what).
+SHOWN = {"mse": "MSE (mm)", "S": "S (%)", "I": "I (mm/s)", "h_s": "h_s (mm)", "f2": "f2 width (mm^2)",
+         "f3": "f3 low point (mm^2)", "h6": "h6 (mm)", "h4": "h4 (mm)"}
+
+
 def summary(run_: DesignRun) -> str:
     """The end-of-run table: one line per stage (or the baseline) with its pick's metrics."""
     c = run_.config
@@ -209,8 +214,8 @@ def summary(run_: DesignRun) -> str:
         lines.append(table(["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)", "h_s (mm)", "violation"],
                            [[b.to_dict()["title"], b.time, m["mse"], m["S"], m["I"], m["h_s"], m["violation"]]]))
         return "\n".join(lines)
-    show = [k for k in ("mse", "S", "I", "h_s", "f2", "f3", "h6", "h4") if any(k in r.metrics for r in run_.results)]
-    header = ["stage", "status", "gen", "time (s)", "evals", "feasible", "front", "pick", *show]
+    show = [k for k in SHOWN if any(k in r.metrics for r in run_.results)]
+    header = ["stage", "status", "gen", "time (s)", "evals", "feasible", "front", "pick", *(SHOWN[k] for k in show)]
     rows = []
     for r in run_.results:
         i = r.picked
@@ -267,7 +272,8 @@ def chains_table(block: MultiStart, show: list[str]) -> str:
         feasible = ("yes" if c.feasible else "no") if c.status == "complete" else "-"
         rows.append([("* " if c.index == block.chosen else "  ") + str(c.index), c.status, c.time, at, feasible,
                      *[float(m.get(k, float("nan"))) for k in show]])
-    return head + "\n" + table(["chain", "status", "time (s)", "pick at", "feasible", *show], rows)
+    return head + "\n" + table(["chain", "status", "time (s)", "pick at", "feasible",
+                                 *(SHOWN.get(k, k) for k in show)], rows)
 
 
 def run(args: argparse.Namespace) -> int:
