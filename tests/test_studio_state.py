@@ -303,20 +303,29 @@ def test_every_parameter_edit_counts_as_edited_the_first_too(session: Session) -
     assert view.edited == ("b",)
 
 
-def test_back_to_the_cycloid_after_a_curve_keeps_the_cycloids_length_and_height(session: Session) -> None:
+def oval(session: Session) -> TargetSpec:
+    """Set a cycloid by hand (280 x 90 mm, T = 1 s), then upload an oval curve over it; the cycloid set."""
     from studio.target import Curve
 
     session.set_target(length=280.0, height=90.0, period=1.0)
     before = session.view.target
-    t = np.arange(40) / 40
-    csv = "x,y\n" + "".join(f"{150 + 100 * np.cos(2 * np.pi * a):.6f},{-40 + 40 * np.sin(2 * np.pi * a):.6f}\n"
-                             for a in t)
-    session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    session.set_curve(Curve.from_csv(OVAL, "oval.csv"))
+    return before
+
+
+OVAL = ("x,y\n" + "".join(f"{150 + 100 * np.cos(2 * np.pi * a):.6f},{-40 + 40 * np.sin(2 * np.pi * a):.6f}\n"
+                          for a in np.arange(40) / 40)).encode()
+
+
+def test_back_to_the_cycloid_after_a_curve_keeps_the_cycloids_length_and_height(session: Session) -> None:
+    from studio.target import Curve
+
+    before = oval(session)
     assert session.view.target.period == 2.0  # the curve's (no times: 2 s)
     back = session.set_curve(None).target
     # The cycloid as it was: its T too, not the curve's 2 s, and still "(set by hand)".
     assert back == before and back.label() == "compound cycloid L = 280 mm, H = 90 mm, T = 1 s (set by hand)"
-    session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    session.set_curve(Curve.from_csv(OVAL, "oval.csv"))
     assert session.set_target(height=95.0).target.curve is None  # editing the cycloid returns to it
 
 
@@ -324,14 +333,8 @@ def test_the_replaced_cycloid_survives_a_saved_session(session: Session, tmp_pat
     """A session saved while an uploaded curve is the target keeps the cycloid it replaced: after a reload (or a
     Load session), "Back to the compound cycloid" brings back the designer's L, H and T, not the defaults."""
     from studio.session_file import load_session, save_session
-    from studio.target import Curve
 
-    session.set_target(length=280.0, height=90.0, period=1.0)
-    before = session.view.target
-    t = np.arange(40) / 40
-    csv = "x,y\n" + "".join(f"{150 + 100 * np.cos(2 * np.pi * a):.6f},{-40 + 40 * np.sin(2 * np.pi * a):.6f}\n"
-                             for a in t)
-    session.set_curve(Curve.from_csv(csv.encode(), "oval.csv"))
+    before = oval(session)
     save_session(session, tmp_path / "s.json")
     loaded = load_session(tmp_path / "s.json")
     assert loaded.set_curve(None).target == before
