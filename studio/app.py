@@ -18,6 +18,7 @@ import numpy as np
 import viser
 
 from core.formats.files import slug
+from core.optimize.lineage import unmet_by
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
@@ -43,7 +44,6 @@ from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
 from studio.session_file import read_session_bytes, save_session
 from studio.state import DesignView, Session
-from studio.study import unmet_by
 from studio.study_view import StudyView, study_view
 
 BRAND = (31, 119, 180)

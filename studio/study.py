@@ -35,7 +35,6 @@ from core.optimize.algorithms import ALGORITHMS, make_algorithm
 from core.optimize.box import Box
 from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
-from core.optimize.problem import Constraint
 from core.optimize.result import StageResult, dumps
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, sized_where, stage_spec
@@ -165,22 +164,6 @@ def studio_pick(result: StageResult, plan: RunPlan) -> int:
         return auto_pick(result, plan.spec.pick, plan.spec.stop_below, nxt, where)
     except ValueError:  # a rule naming a metric another problem in this slot does not report
         return result.choose("knee")
-
-
-def unmet_by(r: StageResult, i: int, constraints: tuple[Constraint, ...]) -> list[str]:
-    """Member i's values that miss ``constraints`` (another stage's) on the metrics this stage measured, in words
-    (``I 30.2 > 20``); a metric it did not measure is not judged, a NaN value misses."""
-    out = []
-    for c in constraints:
-        v = r.metrics.get(c.metric)
-        if v is None or c.metric in ("violation", "violation_mm"):
-            continue
-        x = float(v[i])
-        if not float(c.value(np.array([x]))[0]) <= 0.0:
-            upper = c.upper is not None
-            bound = float(c.upper if upper else c.lower)  # type: ignore[arg-type]
-            out.append(f"{c.metric} {x:.3g} {'>' if upper else '<'} {bound:.3g}")
-    return out
 
 
 WEIGHTED = ("cmoemt", "moead_cmt", "nsga3", "unsga3", "ctaea")  # population = their weight / reference vectors

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from core.optimize import decision
-from core.optimize.lineage import choose, next_feasible
+from core.optimize.lineage import choose, next_feasible, unmet_by
 from core.optimize.problem import Constraint, ProblemSpec
 from core.optimize.result import StageResult
 
@@ -38,6 +38,18 @@ def test_the_next_stage_accepts_a_member_on_its_limit_and_refuses_an_unmeasured_
     assert np.flatnonzero(next_feasible(result, nxt)).tolist() == [0, 1, 4]
     # Without a next stage, the members feasible here.
     assert np.flatnonzero(next_feasible(result, None)).tolist() == [0, 1, 2, 3, 4]
+
+
+def test_a_member_s_misses_in_words_are_the_mask_s(result: StageResult) -> None:
+    # Another stage's limits: width <= 200 (1 on it, 2 unmeasured, 3 over), f1 >= 1, a metric this stage did not
+    # measure (not judged) and the assembly measure (a feasible member assembles: not judged either).
+    cons = (Constraint("width", upper=200.0), Constraint("f1", lower=1.0), Constraint("h_s", upper=1.0),
+            Constraint("violation", upper=-1.0))
+    words = [unmet_by(result, i, cons) for i in range(6)]
+    assert words == [["f1 0 < 1"], [], ["width nan > 200"], ["width 250 > 200"], [], ["f1 -1 < 1"]]
+    nxt = ProblemSpec("next", None, ("f1", "f2"), cons)  # type: ignore[arg-type]
+    ok = next_feasible(result, nxt)
+    assert [bool(ok[i]) for i in range(6)] == [not w and bool(result.feasible[i]) for i, w in enumerate(words)]
 
 
 def test_pick_where_beats_the_next_stage_mask_when_they_share_no_member(result: StageResult) -> None:

@@ -554,9 +554,8 @@ def test_passing_on_an_infeasible_member_asks_first_and_a_feasible_one_does_not(
 
 
 def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s_mask(studio):
-    from core.optimize.lineage import next_feasible
+    from core.optimize.lineage import next_feasible, unmet_by
     from studio.chains import find, stage_spec
-    from studio.study import unmet_by
 
     stage_runs.run_stage(studio.session, "subtask1", pop=24, gens=3, seed=3)
     study = studio.session.study

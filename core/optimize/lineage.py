@@ -52,16 +52,37 @@ def resolved_spec(stage: StageConfig, start: Design, seed: int) -> StageSpec:
     return stage.spec(seed, opts)
 
 
+def misses(result: StageResult, constraints: tuple[Constraint, ...]) -> list[tuple[Constraint, NDArray[np.bool_]]]:
+    """Per constraint of another stage on a metric this result measured, the ``(pop,)`` mask of the members that
+    miss it (a NaN value misses). The assembly measure is left out: a feasible member here assembles."""
+    out = []
+    for c in constraints:
+        v = result.metrics.get(c.metric)
+        if v is None or c.metric in ("violation", "violation_mm"):
+            continue
+        with np.errstate(invalid="ignore"):
+            out.append((c, ~(np.nan_to_num(c.value(v), nan=np.inf) <= 0.0)))
+    return out
+
+
 def next_feasible(result: StageResult, nxt: ProblemSpec | None) -> NDArray[np.bool_]:
     """``(pop,)`` members feasible here that also satisfy the next stage's constraints on shared metrics."""
     ok = result.feasible.copy()
-    if nxt is None:
-        return ok
-    for c in nxt.constraints:
-        if c.metric in result.metrics:
-            with np.errstate(invalid="ignore"):
-                ok &= np.nan_to_num(c.value(result.metrics[c.metric]), nan=np.inf) <= 0.0
+    for _, missed in misses(result, () if nxt is None else nxt.constraints):
+        ok &= ~missed
     return ok
+
+
+def unmet_by(result: StageResult, i: int, constraints: tuple[Constraint, ...]) -> list[str]:
+    """Member i's values that miss ``constraints`` (another stage's), in words (``I 30.2 > 20``), as
+    :func:`misses` judges them."""
+    out = []
+    for c, missed in misses(result, constraints):
+        if missed[i]:
+            upper = c.upper is not None
+            bound = float(c.upper if upper else c.lower)  # type: ignore[arg-type]
+            out.append(f"{c.metric} {float(result.metrics[c.metric][i]):.3g} {'>' if upper else '<'} {bound:.3g}")
+    return out
 
 
 def where_mask(result: StageResult, where: tuple[Constraint, ...]) -> NDArray[np.bool_]:
