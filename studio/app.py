@@ -23,7 +23,7 @@ from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
 from studio.charts import png, stop_png_browser
-from studio.exports import design_json, drawing_export, figure_html, trajectories_csv
+from studio.exports import design_json, drawing_export, drawing_warnings, figure_html, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS, INSET_EXPORT_TITLE, INSET_NOTE, INSET_TITLE, SceneFrames, inset_caption
 from studio.geometry import SCENE_SCALE, frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
@@ -595,6 +595,10 @@ class Studio:
 
     def drawing_file(self, kind: str) -> tuple[str, bytes]:
         return drawing_export(self.session.view, self.session.playback.angle, kind)
+
+    def drawing_notes(self) -> list[str]:
+        """The shown design's parts: holes that overlap or leave a thin web (said after a drawing is sent)."""
+        return drawing_warnings(self.session.view, self.session.playback.angle)
 
     def trajectories_file(self) -> tuple[str, bytes]:
         view = self.session.view

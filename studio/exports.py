@@ -81,10 +81,21 @@ def parse_trajectories_csv(data: bytes) -> dict[str, np.ndarray]:
 
 def drawing_export(view: DesignView, angle: float, kind: str) -> tuple[str, bytes]:
     """The shown design at the shown crank angle as a fabrication drawing: ``dxf`` (one layer per link, pivot
-    holes, dimensions) or ``svg``; ValueError if it does not assemble there (the panel says so)."""
+    holes, dimensions, and the parts sheet) or ``svg``; ValueError if it does not assemble there (the panel says so)."""
     from core.formats.drawing import drawing, dxf, svg
 
     d = drawing(view.design, angle)
     deg = round(math.degrees(d.angle)) % 360  # the angle drawn, in the name too: two drawings of one design differ
     name = f"{slug(view.preset or view.design.mechanism.name)}-drawing-{deg}deg.{kind}"
     return name, (svg(d) if kind == "svg" else dxf(d)).encode()
+
+
+def drawing_warnings(view: DesignView, angle: float) -> list[str]:
+    """What the drawing's parts sheet warns about (holes that overlap or leave a thin web; ``clm export`` prints
+    the same), [] when the design does not assemble there (the export says that)."""
+    from core.formats.drawing import Plates, cutting_warnings, drawing
+
+    try:
+        return cutting_warnings(drawing(view.design, angle), Plates())
+    except ValueError:
+        return []

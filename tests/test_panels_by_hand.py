@@ -351,6 +351,9 @@ def test_each_export_button_sends_its_own_file(studio):
     assert csv.startswith(b"sample,theta_rad,t_s,")
     assert c.downloads[3][1].lstrip().startswith((b"<svg", b"<?xml"))
     assert b"SECTION" in c.downloads[2][1]
+    # X3's link A-B-F holds B and F 6.5 mm apart: with 5 mm holes, 1.5 mm between them. Said after each drawing.
+    said = [n for n in c.notes if n[0] == "Check the parts before cutting"]
+    assert len(said) == 2 and all("holes B and F of link A-B-F" in n[1] and n[2] == "yellow" for n in said)
 
 
 def test_an_export_with_nothing_to_export_is_one_notification_and_no_download(studio):

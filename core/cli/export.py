@@ -5,20 +5,22 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 from pathlib import Path
 
 from core.cli import CLIError
-from core.formats.drawing import drawing, dxf, svg
+from core.formats.drawing import HOLE, PLATE, Plates, cutting_warnings, drawing, dxf, svg
 from core.formats.files import atomic_write
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "export",
-        help="write a design as DXF (one layer per link, pivot holes, dimensions) and SVG",
+        help="write a design as DXF (one layer per link, pivot holes, dimensions, a parts sheet to cut) and SVG",
         description="Draw a design (a preset or a design JSON file) at one crank angle for fabrication: DXF with "
         "one layer per link, pivot holes at joint centres, ground pivots marked and link lengths dimensioned in "
-        "mm; SVG with the linkage and its foot path.",
+        "mm, and a parts sheet under it (each link a plate outline with its holes, laid flat: what a laser cuts); "
+        "SVG with the linkage and its foot path. Holes that overlap or leave a thin web are warned about.",
     )
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
@@ -27,6 +29,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dxf", type=Path, metavar="OUT", help="DXF file to write")
     p.add_argument("--svg", type=Path, metavar="OUT", help="SVG file to write")
     p.add_argument("--angle", type=float, default=0.0, help="crank angle in degrees from the crank phase (default 0)")
+    p.add_argument("--hole", type=float, default=HOLE, metavar="MM",
+                   help=f"pivot hole diameter in mm, your pins' (default {HOLE:g})")
+    p.add_argument("--width", type=float, default=None, metavar="MM",
+                   help=f"link plate width in mm on the DXF's parts sheet (default {PLATE:g} hole diameters)")
     from core.cli.simulate import add_mode
 
     add_mode(p)
@@ -42,6 +48,10 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--dxf and --svg name the same file {str(args.dxf)!r}: the SVG would replace the DXF")
     if not math.isfinite(args.angle):
         raise CLIError(f"--angle must be a finite number of degrees, got {args.angle}")
+    try:
+        plates = Plates(args.hole, args.width)
+    except ValueError as exc:
+        raise CLIError(f"--hole/--width: {exc}") from None
     design, _ = load_design(args)
     d = drawing(design, math.radians(args.angle))
     for out in (args.dxf, args.svg):
@@ -55,9 +65,12 @@ def run(args: argparse.Namespace) -> int:
         if not os.access(folder, os.W_OK):
             raise CLIError(f"cannot write {out}: the folder {folder} is not writable")
     if args.dxf is not None:
-        atomic_write(args.dxf, dxf(d))
-        print(f"wrote {args.dxf} ({len(d.links)} links, {len(d.ground)} ground pivots)")
+        atomic_write(args.dxf, dxf(d, plates))
+        print(f"wrote {args.dxf} ({len(d.links)} links, {len(d.ground)} ground pivots; parts sheet: "
+              f"{plates.plate:g} mm plates, {plates.hole:g} mm holes)")
     if args.svg is not None:
-        atomic_write(args.svg, svg(d))
+        atomic_write(args.svg, svg(d, plates=plates))
         print(f"wrote {args.svg}")
+    for text in cutting_warnings(d, plates):
+        print(f"clm: warning: {text}", file=sys.stderr)
     return 0

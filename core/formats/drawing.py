@@ -1,5 +1,6 @@
 """Drawings for fabrication: a design at one crank angle as DXF (one layer per link, pivot holes, ground marks,
-link lengths and the frame's pivot spacings dimensioned in mm) and as SVG (the linkage and the foot path).
+link lengths and the frame's pivot spacings dimensioned in mm, and a parts sheet: each link as a plate outline with
+its holes, laid flat side by side, ready to cut) and as SVG (the linkage and the foot path).
 
 Coordinates are the design frame in mm, y up (SVG flips y for the screen). The crank angle is measured from the
 crank phase, counter-clockwise; the pose is drawn at exactly that angle where the crank phase is a design
@@ -20,7 +21,9 @@ from core.kinematics.design import Design
 from core.kinematics.model import Crank, Ground
 
 F64 = NDArray[np.float64]
-HOLE_RADIUS = 2.5  # mm: pivot holes drawn at joint centres
+HOLE = 5.0  # mm: pivot hole diameter, by default (clm export --hole)
+PLATE = 3.0  # a link plate's width in hole diameters, by default (clm export --width)
+PART_GAP = 5.0  # mm between two parts on the sheet
 N_SAMPLES = 360
 N_FINE = 3600  # a derived crank phase: the pose at the nearest of these samples
 LABEL_HEIGHT = 3.5  # mm: point names
@@ -61,6 +64,110 @@ class Drawing:
         return [(a, b, float(np.linalg.norm(self.point(a) - self.point(b)))) for a, b in combinations(self.ground, 2)]
 
 
+@dataclass(frozen=True)
+class Plates:
+    """How the links are made: pivot holes of diameter ``hole`` (mm) in plates ``width`` mm wide (3 holes by
+    default), rounded around each point they carry."""
+
+    hole: float = HOLE
+    width: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.hole) and self.hole > 0):
+            raise ValueError(f"the hole diameter must be a positive number of mm, got {self.hole}")
+        w = self.width
+        if w is not None and not (math.isfinite(w) and w > self.hole):
+            raise ValueError(f"the plate width must be more than the hole diameter ({self.hole:g} mm) for a plate to "
+                             f"hold its holes, got {w}")
+
+    @property
+    def plate(self) -> float:
+        """The plate width (mm)."""
+        return PLATE * self.hole if self.width is None else float(self.width)
+
+    @property
+    def web(self) -> float:
+        """The material beside a hole (mm): half the plate width less the hole's radius."""
+        return (self.plate - self.hole) / 2
+
+
+def hull(points: F64) -> F64:
+    """``(h, 2)`` the convex hull of ``(k, 2)`` points, counter-clockwise, without collinear or repeated points
+    (one point: itself)."""
+    pts = sorted({(float(x), float(y)) for x, y in points})
+    if len(pts) <= 2:
+        return np.array(pts, dtype=np.float64).reshape(-1, 2)
+
+    def half(seq: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        out: list[tuple[float, float]] = []
+        for p in seq:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
+                out.pop()
+            out.append(p)
+        return out
+
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1], dtype=np.float64)
+
+
+def outline(points: F64, radius: float) -> list[tuple[float, float, float]]:
+    """A plate around ``(k, 2)`` points: the convex hull of circles of ``radius`` about them, as the vertices of
+    a closed polyline with DXF bulges ``(x, y, bulge)`` (an arc from a vertex to the next where bulge != 0, a
+    line where it is 0). One point: a circle (two half arcs)."""
+    h = hull(points)
+    if len(h) == 1:
+        (x, y), = h
+        return [(x - radius, y, 1.0), (x + radius, y, 1.0)]
+    out = []
+    n = len(h)
+    for i in range(n):
+        p, prev, nxt = h[i], h[i - 1], h[(i + 1) % n]
+        e_in, e_out = p - prev, nxt - p
+        n_in = np.array([e_in[1], -e_in[0]]) / np.hypot(*e_in)  # the outward normals (right of a CCW edge)
+        n_out = np.array([e_out[1], -e_out[0]]) / np.hypot(*e_out)
+        turn = math.atan2(n_in[0] * n_out[1] - n_in[1] * n_out[0], float(n_in @ n_out))
+        if turn <= 0:  # two points: a half turn, whichever sign the cross product's zero has
+            turn += 2 * math.pi
+        a, b = p + radius * n_in, p + radius * n_out
+        out.append((float(a[0]), float(a[1]), math.tan(turn / 4)))
+        out.append((float(b[0]), float(b[1]), 0.0))
+    return out
+
+
+def part_frame(d: Drawing, body: tuple[str, ...]) -> tuple[F64, F64]:
+    """A link laid flat: its points ``(k, 2)`` turned so that its two farthest pivots (points, if it has fewer
+    than two pivots) lie on a horizontal line, and the rotation ``(2, 2)`` applied."""
+    pts = np.array([d.point(n) for n in body])
+    pivots = [i for i, n in enumerate(body) if n in d.pivots()]
+    ref = pivots if len(pivots) >= 2 else list(range(len(body)))
+    a, b = max(combinations(ref, 2), key=lambda ij: float(np.linalg.norm(pts[ij[0]] - pts[ij[1]])),
+               default=(0, 0))
+    v = pts[b] - pts[a]
+    t = math.atan2(v[1], v[0]) if np.hypot(*v) > 0 else 0.0
+    rot = np.array([[math.cos(t), math.sin(t)], [-math.sin(t), math.cos(t)]])
+    return pts @ rot.T, rot
+
+
+def cutting_warnings(d: Drawing, plates: Plates) -> list[str]:
+    """What would make a part uncuttable or weak: two holes of one link that overlap, or leave less material
+    between them than beside each hole (the plate's web)."""
+    out = []
+    pivots = d.pivots()
+    for body in d.links:
+        for a, b in combinations([n for n in body if n in pivots], 2):
+            dist = float(np.linalg.norm(d.point(a) - d.point(b)))
+            left = dist - plates.hole
+            where = (f"holes {a} and {b} of link {'-'.join(body)} (centres {dist:.2f} mm apart, "
+                     f"{plates.hole:g} mm holes)")
+            if left < 0:
+                out.append(f"{where} overlap: the part cannot be cut as drawn; use smaller pins (--hole)")
+            elif left < plates.web:
+                out.append(f"{where} leave {left:.2f} mm of material between them, less than the {plates.web:.2f} "
+                           "mm beside each hole")
+    return out
+
+
 def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
     """The drawing of member ``member`` at crank angle ``angle`` (rad, from the design's crank phase g);
     ValueError if it does not assemble there."""
@@ -98,11 +205,14 @@ def _dimension(msp: object, pa: F64, pb: F64, layer: str) -> None:
     dim.render()
 
 
-def dxf(d: Drawing) -> str:
+def dxf(d: Drawing, plates: Plates = Plates()) -> str:
     """The drawing as DXF R2010 text: layer ``LINK_<points>`` per moving link (bars, pivot holes, aligned
     dimensions), ``GROUND`` (pivot holes and cross marks), ``FRAME`` (dashed lines and dimensions between the
     ground pivots), ``LABELS`` (every point's name; a point of one link alone, as the foot, crossed: no hole),
-    ``PATH`` (the foot path), ``TITLE`` (the mechanism and the crank angle drawn)."""
+    ``PATH`` (the foot path), ``TITLE`` (the mechanism and the crank angle drawn); and under it the parts sheet:
+    layer ``PART_<points>`` per link (its plate's closed outline and its pivot holes, laid flat, side by side
+    ``PART_GAP`` mm apart: what a laser cuts) and ``PART_LABELS`` (each part's name, a cross at a point that is
+    no hole)."""
     import ezdxf
 
     doc = ezdxf.new("R2010", setup=True)
@@ -113,7 +223,7 @@ def dxf(d: Drawing) -> str:
     doc.layers.add("PATH", color=5)
     doc.layers.add("LABELS", color=7)
     doc.layers.add("TITLE", color=7)
-    pivots = d.pivots()
+    pivots, r = d.pivots(), plates.hole / 2
     for k, body in enumerate(d.links):
         layer = "LINK_" + "-".join(body)
         doc.layers.add(layer, color=1 + k % 6)
@@ -123,25 +233,25 @@ def dxf(d: Drawing) -> str:
             _dimension(msp, pa, pb, layer)
         for name in body:
             if name in pivots:
-                msp.add_circle(tuple(d.point(name)), HOLE_RADIUS, dxfattribs={"layer": layer})
+                msp.add_circle(tuple(d.point(name)), r, dxfattribs={"layer": layer})
     for a, b, _ in d.frame():  # the frame: the spacing of its pivot holes
         _dimension(msp, d.point(a), d.point(b), "FRAME")
         msp.add_line(tuple(d.point(a)), tuple(d.point(b)), dxfattribs={"layer": "FRAME", "linetype": "DASHED"})
     for name in d.ground:
         x, y = d.point(name)
-        msp.add_circle((x, y), HOLE_RADIUS * 1.6, dxfattribs={"layer": "GROUND"})
+        msp.add_circle((x, y), r * 1.6, dxfattribs={"layer": "GROUND"})
         for dx, dy in ((1, 0), (0, 1)):
-            s = 2.5 * HOLE_RADIUS
+            s = 2.5 * r
             msp.add_line((x - s * dx, y - s * dy), (x + s * dx, y + s * dy), dxfattribs={"layer": "GROUND"})
     drawn = set(d.ground).union(*d.links)
     for name in (n for n in d.names if n in drawn):  # every point named on the drawing; a non-pivot crossed
         x, y = d.point(name)
         if name not in pivots:
-            s = HOLE_RADIUS
+            s = r
             for dx, dy in ((1, 1), (1, -1)):
                 msp.add_line((x - s * dx, y - s * dy), (x + s * dx, y + s * dy), dxfattribs={"layer": "LABELS"})
         msp.add_text(name, height=LABEL_HEIGHT, dxfattribs={"layer": "LABELS"}).set_placement(
-            (x + 1.4 * HOLE_RADIUS, y + 1.4 * HOLE_RADIUS))
+            (x + 1.4 * r, y + 1.4 * r))
     finite = d.path[np.isfinite(d.path).all(axis=1)]
     if len(finite) > 1:
         msp.add_lwpolyline([tuple(p) for p in finite], close=True, dxfattribs={"layer": "PATH"})
@@ -151,13 +261,40 @@ def dxf(d: Drawing) -> str:
     msp.add_text(f"{d.mechanism} at crank angle {math.degrees(d.angle):.1f} deg (from the crank phase), mm",
                  height=LABEL_HEIGHT, dxfattribs={"layer": "TITLE"}).set_placement(
         (float(pts[:, 0].min()), float(pts[:, 1].min()) - 4 * LABEL_HEIGHT))
+    _parts(doc, msp, d, plates, float(pts[:, 1].min()) - 7 * LABEL_HEIGHT, float(pts[:, 0].min()))
     out = io.StringIO()
     doc.write(out)
     return out.getvalue()
 
 
-def svg(d: Drawing, margin: float = 20.0) -> str:
-    """The linkage at its angle and the foot path as an SVG document (mm, y up)."""
+def _parts(doc: object, msp: object, d: Drawing, plates: Plates, top: float, left: float) -> None:
+    """The parts sheet: each link's plate laid flat (:func:`part_frame`), its top at ``top``, from ``left`` on."""
+    doc.layers.add("PART_LABELS", color=7)  # type: ignore[attr-defined]
+    pivots, r, half = d.pivots(), plates.hole / 2, plates.plate / 2
+    x = left
+    for k, body in enumerate(d.links):
+        layer = "PART_" + "-".join(body)
+        doc.layers.add(layer, color=1 + k % 6)  # type: ignore[attr-defined]
+        pts, _ = part_frame(d, body)
+        shift = np.array([x - (pts[:, 0].min() - half), top - (pts[:, 1].max() + half)])
+        pts = pts + shift
+        msp.add_lwpolyline(outline(pts, half), format="xyb", close=True,  # type: ignore[attr-defined]
+                           dxfattribs={"layer": layer})
+        for name, p in zip(body, pts, strict=True):
+            if name in pivots:
+                msp.add_circle(tuple(p), r, dxfattribs={"layer": layer})  # type: ignore[attr-defined]
+            else:  # the foot, a coupler point: marked, not drilled
+                for dx, dy in ((1, 1), (1, -1)):
+                    msp.add_line((p[0] - r * dx, p[1] - r * dy), (p[0] + r * dx, p[1] + r * dy),  # type: ignore[attr-defined]
+                                 dxfattribs={"layer": "PART_LABELS"})
+        msp.add_text("-".join(body), height=LABEL_HEIGHT, dxfattribs={"layer": "PART_LABELS"}).set_placement(  # type: ignore[attr-defined]
+            (x, float(pts[:, 1].min()) - half - 1.5 * LABEL_HEIGHT))
+        x += float(np.ptp(pts[:, 0])) + 2 * half + PART_GAP
+
+
+def svg(d: Drawing, margin: float = 20.0, plates: Plates = Plates()) -> str:
+    """The linkage at its angle and the foot path as an SVG document (mm, y up); holes of ``plates.hole``."""
+    r = plates.hole / 2
     pts = np.vstack([d.joints, d.path[np.isfinite(d.path).all(axis=1)]])
     lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
     w, h = hi - lo
@@ -183,15 +320,15 @@ def svg(d: Drawing, margin: float = 20.0) -> str:
         if name not in drawn:
             continue
         x, y = xy(p)
-        out.append(f'<text x="{x + 1.4 * HOLE_RADIUS:.3f}" y="{y - 1.4 * HOLE_RADIUS:.3f}" font-size="{LABEL_HEIGHT}" '
+        out.append(f'<text x="{x + 1.4 * r:.3f}" y="{y - 1.4 * r:.3f}" font-size="{LABEL_HEIGHT}" '
                    f'font-family="sans-serif">{name}</text>')
         if name not in pivots:  # the foot or a coupler point: a cross, no hole
-            s = HOLE_RADIUS
+            s = r
             out.append(f'<path d="M{x - s:.3f},{y - s:.3f} L{x + s:.3f},{y + s:.3f} M{x - s:.3f},{y + s:.3f} '
                        f'L{x + s:.3f},{y - s:.3f}" stroke="#333" stroke-width="0.5"><title>{name}</title></path>')
             continue
         fill = "#888" if name in d.ground else "#fff"
-        out.append(f'<circle cx="{x:.3f}" cy="{y:.3f}" r="{HOLE_RADIUS}" fill="{fill}" stroke="#333" '
+        out.append(f'<circle cx="{x:.3f}" cy="{y:.3f}" r="{r}" fill="{fill}" stroke="#333" '
                    f'stroke-width="0.5"><title>{name}</title></circle>')
     out.append("</svg>")
     return "\n".join(out) + "\n"

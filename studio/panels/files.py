@@ -38,7 +38,7 @@ class FilesPanel:
                                          hint="the current design; clm simulate --design reads it")
             self.dxf = gui.add_button("Drawing (DXF)", icon=viser.Icon.FILE_DOWNLOAD,
                                       hint="the design at the shown crank angle: one layer per link, pivot holes, "
-                                      "dimensions in mm")
+                                      "dimensions in mm, and each link as a plate laid flat to cut")
             self.svg = gui.add_button("Drawing (SVG)", icon=viser.Icon.FILE_DOWNLOAD,
                                       hint="the design at the shown crank angle and its foot path")
             self.csv = gui.add_button("Trajectories (CSV)", icon=viser.Icon.FILE_DOWNLOAD,
@@ -51,18 +51,18 @@ class FilesPanel:
                                         hint="one crank revolution of the scene, self-contained (works offline)")
         self.download.on_click(self._send(self.studio.session_file))
         self.design.on_click(self._send(self.studio.design_file))
-        self.dxf.on_click(self._send(lambda: self.studio.drawing_file("dxf")))
-        self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg")))
+        self.dxf.on_click(self._send(lambda: self.studio.drawing_file("dxf"), notes=self.studio.drawing_notes))
+        self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg"), notes=self.studio.drawing_notes))
         self.csv.on_click(self._send(self.studio.trajectories_file))
         self.pareto.on_click(self._send(self.studio.pareto_file))
         self.pareto_png.on_click(self._send(self.studio.pareto_png_file, slow="kaleido draws the chart on the server"))
         self.scene.on_click(self._send(self.studio.scene_file))
         self.load.on_upload(self._on_load)
 
-    def _send(self, make: Any, slow: str | None = None) -> Any:
+    def _send(self, make: Any, slow: str | None = None, notes: Any = None) -> Any:
         """A button's handler: ``make()`` -> (name, bytes) sent to the page. ``slow``: what takes the time, said in a
         notification while it does (the PNG took 6-9 s with nothing on screen, so a presenter clicked again); a click
-        while it is drawn is ignored."""
+        while it is drawn is ignored. ``notes()``: warnings about the file sent, shown after it (a drawing's parts)."""
         busy: set[int] = set()
 
         def handler(event: viser.GuiEvent[Any]) -> None:
@@ -84,6 +84,9 @@ class FilesPanel:
                 if note is not None:
                     note.remove()
             client.send_file_download(name, content, save_immediately=True)
+            said = notes() if notes is not None else []
+            if said:
+                self.studio.notify(client, "Check the parts before cutting", "; ".join(said), color="yellow")
 
         return handler
 
