@@ -108,6 +108,11 @@ CASES: list[list[str]] = [
     ["export", "--preset", "stephenson1/X3", "--dxf", "{tmp}/no/such/x.dxf"],
     ["export", "--preset", "stephenson1/X3", "--svg", "/proc/x.svg"],
     ["export", "--preset", "stephenson1/X3", "--dxf", "/proc/x.dxf"],
+    # scale: a bad design file, no size, nowhere to write
+    ["scale", "--design", "{missing}", "--factor", "2"], ["scale", "--design", "{list.json}", "--factor", "2"],
+    ["scale", "--preset", "stephenson1/X3", "--factor", "inf"],
+    ["scale", "--preset", "stephenson1/X3", "--factor", "2", "--out", "{tmp}/no/such/x.json"],
+    ["scale", "--preset", "stephenson1/X3", "--factor", "2", "--out", "{tmp}"],
     # anything else
     ["fly"], ["--nonsense"],
 ]

@@ -20,7 +20,7 @@ import numpy as np
 from core.kinematics.memory import keep_freed_memory
 
 # Command modules, in help order; each has register(sub) and run(args).
-COMMANDS = ("presets", "simulate", "evaluate", "design", "compare", "study", "moea", "export")
+COMMANDS = ("presets", "simulate", "evaluate", "design", "compare", "study", "moea", "export", "scale")
 
 
 class CLIError(Exception):

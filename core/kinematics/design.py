@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -55,6 +56,18 @@ class Design:
                 raise ValueError(f"{self.mechanism.name} has no parameter {name!r}; its parameters: {', '.join(names)}")
             p[:, names.index(name)] = v
         return Design(self.mechanism, p, self.output)
+
+    def scaled(self, factor: float) -> Design:
+        """The same linkage ``factor`` times the size: every length, offset and position (and the output stage's
+        centre) multiplied, angles and the output ratio kept, so the motion is the same and every path scales by
+        ``factor``. ValueError unless ``factor`` is a positive finite number."""
+        f = float(factor)
+        if not (np.isfinite(f) and f > 0):
+            raise ValueError(f"a scale factor must be a positive number, got {factor}")
+        sized = np.array([p.kind != "angle" for p in self.mechanism.params])
+        params = np.where(sized, self.params * f, self.params)
+        out = dataclasses.replace(self.output, ox=self.output.ox * f, oy=self.output.oy * f)
+        return Design(self.mechanism, params, out)
 
     def solve(self, n_samples: int = 360, **kw: object) -> Solution:
         return solve(self.mechanism, self.params, n_samples, output=self.output, **kw)  # type: ignore[arg-type]

@@ -1,0 +1,71 @@
+"""``clm scale``: a design at another size (every length times a factor, angles kept), as a design JSON."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from core.cli import CLIError
+from core.formats.design import design_to_dict
+from core.formats.files import atomic_write
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "scale",
+        help="a design at another size, as a design JSON",
+        description="Multiply every length of a design (links, offsets, pivot positions, the output stage's centre) "
+        "by a factor, angles kept: the same motion at another size, every path scaled by the factor. Give the "
+        "factor, or the foot path width you want in the leg frame (the stride of the bench trajectory, what 'clm "
+        "simulate' prints as the leg frame's path width; the paper's X3 has ~300 mm). Prints the design JSON, or "
+        "writes it with --out.",
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
+    src.add_argument("--design", type=Path, metavar="FILE",
+                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
+    size = p.add_mutually_exclusive_group(required=True)
+    size.add_argument("--factor", type=float, metavar="F", help="multiply every length by F (> 0)")
+    size.add_argument("--stride", type=float, metavar="MM", help="scale so that the leg-frame path is MM wide")
+    p.add_argument("--out", type=Path, metavar="FILE", help="write the design JSON here instead of printing it")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from core.cli.simulate import design_label, extent, load_design
+
+    design, preset = load_design(args)
+    sol = design.solve(360)
+    width = extent(sol.leg[0])["width"] if sol.violation[0] == 0 else None  # a part of a path: no stride
+    if args.stride is not None:
+        if not (math.isfinite(args.stride) and args.stride > 0):
+            raise CLIError(f"--stride must be a positive number of mm, got {args.stride}")
+        if width is None or width <= 0:
+            raise CLIError("the design's foot path has no width to scale from (it does not assemble, or its foot "
+                           "does not move along x): give --factor")
+        factor = args.stride / width
+    else:
+        factor = args.factor
+    try:
+        scaled = design.scaled(factor)
+    except ValueError as exc:
+        raise CLIError(f"--factor: {exc}") from None
+    label = design_label(args, preset)
+    new = extent(scaled.solve(360).leg[0])["width"]
+    data = {"name": f"{label} x{factor:.4g}", "title": design.mechanism.title, **design_to_dict(scaled),
+            "source": f"{label} scaled by {factor:.6g}"
+                      + (f" (leg-frame path width {width:.2f} -> {new:.2f} mm)" if width and new else "")}
+    text = json.dumps(data, indent=2) + "\n"
+    if args.out is None:
+        sys.stdout.write(text)
+        return 0
+    if args.out.is_dir():
+        raise CLIError(f"{args.out} is a folder")
+    if not args.out.parent.is_dir():
+        raise CLIError(f"cannot write {args.out}: there is no folder {args.out.parent}")
+    atomic_write(args.out, text)
+    print(f"wrote {args.out}: {data['source']}")
+    return 0
