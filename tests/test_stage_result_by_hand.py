@@ -73,7 +73,8 @@ def test_the_parent_pick_survives_json(result: StageResult) -> None:
 def test_best_of_a_metric_that_is_no_objective_is_taken_on_the_front() -> None:
     """``best:S`` took the smallest S over the whole population once, a member another beat on both objectives
     (rehearsal 3: h_s and I four times smaller, S 0.001 points larger); the paper's X_i lie on the front. Off the
-    front only when no front member is a candidate (a pick_where or next-stage mask that excludes them all)."""
+    front only when no front member is a candidate (a pick_where or next-stage mask that excludes them all): then on
+    the candidates' own front (review of session 28: it took the smallest S of all candidates, a dominated one)."""
     from core.optimize.lineage import choose
 
     F2 = np.array([[1.0, 1.0], [2.0, 2.0], [0.5, 3.0], [3.0, 0.2]])
@@ -91,3 +92,23 @@ def test_best_of_a_metric_that_is_no_objective_is_taken_on_the_front() -> None:
     from core.optimize.problem import Constraint
 
     assert choose(r, "best:S", where=(Constraint("I", upper=1.0),), mask=np.array([True, True, False, True])) == 0
+
+
+def test_best_of_a_metric_off_the_whole_front_is_taken_on_the_candidates_own_front() -> None:
+    """0 is the whole front (and misses I <= 50); of the candidates 1 and 2, 2 beats 1 on both objectives, so
+    ``best:S`` takes 2 though 1 has the smaller S, as the knee rule does on the same candidates."""
+    from core.optimize.lineage import choose
+    from core.optimize.problem import Constraint
+
+    F2 = np.array([[0.0, 0.0], [3.0, 3.0], [2.0, 2.0], [1.0, 4.0]])
+    cv = np.zeros(4)
+    base = small_result()
+    r = dataclasses.replace(base, X=base.X[np.arange(4) % base.pop], F=F2, G=np.zeros((4, 1)), cv=cv,
+                            constraints=("violation<=0.0",), picked=None,
+                            metrics={"S": np.array([5.0, 1.0, 1.5, 2.0]), "I": np.array([99.0, 1.0, 1.0, 1.0])},
+                            shortlist=decision.shortlist(F2, cv))
+    assert r.front == (0,)
+    where = (Constraint("I", upper=50.0),)
+    assert choose(r, "best:S", where=where) == 2  # the candidates' front is {2, 3}: S 1.5 and 2.0
+    assert choose(r, "knee", where=where) in (2, 3)
+    assert choose(r, "best:S", mask=np.array([False, True, False, False])) == 1  # a lone candidate is its front

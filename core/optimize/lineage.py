@@ -121,8 +121,11 @@ def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None =
         if name in result.objectives:
             j = decision.best_per_objective(F, cv)[result.objectives.index(name)]
             return int(idx[j])
-        best = best_on_front(result.metrics[name], mask & result.feasible, result.front, name) \
-            if name in result.metrics else None
+        cand = mask & result.feasible
+        front: tuple[int, ...] = result.front
+        if not cand[list(front)].any():  # no member of the whole front is a candidate: the candidates' own front
+            front = tuple(int(i) for i in idx[decision.pareto_front(F, cv)])
+        best = best_on_front(result.metrics[name], cand, front, name) if name in result.metrics else None
         return best if best is not None else result.choose(rule)
     sl = decision.shortlist(F, cv)
     k = int(rule.split(":", 1)[1]) if isinstance(rule, str) and ":" in rule else 0
