@@ -97,39 +97,48 @@ def find(chain: tuple[ChainStage, ...], name: str) -> ChainStage:
 
 @dataclass(frozen=True)
 class RunSettings:
-    """What the designer sets for one stage: problem, algorithm, population, generations, seed."""
+    """What the designer sets for one stage: problem, algorithm, population, generations, seed, and a lower limit
+    on the worst transmission angle (deg, 0: none; the problem's ``transmission_min``)."""
 
     problem: str
     algorithm: str = "nsga2"
     pop_size: int = 40
     n_gen: int = 30
     seed: int = 1
+    transmission_min: int = 0
 
     def __post_init__(self) -> None:
         if self.algorithm not in ALGORITHMS:
             raise ValueError(unknown_algorithm(self.algorithm))
-        for name, lo, hi in (("pop_size", 2, MAX_POP), ("n_gen", 1, MAX_GEN), ("seed", 0, 2**31 - 1)):
+        for name, lo, hi in (("pop_size", 2, MAX_POP), ("n_gen", 1, MAX_GEN), ("seed", 0, 2**31 - 1),
+                             ("transmission_min", 0, 89)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-                what = {"pop_size": "population", "n_gen": "generations", "seed": "seed"}[name]
+                what = {"pop_size": "population", "n_gen": "generations", "seed": "seed",
+                        "transmission_min": "min transmission angle (deg)"}[name]
                 raise ValueError(f"{what} must be a whole number in [{lo}, {hi}], got {v!r}")
 
     def to_dict(self) -> dict[str, object]:
-        return {"problem": self.problem, "algorithm": self.algorithm, "pop_size": self.pop_size,
-                "n_gen": self.n_gen, "seed": self.seed}
+        out: dict[str, object] = {"problem": self.problem, "algorithm": self.algorithm, "pop_size": self.pop_size,
+                                  "n_gen": self.n_gen, "seed": self.seed}
+        if self.transmission_min:  # written when set: sessions saved before it read the same
+            out["transmission_min"] = self.transmission_min
+        return out
 
     @staticmethod
     def from_dict(data: object) -> RunSettings:
         if not isinstance(data, dict):
             raise ValueError(f"stage settings must be an object, got {data!r}")
-        unknown = [k for k in data if k not in ("problem", "algorithm", "pop_size", "n_gen", "seed")]
+        known = ("problem", "algorithm", "pop_size", "n_gen", "seed", "transmission_min")
+        unknown = [k for k in data if k not in known]
         if unknown:
             raise ValueError(f"unknown stage setting {unknown[0]!r}")
         if not isinstance(data.get("problem"), str):
             raise ValueError(f"stage settings need a problem name, got {data.get('problem')!r}")
         d = RunSettings(str(data["problem"]))
         return RunSettings(str(data["problem"]), data.get("algorithm", d.algorithm), data.get("pop_size", d.pop_size),
-                           data.get("n_gen", d.n_gen), data.get("seed", d.seed))
+                           data.get("n_gen", d.n_gen), data.get("seed", d.seed),
+                           data.get("transmission_min", d.transmission_min))
 
 
 def default_settings(stage: ChainStage) -> RunSettings:
@@ -173,22 +182,27 @@ def problems_for(mechanism: Mechanism) -> tuple[str, ...]:
     return tuple(out)
 
 
-def build_problem(name: str, target: TargetSpec) -> ProblemSpec:
+def build_problem(name: str, target: TargetSpec, transmission_min: int = 0) -> ProblemSpec:
     """A registered problem against the studio's target: its curve (``target``) or the RTCLM's heights
-    (``h6_target``, ``h4_target``) for the problems that take them; none for the others."""
+    (``h6_target``, ``h4_target``) for the problems that take them; none for the others. ``transmission_min``
+    (deg, 0: none): its lower limit on the worst transmission angle; ValueError for a problem without one."""
+    extra: dict[str, Any] = {"transmission_min": float(transmission_min)} if transmission_min else {}
+    if extra and not _takes(name, **extra):
+        raise ValueError(f"problem {name!r} takes no limit on the transmission angle: set Min transmission angle "
+                         "to 0 to run it")
     if takes_heights(name):
-        return make_problem(name, h6_target=float(target.h6), h4_target=float(target.h4))
+        return make_problem(name, h6_target=float(target.h6), h4_target=float(target.h4), **extra)
     try:
-        return make_problem(name, target=target.option())
+        return make_problem(name, target=target.option(), **extra)
     except ValueError as exc:
         if "unknown option 'target'" not in str(exc):
             raise
-    return make_problem(name)
+    return make_problem(name, **extra)
 
 
 def stage_spec(stage: ChainStage, settings: RunSettings, target: TargetSpec) -> StageSpec:
     """The ``StageSpec`` a run of ``stage`` uses; ValueError naming the problem if it cannot be built."""
-    problem = build_problem(settings.problem, target)
+    problem = build_problem(settings.problem, target, settings.transmission_min)
     stop = stage.stop_below
     if stop is not None and len(stop) != problem.n_obj:
         stop = None  # another problem in this slot: the chain's early-stop rule does not apply

@@ -43,6 +43,8 @@ class Row:
         unit: unit shown after the value (``mm``, ``deg``, ``%``), or ``""``.
         digits: decimals shown.
         note: short explanation (definition, or why not feasible); shown as a tooltip.
+        warn: what is wrong with the value for a leg that is to be built ("" if nothing): the row is marked.
+        severe: the warning is about a dead point (marked red, and said above the table), not a weak value.
     """
 
     key: str
@@ -51,6 +53,8 @@ class Row:
     unit: str = ""
     digits: int = 2
     note: str = ""
+    warn: str = ""
+    severe: bool = False
 
     def text(self) -> str:
         """The value as shown: ``yes``/``no``, ``-`` for missing, ``none`` for +inf."""
@@ -95,6 +99,28 @@ def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:
     return tuple(n for n, v in zip(CONSTRAINT_NAMES, ev.constraints[i], strict=True) if not v <= 0.0)
 
 
+MU_USUAL = 40.0  # deg: the usual lowest transmission angle of a linkage that is to transmit force
+MU_DEAD = 10.0  # deg: below this the linkage passes close to a dead point (it can lock or change branch with play)
+MARGIN_SHARE = 0.01  # a crank or dyad margin under this share of the path width comes close to a dead point
+
+
+def motion_warnings(mu: float, crank: float, dyad: float, width: float) -> dict[str, tuple[str, bool]]:
+    """Per Metrics row key, a warning about how the linkage moves and whether it is severe (a dead point): the
+    worst transmission angle ``mu`` (deg) under 10 or 40, the crank and dyad margins (mm) under 1 % of the path
+    ``width`` (mm). Nothing for undefined values (a design that does not assemble says so elsewhere)."""
+    out: dict[str, tuple[str, bool]] = {}
+    if math.isfinite(mu) and mu < MU_DEAD:
+        out["mu_min"] = (f"close to a dead point (under {MU_DEAD:g} deg): with play in its joints the leg can lock "
+                         "or change branch", True)
+    elif math.isfinite(mu) and mu < MU_USUAL:
+        out["mu_min"] = (f"below the usual {MU_USUAL:g} deg: the linkage transmits force poorly there", False)
+    room = MARGIN_SHARE * width if math.isfinite(width) and width > 0 else 0.0
+    for key, v, what in (("crank_margin", crank, "the crank"), ("dyad_margin", dyad, "a dyad")):
+        if math.isfinite(v) and 0.0 <= v < room:
+            out[key] = (f"{what} comes within {v:.2f} mm of a dead point (under 1 % of the path width)", False)
+    return out
+
+
 def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
                 height: tuple[str, float] | None = None, stride: float | None = None) -> tuple[Row, ...]:
     """The Metrics table of member i: the paper's metrics, then the kinematic facts. ``height``: the RTCLM mode's
@@ -111,6 +137,9 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
     why = why_infeasible(ev, i)
     margin = solution.dyad_margin[i]
     margin = margin[np.isfinite(margin)]
+    crank, dyad = float(solution.crank_margin[i]), float(margin.min()) if len(margin) else math.nan
+    mu = deg(min_transmission_angle(solution, i))
+    warns = motion_warnings(mu, crank, dyad, float(ev.width[i])) if solution.violation[i] == 0 else {}
     return (
         # Not "Feasible": beside "Gait constraints: 1 unmet" on the paper's X3 it read as a contradiction.
         Row("feasible", "Assembles and walks", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
@@ -139,11 +168,12 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
             note="; ".join(CONSTRAINT_TEXT[n] for n in unmet) or "Eq. 30-31 all met"),
         Row("violation", "Assembly violation", float(solution.violation[i]), "mm",
             note="assembly shortfall, 0 if it assembles"),
-        Row("crank_margin", "Crank margin", float(solution.crank_margin[i]), "mm", note="> 0: the crank turns fully"),
-        Row("dyad_margin", "Assembly margin", float(margin.min()) if len(margin) else math.nan, "mm",
-            note="closest approach of any dyad to its stretched/folded limit"),
-        Row("mu_min", "Min transmission angle μ", deg(min_transmission_angle(solution, i)), "deg", 1,
-            note="min over dyads and cycle of min(mu, 180 - mu)"),
+        Row("crank_margin", "Crank margin", crank, "mm", note="> 0: the crank turns fully",
+            warn=warns.get("crank_margin", ("", False))[0]),
+        Row("dyad_margin", "Assembly margin", dyad, "mm", note="closest approach of any dyad to its stretched/folded "
+            "limit", warn=warns.get("dyad_margin", ("", False))[0]),
+        Row("mu_min", "Min transmission angle μ", mu, "deg", 1, note="min over dyads and cycle of min(mu, 180 - mu)",
+            warn=warns.get("mu_min", ("", False))[0], severe=warns.get("mu_min", ("", False))[1]),
     )
 
 
@@ -187,16 +217,25 @@ def feature_labels(ev: Evaluation, i: int = 0, tol: float | None = None) -> tupl
 
 
 def metrics_html(rows: tuple[Row, ...]) -> str:
-    """The table as HTML; each row carries ``data-key`` and its value cell ``data-value`` for tests."""
+    """The table as HTML; each row carries ``data-key`` and its value cell ``data-value`` for tests. A row with a
+    warning is marked (amber, red for a dead point; ``data-warn``) with the warning first in its tooltip, and a
+    dead point is said in a line above the table."""
     cells = []
     for r in rows:
+        color = ("#b91c1c" if r.severe else "#b45309") if r.warn else ""
+        mark = f' data-warn="{"severe" if r.severe else "weak"}" style="color:{color}"' if r.warn else ""
+        title = f"⚠ {r.warn}. {r.note}" if r.warn else r.note
         cells.append(
-            f'<tr data-key="{html.escape(r.key, quote=True)}" title="{html.escape(r.note, quote=True)}">'
-            f'<td style="padding:1px 8px 1px 0">{html.escape(r.label)}</td>'
+            f'<tr data-key="{html.escape(r.key, quote=True)}"{mark} title="{html.escape(title, quote=True)}">'
+            f'<td style="padding:1px 8px 1px 0">{"⚠ " if r.warn else ""}{html.escape(r.label)}</td>'
             f'<td data-value="{html.escape(r.text(), quote=True)}" style="text-align:right;'
             f'font-variant-numeric:tabular-nums;padding:1px 4px">{html.escape(r.text())}</td>'
             f'<td style="opacity:0.7">{html.escape(r.unit)}</td></tr>'
         )
+    dead = [r for r in rows if r.severe]
+    banner = "".join(
+        f'<div class="clm-dead-point" style="color:#b91c1c;font-size:0.85em;padding:2px 0">⚠ {html.escape(r.label)} '
+        f"{html.escape(r.text())} {html.escape(r.unit)}: {html.escape(r.warn)}.</div>" for r in dead)
     return (
-        f'<table class="clm-metrics" style="{INSET};font-size:0.85em">' + "".join(cells) + "</table>"
+        banner + f'<table class="clm-metrics" style="{INSET};font-size:0.85em">' + "".join(cells) + "</table>"
     )

@@ -132,6 +132,23 @@ def next_verdict_html(i: int, nxt: str, missed: list[str]) -> str:
     return f'<div class="clm-next-verdict" style="{VERDICT}color:#b45309">{text}</div>'
 
 
+def dead_point_html(r: StageResult, i: int) -> str:
+    """A warning under the verdict when member i passes close to a dead point (its worst transmission angle, of
+    either RTCLM mode too, under ``MU_DEAD``): a pick can meet every constraint of its stage and still lock
+    (rehearsal 4: a predesign pick at 0.3 deg read "meets predesign's constraints" in green). Empty otherwise."""
+    from studio.metrics import MU_DEAD
+
+    angles = [float(r.metrics[k][i]) for k in ("transmission", "transmission_6", "transmission_4")
+              if k in r.metrics]
+    angles = [a for a in angles if math.isfinite(a)]
+    if not angles or min(angles) >= MU_DEAD:
+        return ""
+    text = (f"⚠ #{i} passes close to a dead point: worst transmission angle {min(angles):.1f} deg (under "
+            f"{MU_DEAD:g}); with play in its joints the leg can lock or change branch. A limit: the stage's "
+            "transmission_min option (clm design), or pick another member")
+    return f'<div class="clm-dead-point" style="{VERDICT}color:#b91c1c">{html.escape(text)}</div>'
+
+
 def verdict_html(r: StageResult, i: int, stage: str, other_target: str = "") -> str:
     """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``).
     ``other_target``: the target the stage ran against, when the editor's is another (the rows below, MSE

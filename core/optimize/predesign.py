@@ -31,7 +31,7 @@ from core.analysis.evaluate import Backend
 from core.kinematics.design import Design
 from core.kinematics.model import Crank, Dyad, Ground, Mechanism, Operand
 from core.optimize.objectives import DEFAULT_TARGET, LABELS, load_target, quantize, shape_metrics, target_scale
-from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec
+from core.optimize.problem import ASSEMBLY, Metrics, ProblemSpec, transmission_limits
 
 F64 = NDArray[np.float64]
 
@@ -244,7 +244,8 @@ def _extent(point: F64, a: F64, b: F64, tx: F64, ty: F64, out: F64) -> None:  # 
 
 
 def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-                      n_harmonics: int = fourier.DEFAULT_HARMONICS, fit: str = "extent") -> ProblemSpec:
+                      n_harmonics: int = fourier.DEFAULT_HARMONICS, fit: str = "extent",
+                      transmission_min: float = 0.0) -> ProblemSpec:
     """Predesign: objectives fd (Fourier-descriptor distance) and f1 (MSE after placement).
 
     Registered as ``predesign`` by ``core.optimize.subtasks`` (the module the problem registry loads).
@@ -263,6 +264,6 @@ def predesign_problem(target: str = DEFAULT_TARGET, n_samples: int = 360, backen
     def repair(design: Design) -> F64:
         return place(design, target, n_samples, backend, fit)[0]  # type: ignore[arg-type]
 
-    return ProblemSpec("predesign", evaluate, ("fd", "f1"), (ASSEMBLY,),
+    return ProblemSpec("predesign", evaluate, ("fd", "f1"), (ASSEMBLY, *transmission_limits(transmission_min)),
                        labels={**LABELS, "fd": "Fourier-descriptor distance (-)"}, repair=repair,
                        misfit=placement_misfit, scale=target_scale(target, n_samples))

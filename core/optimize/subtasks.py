@@ -158,13 +158,15 @@ def single_level(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: st
 
 @register("predesign")
 def predesign(target: str = DEFAULT_TARGET, n_samples: int = 360, backend: str = "auto",
-              n_harmonics: int = 16, fit: str = "extent") -> ProblemSpec:
+              n_harmonics: int = 16, fit: str = "extent", transmission_min: float = 0.0) -> ProblemSpec:
     """Predesign X0 (§3.1): Fourier-descriptor matching over the global box with analytic placement.
 
     See ``core.optimize.predesign`` (registered here, the module the problem registry imports).
+    ``transmission_min``: a lower limit on the worst transmission angle (deg; 0, the paper's, sets none): the
+    predesign's only constraint is assembly, and matching the shape pushes designs onto a dead point.
     """
 
-    return predesign_problem(target, n_samples, backend, n_harmonics, fit)
+    return predesign_problem(target, n_samples, backend, n_harmonics, fit, transmission_min)
 
 
 # Options that are upper limits on a metric, and that metric: a configuration may give them

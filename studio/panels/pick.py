@@ -26,7 +26,7 @@ from studio.candidates import (
 from studio.panels._confirm import confirm
 from studio.panels._inputs import set_value
 from studio.study_view import StudyView
-from studio.tables import compare_html, next_verdict_html, one_design_html, verdict_html
+from studio.tables import compare_html, dead_point_html, next_verdict_html, one_design_html, verdict_html
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -149,7 +149,8 @@ class PickPanel:
         lower = {labels.get(n, n) for n in names if n in r.objectives or n in upper or n in LOWER_BETTER}
         one = len(self._cands) == 1 and self._cands[0].kind != "fallback" and self._cands[0].member == sv.shown
         nxt, missed = self.studio.next_unmet(sv.viewing) if sv.viewing is not None and r.cv[sv.shown] <= 0 else ("", [])
-        return (verdict_html(r, sv.shown, sv.viewing or "") + next_verdict_html(sv.shown, nxt, missed)
+        return (verdict_html(r, sv.shown, sv.viewing or "") + dead_point_html(r, sv.shown)
+                + next_verdict_html(sv.shown, nxt, missed)
                 + (one_design_html(sv.viewing or "") if one else "")
                 + compare_html(rows, "start", f"#{sv.shown}", lower))
 

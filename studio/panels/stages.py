@@ -45,7 +45,8 @@ FROM_PICK = "the previous stage's pick"
 
 
 class StagesPanel:
-    """Stage, start, problem, algorithm, population, generations, seed; Run / Stop; progress and status."""
+    """Stage, start, problem, algorithm, population, generations, seed, min transmission angle; Run / Stop; progress
+    and status."""
 
     def __init__(self, studio: Studio, order: float) -> None:
         self.studio = studio
@@ -69,6 +70,10 @@ class StagesPanel:
             self.n_gen = self._number("n_gen", "Generations", 30, 1, MAX_GEN,
                                       "generations (the first evaluates the initial population)")
             self.seed = self._number("seed", "Seed", 1, 0, 2**31 - 1, "seed of the algorithm and the initial sample")
+            self.transmission_min = self._number(
+                "transmission_min", "Min transmission μ [deg]", 0, 0, 89,
+                "a constraint: every member's worst transmission angle at least this (0: none, the paper's; 40 is the "
+                "usual rule): keeps the search off dead points")
             self.constraints = gui.add_html("")
             with gui.add_folder("Search box", expand_by_default=False):
                 self.box = gui.add_html("")
@@ -107,8 +112,10 @@ class StagesPanel:
             self.pop_size.show(s.pop_size)
             self.n_gen.show(s.n_gen)
             self.seed.show(s.seed)
+            self.transmission_min.show(s.transmission_min)
         running = sv.status.running
-        for h in (self.stage, self.start, self.problem, self.algorithm, self.pop_size, self.n_gen, self.seed):
+        for h in (self.stage, self.start, self.problem, self.algorithm, self.pop_size, self.n_gen, self.seed,
+                  self.transmission_min):
             h.disabled = running or not sv.chain
         self.run.disabled = running or not sv.chain
         self.stop.disabled = not running or sv.status.state == "stopping"
