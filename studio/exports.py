@@ -96,6 +96,9 @@ def drawing_warnings(view: DesignView, angle: float) -> list[str]:
     from core.formats.drawing import Plates, cutting_warnings, drawing
 
     try:
-        return cutting_warnings(drawing(view.design, angle), Plates())
+        said = cutting_warnings(drawing(view.design, angle), Plates())
     except ValueError:
         return []
+    # The studio draws 5 mm holes in 15 mm plates; other sizes are clm export's.
+    return [f"{w} ({Plates().hole:g} mm here; clm export --hole takes yours)" if w.endswith("smaller pins") else w
+            for w in said]

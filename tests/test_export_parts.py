@@ -93,7 +93,12 @@ def test_holes_too_close_are_warned_about_and_bad_sizes_refused(tmp_path, capsys
     cap = capsys.readouterr()
     assert "12 mm plates, 3 mm holes" in cap.out and "between them" in cap.err  # 3.54 < 4.5 beside each hole
     assert main(["export", "--preset", "stephenson1/X3", "--dxf", str(out), "--hole", "7"]) == 0
-    assert "B and F of link A-B-F" in capsys.readouterr().err and out.exists()  # written all the same
+    err = capsys.readouterr().err
+    assert "B and F of link A-B-F" in err and "smaller pins (--hole)" in err and out.exists()  # written all the same
+    # A huge angle is the same pose as its remainder (1e8 deg read "does not assemble": sin/cos lost it).
+    assert main(["export", "--preset", "stephenson1/X3", "--svg", str(tmp_path / "a.svg"), "--angle", "1e8"]) == 0
+    assert "at crank angle 280.0 deg" in (tmp_path / "a.svg").read_text()
+    capsys.readouterr()
     for bad in (["--hole", "0"], ["--hole", "nan"], ["--hole", "-2"], ["--hole", "5", "--width", "5"]):
         assert main(["export", "--preset", "stephenson1/X3", "--dxf", str(tmp_path / "y.dxf"), *bad]) == 2
         err = capsys.readouterr().err.strip().splitlines()

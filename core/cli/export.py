@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CLIError(f"--hole/--width: {exc}") from None
     design, _ = load_design(args)
-    d = drawing(design, math.radians(args.angle))
+    d = drawing(design, math.radians(math.fmod(args.angle, 360.0)))  # 1e8 deg: sin/cos of a huge angle lost it
     for out in (args.dxf, args.svg):
         if out is None:
             continue
@@ -72,5 +72,5 @@ def run(args: argparse.Namespace) -> int:
         atomic_write(args.svg, svg(d, plates=plates))
         print(f"wrote {args.svg}")
     for text in cutting_warnings(d, plates):
-        print(f"clm: warning: {text}", file=sys.stderr)
+        print(f"clm: warning: {text}{' (--hole)' if text.endswith('smaller pins') else ''}", file=sys.stderr)
     return 0

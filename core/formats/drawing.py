@@ -161,7 +161,7 @@ def cutting_warnings(d: Drawing, plates: Plates) -> list[str]:
             where = (f"holes {a} and {b} of link {'-'.join(body)} (centres {dist:.2f} mm apart, "
                      f"{plates.hole:g} mm holes)")
             if left < 0:
-                out.append(f"{where} overlap: the part cannot be cut as drawn; use smaller pins (--hole)")
+                out.append(f"{where} overlap: the part cannot be cut as drawn; use smaller pins")
             elif left < plates.web:
                 out.append(f"{where} leave {left:.2f} mm of material between them, less than the {plates.web:.2f} "
                            "mm beside each hole")
