@@ -34,7 +34,7 @@ from core.kinematics.solver import Backend, Solution, solve
 from core.optimize.objectives import target_scale
 from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, is_rtclm
 from core.optimize.scale import entry_bounds
-from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, stance_mask
+from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, shape_error, stance_mask
 from studio.session_pack import pack_study, unpack_study
 from studio.study import Branch, Selection, Study
 from studio.target import Curve, TargetSpec
@@ -751,7 +751,7 @@ class Session:
             runs = sum(r is not None for r in study.pipeline.results) if study.pipeline is not None else 0
             last = study.status.stage
             who = v.preset or "a design of its own"
-            mse = float(v.evaluation.mse[0])
+            mse = shape_error(v.evaluation)  # the Metrics row's: the best phase for a target without times
             return (f"{v.design.mechanism.title}, {runs} stage result{'s' * (runs != 1)}, "
                     f"{len(study.branches)} branch{'es' * (len(study.branches) != 1)}"
                     + (f", last run {last}" if last else "")

@@ -534,3 +534,16 @@ def test_other_mechanisms_get_no_grashof_note() -> None:
     from studio.state import grashof_note
 
     assert grashof_note(Session.default().view) == ""
+
+
+def test_the_session_summary_gives_the_metrics_rows_mse_for_a_target_without_times(session: Session) -> None:
+    """The Load-session prompt read "MSE 76 mm" for a design the Metrics panel put at 7.46 mm (rehearsal 4): the
+    summary took the error with the curve's first point at t = 0, the panel the best phase's."""
+    from studio.metrics import shape_error
+    from studio.target import Curve
+
+    session.set_curve(Curve.from_csv(OVAL, "oval.csv"))
+    ev = session.view.evaluation
+    assert abs(float(ev.mse[0]) - float(ev.mse_phase[0])) > 1.0  # the two differ for this curve
+    row = next(r for r in session.view.rows if r.key == "mse")
+    assert f"MSE {row.value:.3g} mm" in session.summary() and row.value == shape_error(ev)

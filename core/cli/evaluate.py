@@ -150,9 +150,13 @@ def _fmt(v: float, digits: int = 3) -> str:
     return f"{v:.{digits}f}" if abs(v) < 1e9 else f"{v:.4g}"  # a 1e300 mm target printed 300 digits
 
 
-def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, str] | None = None) -> str:
+def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, str] | None = None,
+          untimed: bool = False) -> str:
     """A readable summary of member 0; ``papers``: also the paper's S (h_s / 300 mm), for its stride; ``height``:
-    an RTCLM mode's name for h_m and its target (:func:`rtclm_height`), whose cases drive heights, not a shape."""
+    an RTCLM mode's name for h_m and its target (:func:`rtclm_height`), whose cases drive heights, not a shape;
+    ``untimed``: the target has no times, so its shape error is the best phase's (the optimizer's f1), and the
+    one with its first point as t = 0 comes second (it read 76.7 mm for a right target above 24 mm for the same
+    target upside down)."""
     r = ev.record(0)
     deg = math.degrees
     status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g}: {why_infeasible(ev)})"
@@ -176,7 +180,11 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
         ("shape error MSE", _fmt(r["mse"]), "mm" if height is None else
          "mm (against the target below; the RTCLM cases drive h6 and h4, not a shape)"),
     ]
-    if np.isfinite(r["mse_phase"]):
+    if untimed and height is None and np.isfinite(r["mse_phase"]):
+        at_zero = rows.pop()
+        rows.append(("shape error MSE, best phase", _fmt(r["mse_phase"]), "mm (the target has no times: f1 is this)"))
+        rows.append(("shape error, its first point at t = 0", at_zero[1], "mm (no meaning without times)"))
+    elif np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
     if np.isfinite(r["transmission"]):  # a design's (a curve has none)
         rows.append(("worst transmission angle", _fmt(r["transmission"], 1), "deg (90 ideal, 40 the usual minimum)"))
@@ -211,7 +219,9 @@ def run(args: argparse.Namespace) -> int:
         print(dumps({**rec, **info}))
     else:
         height = rtclm_height(str(info.get("mechanism", "")), label)
-        text = table(ev, label, papers_stride(args.target) and height is None, height)
+        target = parse_target(args.target) if args.target is not None else None
+        text = table(ev, label, papers_stride(args.target) and height is None, height,
+                     untimed=target is not None and not target.has_time)
         if info.get("time_law") is False:
             head, _, rest = text.partition("\n")
             text = f"{head}\n{NO_TIMES}\n{rest}"
