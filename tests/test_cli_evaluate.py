@@ -255,3 +255,23 @@ def test_a_folder_that_is_no_run_is_named_so(tmp_path: Path, capsys: pytest.Capt
     code, _, err = run(capsys, "evaluate", "--design", str(tmp_path))
     assert code == 2 and err.strip() == (f"clm: error: {tmp_path} is a folder without a result.json: not a 'clm "
                                          "design --out' run; give a design JSON or a run's folder")
+
+
+def test_a_target_csv_in_the_leg_frame_is_mapped_back_by_the_designs_output_stage(tmp_path, capsys):
+    """--leg-frame applied to --curve only and was ignored with --target without a word (rehearsal 4): a foot path
+    drawn as the bench view shows it is now mapped to the design frame by the design's own output stage."""
+    from core.cli import main
+    from core.kinematics.presets import get
+
+    design = ellipse_csv(tmp_path / "d.csv", 150.0, 40.0, -60.0)
+    pts = np.loadtxt(design, delimiter=",") + [150.0, 0.0]
+    np.savetxt(design, pts, delimiter=",", fmt="%.9f")
+    leg = tmp_path / "leg.csv"
+    np.savetxt(leg, get("stephenson1/X3").design().output.apply(pts), delimiter=",", fmt="%.9f")
+    got = {}
+    for name, args in (("design", [str(design)]), ("leg", [str(leg), "--leg-frame"]), ("raw", [str(leg)])):
+        assert main(["evaluate", "--preset", "stephenson1/X3", "--json", "--target", *args]) == 0
+        got[name] = json.loads(capsys.readouterr().out)["mse_phase"]
+    assert got["leg"] == pytest.approx(got["design"], abs=1e-6) and abs(got["raw"] - got["design"]) > 1.0
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--leg-frame"]) == 2  # the cycloid has no frame to map
+    assert "--leg-frame applies to a --curve or a --target CSV" in capsys.readouterr().err

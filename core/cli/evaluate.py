@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -44,7 +45,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--leg-frame",
         action="store_true",
-        help="the --curve is already in the leg frame (default: design frame, mapped by the paper's pantograph)",
+        help="the --curve, and a --target CSV, are foot paths in the leg frame, as the bench view draws them (stance "
+        "at the bottom): mapped to the design frame by the design's output stage (a --curve: by the paper's "
+        "pantograph); default: both in the design frame",
     )
     p.add_argument("--target", metavar="SPEC", help="cycloid[:L=300,H=100,T=2] (default) or a CSV curve")
     p.add_argument("--obstacle", nargs=2, type=float, metavar=("A", "B"), default=list(DEFAULT_OBSTACLE),
@@ -81,6 +84,9 @@ def _check(args: argparse.Namespace) -> None:
 
 def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:
     target = parse_target(args.target)
+    csv_target = args.target is not None and args.target.split(":", 1)[0] != "cycloid"
+    if args.leg_frame and args.curve is None and not csv_target:
+        raise CLIError("--leg-frame applies to a --curve or a --target CSV; the cycloid is a design-frame target")
     note = "" if target is None or args.target is None or args.target.split(":", 1)[0] == "cycloid" \
         else scale_note(target.points)
     if note:  # a CSV in m or um is read as mm
@@ -96,6 +102,9 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     kw: dict[str, Any] = dict(target=target, period=period, obstacle=tuple(args.obstacle), trunk=args.trunk,
                               phase_optimal=args.phase_optimal or untimed)
     if curve is not None:
+        if args.leg_frame and csv_target:  # the file as the bench view draws it, by the same map as the curve
+            target = dataclasses.replace(target, points=PAPER_PANTOGRAPH.invert(target.points))
+            kw["target"] = target
         pts = curve.sample(args.samples)
         leg = pts if args.leg_frame else PAPER_PANTOGRAPH.apply(pts)
         point = PAPER_PANTOGRAPH.apply(pts) if args.leg_frame else pts
@@ -106,8 +115,10 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     from core.cli.simulate import design_label, load_design
 
     design, preset = load_design(args)
-    if target is not None and args.target is not None and args.target.split(":", 1)[0] != "cycloid" \
-            and design.mechanism.derive is None:  # the RTCLM's targets are heights: no curve to turn
+    if args.leg_frame and csv_target:  # a foot path drawn in the leg frame: back through the design's own map
+        target = dataclasses.replace(target, points=design.output.invert(target.points))
+        kw["target"] = target
+    if target is not None and csv_target and design.mechanism.derive is None:  # the RTCLM's: heights, no curve
         note = path_note(design.output.apply(target.sample(args.samples)))
         if note:  # a curve drawn clockwise or stance up: the design may match it, and walk wrongly
             print(f"clm: warning: target {Path(args.target).name} in the design's leg frame: {note}", file=sys.stderr)
