@@ -133,11 +133,16 @@ def preset_target(name: str, period: float = 2.0) -> TargetSpec:
     cycloid as long and as high as the preset's own foot path (rounded to 1 mm), placed on it (the shift,
     flip, direction and start that fit it best, since MSE compares sample by sample), saying so."""
     p = presets.get(name)
-    if p.mechanism.name in PAPER_TARGET:
-        return TargetSpec(period=period, origin="the paper's")
-    h4 = case_h4(name) or H4_CASES[1]
+    return fitted_target(p.design(), name, period, case_h4(name) or H4_CASES[1])
+
+
+def fitted_target(design: Design, name: str, period: float = 2.0, h4: float = H4_CASES[1]) -> TargetSpec:
+    """The target a design of its own is shown against, as :func:`preset_target` does for a preset (``name``: what
+    the note calls it): the paper's cycloid for the paper's mechanisms, else one fitted to its foot path."""
+    if design.mechanism.name in PAPER_TARGET:
+        return TargetSpec(period=period, origin="the paper's", h4=h4)
     n = 360
-    sol = solve(p.mechanism, p.design().params, n, backend=BACKEND)
+    sol = solve(design.mechanism, design.params[:1], n, output=design.output, backend=BACKEND)
     path = sol.point[0]
     if not np.isfinite(path).all():
         return TargetSpec(period=period, origin="the paper's (the preset's path does not close)", h4=h4)
@@ -145,7 +150,7 @@ def preset_target(name: str, period: float = 2.0) -> TargetSpec:
     length, height = max(round(float(span[0])), 1.0), max(round(float(span[1])), 1.0)
     placed = place_cycloid(path, length, height)
     note = f"scaled to the {name} path and placed on it"
-    if is_rtclm(p.mechanism.name):
+    if is_rtclm(design.mechanism.name):
         note += "; the RTCLM stages optimize h6 and h4, not this curve"
     times = tuple(float(i * period / n) for i in range(n))
     curve = Curve(f"cycloid {length:g} x {height:g} mm on {name}", tuple((float(x), float(y)) for x, y in placed),
@@ -508,16 +513,24 @@ class Session:
             self.study.from_pick = False
             self.study.touch()
 
-    def _target_for(self, mechanism: str, preset: str) -> TargetSpec:
+    def _target_for(self, mechanism: str, preset: str | None, design: Design | None = None,
+                    label: str = "") -> TargetSpec:
         """The target a design of ``mechanism`` brings into the editor: the current one within the editor's
         mechanism (or its other RTCLM mode) or when the designer uploaded the target, else ``preset``'s own
-        (``preset_target``).
+        (``preset_target``), or one fitted to ``design`` (a loaded file, called ``label``: it kept the other
+        mechanism's target, and a Jansen leg read MSE 206 mm where its preset reads 2.3).
         For the RTCLM the h4 follows a case's preset unless the designer set it by hand, and an h6 set stays."""
         v = self.view
         old = v.design.mechanism
         keep = (mechanism == old.name or v.target.origin == "uploaded"
                 or other_mode(old, mechanisms.get(mechanism)))  # the same leg in its other mode: its target
-        t = v.target if keep else preset_target(preset, v.target.period)
+        if keep:
+            t = v.target
+        elif design is not None:
+            t = fitted_target(design, label or "loaded design", v.target.period)
+        else:
+            assert preset is not None
+            t = preset_target(preset, v.target.period)
         if is_rtclm(mechanism):  # the heights: a case's h4 unless the designer set one; a typed h6 stays
             was = is_rtclm(old.name)
             untouched = not was or v.target.h4 == (case_h4(v.preset) or H4_CASES[1])
@@ -577,7 +590,10 @@ class Session:
             raise ValueError(f"the studio shows one design at a time, got a population of {design.pop}")
         check_params(design.mechanism, design.params)
         with self.lock:
-            view = self._commit(self._rebuild(design, preset), cause=cause)
+            target = None
+            if design.mechanism.name != self.view.design.mechanism.name:  # a file or a study's design of another
+                target = self._target_for(design.mechanism.name, preset, design, preset or cause or "")
+            view = self._commit(self._rebuild(design, preset, target), cause=cause)
             if by_hand:
                 self._from_editor()
             return view

@@ -900,6 +900,15 @@ def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(st
     press(studio.files.load, c, upload(json.dumps(d).encode(), "bad-leg.json"))
     assert c.notes[-1][0] == "Design not loaded" and "bad-leg.json: " in c.notes[-1][1] and "r4" in c.notes[-1][1]
     assert studio.session.view.design == before
+    # A design of a mechanism without the paper's target gets one fitted to its path, as its preset does (review of
+    # session 28: a Jansen leg kept the Stephenson cycloid and read MSE 206 mm against its preset's 2.3).
+    press(studio.files.load, c, upload(json.dumps(design_to_dict(preset("jansen").design())).encode(), "j.json"))
+    mse = next(r.value for r in studio.session.view.rows if r.key == "mse")
+    same = Session.default().load_preset("jansen")  # what opening the preset shows
+    assert mse == pytest.approx(next(r.value for r in same.rows if r.key == "mse"), abs=1e-9) and mse < 10
+    assert "on design j.json" in studio.session.view.target.label()
+    studio.session.undo()
+    assert studio.session.view.design == before and studio.session.view.target.curve is None
 
 
 def test_loading_a_session_over_work_asks_first_and_keeps_the_current_one_beside_the_session_file(tmp_path,
