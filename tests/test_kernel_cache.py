@@ -99,3 +99,46 @@ def test_a_process_whose_cache_directory_was_pruned_compiles_and_saves_again(tmp
                          text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
     assert any(p.suffix == ".nbi" for p in cache.rglob("*"))
+
+
+def test_the_compile_timer_counts_a_compile_another_thread_began_before_it_and_every_one_after() -> None:
+    """Review of session 28: numba's TimingListener keeps one depth for every thread; a compile under way in another
+    thread when the timer started ended at depth -1, and nothing was counted after it (8.5 s read 0.00 s)."""
+    import threading
+    import time
+
+    import numba
+    import numpy as np
+    from numba.core import event
+
+    from core.kinematics.kernel_cache import CompileTimer
+
+    def make(k: int):
+        src = "def f(x):\n    s = 0.0\n" + "".join(f"    s += np.sin(x * {i}) * np.cos(x + {i})\n" for i in range(k))
+        ns = {"np": np}
+        exec(src + "    return s\n", ns)
+        return numba.njit(cache=False)(ns["f"])
+
+    started = threading.Event()
+
+    class Flag(event.Listener):
+        def on_start(self, e):
+            started.set()
+
+        def on_end(self, e):
+            pass
+
+    slow, fast, later = make(120), make(10), make(10)
+    other = threading.Thread(target=lambda: slow(1.0))
+    with event.install_listener("numba:compile", Flag()):
+        other.start()
+        assert started.wait(30)
+    with CompileTimer() as t:
+        t0 = time.perf_counter()
+        fast(1.0)  # waits for the other thread's compile (numba compiles one at a time), then compiles
+        other.join()
+        waited = time.perf_counter() - t0
+        first = t.seconds
+        assert 0.5 * waited <= first <= waited + 0.05
+        later(1.0)
+        assert t.seconds > first

@@ -786,7 +786,7 @@ def test_the_run_status_says_its_seconds_are_compute_time() -> None:
     # A fresh install's first run compiles the kernels: rehearsal 3 read "(29.2 s compute)" for a 0.1 s predesign.
     sv = SimpleNamespace(status=RunStatus("idle", "predesign", 20, 20, "complete", True, 29.2, 28.6))
     assert StagesPanel._status(sv) == ("Last run: predesign complete (29.2 s compute, 28.6 s of it compiling the "
-                                       "numeric kernels, once per install).")
+                                       "numeric kernels, kept for later runs).")
 
 
 def test_a_run_that_compiles_a_kernel_says_how_long_it_compiled() -> None:

@@ -20,6 +20,7 @@ import os
 import re
 import shutil
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -93,21 +94,60 @@ def configure() -> None:
 class CompileTimer:
     """Seconds numba spends compiling kernels while installed (``with CompileTimer() as t: ...; t.seconds``), read
     at any time: a fresh install's first run of a stage compiles for ~30 s, which a run's time should name apart
-    from its compute. Every thread's compiles count (numba's listeners are global)."""
+    from its compute. Every thread's compiles count (numba's listeners are global), each thread's outermost compile
+    once; a compile already under way in another thread when the timer starts counts from then to its end (numba
+    compiles one kernel at a time, so the run waits for it). numba's own TimingListener kept one depth for all
+    threads, went to -1 on such a compile's end and counted nothing after it."""
 
     def __init__(self) -> None:
-        from numba.core.event import TimingListener
+        from numba.core.event import Listener
 
-        self._listener = TimingListener()
+        timer = self
+
+        class _Outermost(Listener):
+            def on_start(self, event: Any) -> None:
+                timer._start()
+
+            def on_end(self, event: Any) -> None:
+                timer._end()
+
+        self._listener = _Outermost()
         self._installed: Any = None
+        self._lock = threading.Lock()
+        self._depth: dict[int, int] = {}
+        self._began: dict[int, float] = {}
+        self._total = 0.0
+        self._entered = 0.0
+        self._late: dict[int, float] = {}  # per thread compiling before the timer: when its last compile ended
+
+    def _start(self) -> None:
+        me = threading.get_ident()
+        with self._lock:
+            depth = self._depth.get(me, 0)
+            if depth == 0:
+                self._began[me] = time.perf_counter()
+            self._depth[me] = depth + 1
+
+    def _end(self) -> None:
+        me = threading.get_ident()
+        with self._lock:
+            depth = self._depth.get(me, 0)
+            if depth == 0:  # it started before the timer did: its last such end is its outermost compile's
+                self._late[me] = time.perf_counter()
+                return
+            self._depth[me] = depth - 1
+            if depth == 1:
+                self._total += time.perf_counter() - self._began.pop(me)
 
     @property
     def seconds(self) -> float:
-        return float(self._listener.duration) if self._listener.done else 0.0
+        with self._lock:
+            return self._total + sum(t - self._entered for t in self._late.values())
 
     def __enter__(self) -> CompileTimer:
         from numba.core.event import install_listener
 
+        self._entered = time.perf_counter()
         self._installed = install_listener("numba:compile", self._listener)
         self._installed.__enter__()
         return self

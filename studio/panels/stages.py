@@ -136,8 +136,8 @@ class StagesPanel:
     def _status(sv: StudyView) -> str:
         st = sv.status
         # Compiling counts once it is a noticeable part (a fresh install's first run of a kind: ~30 s).
-        compiled = (f", {seconds(min(st.compiled, st.elapsed))} of it compiling the numeric kernels, once per install"
-                    if st.compiled >= 0.5 else "")
+        compiled = (f", {seconds(min(st.compiled, st.elapsed))} of it compiling the numeric kernels, kept for later "
+                    "runs" if st.compiled >= 0.5 else "")
         if st.state == "running":
             return (f"**Running** {st.stage}: generation {st.generation}/{st.n_gen} ({seconds(st.elapsed)} compute"
                     f"{compiled})")
