@@ -150,8 +150,9 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
         Row("h_s", "Body fluctuation hₛ", float(ev.h_s[i]), "mm", note="max - min of y over the stance"),
         Row("S", "Straightness S", float(ev.S[i]), "%", note="h_s / l_s"),
         *((Row("S_paper", "S as in Appendix B", 100.0 * float(ev.h_s[i]) / stride, "%",
-               note=f"h_s / {stride:g} mm, the target's stride: the paper's S (X3: 1.93 %); S above divides by this "
-                    "design's own stance length l_s"),) if stride else ()),
+               note=f"h_s / {stride:g} mm, the target's stride: the paper's S (Appendix B prints 1.93 % for X3; its "
+                    "rounded parameters give 1.95 % here); S above divides by this design's own stance length "
+                    "l_s"),) if stride else ()),
         Row("I", "Impact I", float(ev.I[i]), "mm/s", note="|dy/dt| sin(theta1) at landing"),
         Row("theta1", "Landing angle θ₁", deg(float(ev.theta1[i])), "deg", 1),
         Row("theta2", "Take-off angle θ₂", deg(float(ev.theta2[i])), "deg", 1),

@@ -44,7 +44,7 @@ F64 = NDArray[np.float64]
 
 SESSION_VERSION = 6  # 3: stage results stored once by hash, arrays packed (studio.session_pack); 4: branches
 # keep the target their stages ran against and the study's state, curves stored once; 5: RTCLM heights in targets;
-# 6: the cycloid an uploaded curve replaced
+# 6: the cycloid an uploaded curve replaced (and, from session 29, a stage setting "transmission_min" when set)
 DEFAULT_PRESET = "stephenson1/X3"
 N_SAMPLES = 360
 MAX_SPEED = 10.0

@@ -248,6 +248,27 @@ def test_an_rtclm_mode_names_its_height_and_target_and_the_gait_verdict_is_one_l
     assert [ln for ln in out.splitlines() if "gait constraints" in ln][0].endswith(": all met")
     code, out, _ = run(capsys, "simulate", "--preset", "rtclm/clm-case1", "--mode", "auxiliary")
     assert out.startswith("rtclm/clm-case1 (auxiliary mode): ")
+    # Review of session 28: a design that does not assemble read "5 unmet", as if each had been measured and missed.
+    code, out, _ = run(capsys, "evaluate", "--preset", "rtclm/case3")
+    assert [ln for ln in out.splitlines() if "gait constraints" in ln][0].endswith(
+        ": 5 not defined (order, theta1, theta2, h_bar, psi2: no well-defined bench trajectory)")
+
+
+def test_an_rtclm_design_file_gets_the_five_cases_h4_whatever_its_path_says(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """The case was read off the label with a regex: runs/showcase2/leg.json was given case 2's h4 (review)."""
+    import json
+
+    from core.formats.design import design_to_dict
+    from core.kinematics.presets import get
+
+    folder = tmp_path / "showcase2"
+    folder.mkdir()
+    (folder / "leg.json").write_text(json.dumps(design_to_dict(get("rtclm/clm-case1/auxiliary").design())))
+    code, out, _ = run(capsys, "evaluate", "--design", str(folder / "leg.json"))
+    assert code == 0 and "target 220 / 240 / 260 / 280 / 300 mm (cases 1-5)" in out
+    code, out, _ = run(capsys, "evaluate", "--preset", "rtclm/case2", "--mode", "auxiliary")
+    assert "target 240 mm (case 2)" in out
 
 
 def test_a_folder_that_is_no_run_is_named_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

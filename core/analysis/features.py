@@ -9,7 +9,8 @@ Rules where the paper and spec are silent (see ``docs/metrics.md``):
 - landing candidates are the sign changes of ``f(t) = y(t) - y(t + T/2)``; among all of them the
   one whose half-cycle ``[t1, t1 + T/2]`` has the lowest mean height is the landing t1;
 - several landing-root pairs: ``root_violation`` = the summed peak ``|f|`` (mm) of every lobe of
-  ``|f|`` but the largest, less ``LOBE_TOL`` each (zero when the extra roots merge away, or are round-off);
+  ``|f|`` but the two largest (the main pair), less ``LOBE_TOL`` each (zero when the extra roots merge away,
+  or are round-off);
 - no root (``f`` identically zero, a path folded on itself): ``root_violation = 1`` mm;
 - the turning number of the sampled polygon must be +-1 (a simple closed curve); otherwise the
   path self-intersects (``turning`` reports it; the constraint is in ``core.analysis.metrics``);
