@@ -953,3 +953,28 @@ def test_loading_a_session_over_work_asks_first_and_keeps_the_current_one_beside
         assert kept.to_dict() == made and "previous session was saved as" in c.notes[-1][1]
     finally:
         studio.close()
+
+
+def test_run_against_a_target_of_another_unit_asks_first_and_runs_only_if_confirmed(studio, monkeypatch):
+    """Rehearsal 4: a foot path written in metres became a 0.12 mm target; the upload's notification went by and
+    Run sized the whole search to it. Run asks now; an ordinary target runs at once."""
+    import studio.panels.stages as stages
+    from studio.target import Curve
+
+    asked: list[tuple[str, object]] = []
+    started: list[int] = []
+    monkeypatch.setattr(stages, "confirm", lambda client, title, text, action, on_yes: asked.append((text, on_yes)))
+    monkeypatch.setattr(studio, "start_run", lambda: started.append(1))
+    metres = "x,y\n" + "".join(f"{0.06 + 0.06 * np.cos(a):.6f},{0.015 * np.sin(a):.6f}\n"
+                                for a in np.linspace(0, 2 * np.pi, 40, endpoint=False))
+    with studio.session.lock:
+        studio.session.study.next_stage = "subtask1"
+    studio.session.set_curve(Curve.from_csv(metres.encode(), "leg_m.csv"))
+    press(studio.stages.run, Client())
+    assert len(asked) == 1 and started == []
+    assert asked[0][0].startswith("The target curve leg_m.csv: it spans 0.12 mm")
+    asked[0][1]()  # "Run anyway"
+    assert started == [1]
+    studio.session.set_curve(None)  # the cycloid: no question
+    press(studio.stages.run, Client())
+    assert len(asked) == 1 and started == [1, 1]

@@ -16,6 +16,7 @@ import viser
 
 from core.optimize.algorithms import ALGORITHMS
 from studio.chains import MAX_GEN, MAX_POP, RunSettings, find
+from studio.panels._confirm import confirm
 from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
 from studio.study_view import StudyView, next_stage
 from studio.tables import box_html
@@ -230,13 +231,42 @@ class StagesPanel:
         self._numbers.cancel_all()
 
     def _on_run(self, event: viser.GuiEvent[Any]) -> None:
+        note = self._units_note()
+        if note and event.client is not None and not self.studio.session.study.status.running:
+            # Rehearsal 4: a file in m became a 0.12 mm target; the upload's notification went by, and Run sized the
+            # whole search to it and replaced the design with a 0.11 mm leg. The run asks first.
+            client = event.client
+            confirm(client, "Run against this target?", f"{note}\n\nThe run sizes its search to the target (its "
+                    "lengths follow the target's width), and its pick replaces the editor's design (Undo brings it "
+                    "back).", "Run anyway", lambda: self._start(client))
+            return
+        self._start(event.client)
+
+    def _units_note(self) -> str:
+        """What is odd about the target's size, when the selected stage optimizes against an uploaded curve whose
+        numbers look like another unit than mm (``core.analysis.targets.scale_note``); "" otherwise."""
+        from studio.chains import takes_target
+
+        curve = self.studio.session.view.target.curve
+        if curve is None:
+            return ""
+        note = curve.scale_note()
+        with self.studio.session.lock:
+            name = self._shown_stage()
+            stage = find(self.studio.chain(), name) if name is not None else None
+            problem = self.studio.session.study.settings_for(stage).problem if stage is not None else None
+        if not note or problem is None or not takes_target(problem):
+            return ""
+        return f"The target curve {curve.name}: {note}."
+
+    def _start(self, client: viser.ClientHandle | None) -> None:
         try:
             self.studio.start_run()
         except ValueError as exc:
             if "already running" in str(exc):
                 return  # a second click of a double click: the first one started the run
-            if event.client is not None:
-                self.studio.notify(event.client, "Stage not started", str(exc))
+            if client is not None:
+                self.studio.notify(client, "Stage not started", str(exc))
         self.studio.refresh()
 
     def _on_stop(self, event: viser.GuiEvent[Any]) -> None:
