@@ -460,7 +460,7 @@ class Studio:
     def _on_finish(self) -> None:
         """A run ended: animate the finished stage's pick, redraw everything, save."""
         session = self.session
-        design = None
+        design, least = None, False
         with session.lock:
             st = session.study.status
             r = session.study.result(st.stage)
@@ -469,9 +469,11 @@ class Studio:
                 if i is not None:
                     session.study.shown[st.stage or ""] = i
                     design = r.pick(i)
+                    least = not r.feasible.any()
         if design is not None:
+            what = "least violating member" if least else "pick"  # rehearsal 4: a failed stage replaced the design
             try:
-                session.set_design(design, cause=f"{st.stage}'s pick")  # it read "Undo 15 parameters"
+                session.set_design(design, cause=f"{st.stage}'s {what}")  # it read "Undo 15 parameters"
             except ValueError:
                 pass  # a member outside the parameters' hard limits stays listed but is not loaded
         self.refresh()

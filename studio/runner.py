@@ -119,6 +119,8 @@ class Runner:
             with self._lock:
                 pipe.record(k, result)
             message = status_text(result)
+            if result.pop and not result.feasible.any():  # its least violating member goes to the editor all the same
+                message += "; the editor shows its least violating member (Undo: the design before)"
             n_gen = done_at(result)
         except Exception as exc:  # noqa: BLE001 - a failing problem must not kill the studio
             ok = False

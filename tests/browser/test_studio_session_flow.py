@@ -38,6 +38,10 @@ def test_a_whole_session_keeps_its_state_straight(page, studio, ready):
         .to_be_visible(timeout=60_000)
     r = studio.session.study.result("subtask2")
     assert r is not None and not r.feasible.any()
+    # The editor took the least violating member: said, and its Undo step named so (rehearsal 4).
+    expect(page.get_by_text(re.compile(r"the editor shows its least violating member \(Undo: the design before\)")))\
+        .to_be_visible()
+    assert studio.session.change_names("undo").startswith("subtask2's least violating member")
     shown = studio.session.study.shown_member("subtask2")
     expect(page.locator('.clm-verdict[data-feasible="false"]').first).to_contain_text(
         f"#{shown} does not meet subtask2's constraints")
