@@ -66,13 +66,22 @@ def _two_lines(title: str) -> str:
     return f"{title[:cut]}<br>{title[cut + 1:]}"
 
 
+SHARED = 1e-6  # values spread less than this share of their size are one value on an axis
+
+
 def _one_tick(values: F64) -> dict[str, object]:
     """A single tick at the value every drawn member shares (subtask 1's f2 = 0 read "-0.006 ... 0.006": a scale
-    for a spread there is not); {} when the values vary or nothing is drawn."""
+    for a spread there is not), or all but shares: within ``SHARED`` of it (a collapsed population's I read
+    "51.00152, 51.001525, 51.00153"), saying how close; {} when the values vary or nothing is drawn."""
     v = values[np.isfinite(values)]
-    if len(v) == 0 or np.ptp(v) > 0:
+    if len(v) == 0:
         return {}
-    return {"tickmode": "array", "tickvals": [float(v[0])], "ticktext": [f"{float(v[0]):.4g}"]}
+    spread, mid = float(np.ptp(v)), float(np.median(v))
+    if spread == 0:
+        return {"tickmode": "array", "tickvals": [float(v[0])], "ticktext": [f"{float(v[0]):.4g}"]}
+    if spread <= SHARED * abs(mid):
+        return {"tickmode": "array", "tickvals": [mid], "ticktext": [f"{mid:.6g} (all within {spread:.1g})"]}
+    return {}
 
 
 def _label_box(x: float, y: float, text: str, position: str, r: float = MARKER_PX) -> Box:

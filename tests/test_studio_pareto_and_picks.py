@@ -362,3 +362,11 @@ def test_an_objective_every_member_shares_gets_one_tick_at_its_value() -> None:
                              labels={"f1": "f1 = MSE (mm)", "f2": "f2 = width penalty (mm^2)"})
     assert fig.layout.yaxis.title.text == "f2 = width penalty<br>(mm^2)"
     assert fig.layout.xaxis.title.text == "f1 = MSE (mm)"
+    # A population collapsed to one point (rehearsal 4: I read "51.00152, 51.001525, 51.00153"): one tick, saying
+    # how close; a real spread of 1e-4 on 51 keeps plotly's scale.
+    for spread, one in ((1e-5, True), (1e-4, False)):
+        G = np.array([[5.41, 51.0015], [5.41 + 1e-6, 51.0015 + spread / 2], [5.42, 51.0015 + spread]])
+        fig = make_pareto_figure(G, np.zeros(3), objectives=("f1", "f2"), front=(0, 1, 2))
+        assert (fig.layout.yaxis.tickvals is not None) == one
+        if one:
+            assert list(fig.layout.yaxis.ticktext) == ["51.0015 (all within 1e-05)"]
