@@ -295,6 +295,17 @@ def leg_scale(mechanism: Mechanism, target: TargetSpec) -> float:
         return 1.0
 
 
+def bounds_text(param: Param, k: float = 1.0) -> str:
+    """``[12, 500] mm (the paper's 30-500 mm, sized to a 120 mm stride)``: a parameter's entry bounds and, when the
+    leg's scale moved them, where they come from (rehearsal 4 read "[11.9993, 500]" and took it for physics)."""
+    lo, hi = entry_bounds(param, k)
+    text = f"[{lo:.4g}, {hi:.4g}] {param.unit}"
+    if (lo, hi) != (param.lo, param.hi):
+        text += (f" (the paper's {param.lo:g}-{param.hi:g} {param.unit} for its 300 mm stride, sized to this target's "
+                 f"{300 * k:.4g} mm)")
+    return text
+
+
 def check_value(param: Param, value: object, k: float = 1.0) -> float:
     """A typed value for one parameter, or ValueError with the reason (name, unit, bounds).
 
@@ -310,12 +321,12 @@ def check_value(param: Param, value: object, k: float = 1.0) -> float:
     # Bounds first: 1e9 for a length read "must be within +-1e+06 mm" (the file format's limit), not its own bounds.
     # (A length at or below 0 still reads "must be > 0".)
     if param.kind != "angle" and math.isfinite(v) and not (param.kind == "length" and v <= 0) and not lo <= v <= hi:
-        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds [{lo:g}, {hi:g}] {param.unit}")
+        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds {bounds_text(param, k)}")
     problem = value_problem(param, v)  # what any design file refuses too
     if problem is not None:
         raise ValueError(problem)
     if param.kind != "angle" and not lo <= v <= hi:
-        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds [{lo:g}, {hi:g}] {param.unit}")
+        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds {bounds_text(param, k)}")
     return v
 
 

@@ -176,7 +176,8 @@ def test_the_studio_takes_a_half_size_legs_crank_once_the_target_is_half_size() 
     with pytest.raises(ValueError, match=r"outside its bounds \[30, 500\] mm"):
         session.set_param("r1", 20.0)
     session.set_target(length=150.0, height=50.0)
-    with pytest.raises(ValueError, match=r"outside its bounds \[15, 500\] mm"):
+    with pytest.raises(ValueError, match=r"outside its bounds \[15, 500\] mm \(the paper's 30-500 mm for its 300 mm "
+                                         r"stride, sized to this target's 150 mm\)$"):
         session.set_param("r1", 14.0)
     # Within the half-size bounds: X3 (the paper's size) then refuses it only for its assembly.
     with pytest.raises(ValueError, match="does not assemble"):

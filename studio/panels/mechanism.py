@@ -15,9 +15,8 @@ import viser
 from core.kinematics import mechanisms, presets
 from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
-from core.optimize.scale import entry_bounds
 from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
-from studio.state import DesignView, assembly_reason, leg_scale, preset_label, presets_for
+from studio.state import DesignView, assembly_reason, bounds_text, leg_scale, preset_label, presets_for
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -46,9 +45,8 @@ def param_form(p: Param, k: float = 1.0) -> NumberForm:
     if p.kind == "angle":
         return NumberForm(text=f"an angle in {p.unit} (any number within ±1e6; angles are periodic)", decimals=4)
     what = "a length" if p.kind == "length" else "a number"
-    lo, hi = entry_bounds(p, k)
-    return NumberForm(text=f"{what} in {p.unit} within its bounds [{lo:g}, {hi:g}] that keeps the design assembled",
-                      decimals=2 if p.unit == "mm" else 4)
+    return NumberForm(text=f"{what} in {p.unit} within its bounds {bounds_text(p, k)} that keeps the design "
+                      "assembled", decimals=2 if p.unit == "mm" else 4)
 
 
 class MechanismPanel:
