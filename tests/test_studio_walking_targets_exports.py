@@ -201,6 +201,20 @@ def test_the_trajectories_export_has_every_sample_in_both_frames_and_the_target(
     assert cols["t_s"][-1] == pytest.approx(view.target.period * (1 - 1 / view.n_samples))
 
 
+def test_a_target_without_times_is_exported_at_the_phase_the_mse_compares() -> None:
+    """Rehearsal 4: each row paired the foot with the file's first point onward (~100 mm apart) beside an MSE of
+    2.2 mm at the best cyclic shift; the rows now hold the target point each sample is compared with."""
+    view = Session.default().set_curve(Curve.from_csv(ellipse_csv(), "ellipse.csv"))
+    cols = parse_trajectories_csv(trajectories_csv(view))
+    foot = np.stack([cols["x_design_mm"], cols["y_design_mm"]], axis=1)
+    target = np.stack([cols["x_target_mm"], cols["y_target_mm"]], axis=1)
+    mse = float(np.hypot(*(foot - target).T).mean())
+    assert mse == pytest.approx(float(view.evaluation.mse_phase[0]), rel=1e-9)
+    assert float(view.evaluation.mse[0]) > mse + 1.0  # the unshifted pairing was another, larger number
+    leg = np.stack([cols["x_target_leg_mm"], cols["y_target_leg_mm"]], axis=1)
+    np.testing.assert_allclose(leg, view.design.output.apply(target), atol=1e-9)  # both frames shifted alike
+
+
 def test_the_pareto_html_is_self_contained() -> None:
     fig = make_pareto_figure(np.array([[1.0, 2.0], [2.0, 1.0]]), np.zeros(2), objectives=("f1", "f2"), front=(0, 1))
     page = figure_html(fig, "t").decode()
