@@ -37,10 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Feature points, body fluctuation, impact, obstacle crossing and shape error of one "
         "design (a preset or a design JSON file) or of a closed curve from a CSV file (see docs/metrics.md).",
     )
-    src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", metavar="FILE", type=Path,
-                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
+    from core.cli.simulate import add_source
+
+    src = add_source(p)
     src.add_argument("--curve", metavar="FILE", type=Path, help="a CSV curve: x,y or x,y,t per line (design frame)")
     p.add_argument(
         "--leg-frame",

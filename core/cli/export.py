@@ -22,10 +22,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "mm, and a parts sheet under it (each link a plate outline with its holes, laid flat: what a laser cuts); "
         "SVG with the linkage and its foot path. Holes that overlap or leave a thin web are warned about.",
     )
-    src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", type=Path, metavar="FILE",
-                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
+    from core.cli.simulate import add_source
+
+    add_source(p)
     p.add_argument("--dxf", type=Path, metavar="OUT", help="DXF file to write")
     p.add_argument("--svg", type=Path, metavar="OUT", help="SVG file to write")
     p.add_argument("--angle", type=float, default=0.0, help="crank angle in degrees from the crank phase (default 0)")

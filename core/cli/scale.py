@@ -23,10 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "simulate' prints as the leg frame's path width; the paper's X3 has ~300 mm). Prints the design JSON, or "
         "writes it with --out.",
     )
-    src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", type=Path, metavar="FILE",
-                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
+    from core.cli.simulate import add_source
+
+    add_source(p)
     size = p.add_mutually_exclusive_group(required=True)
     size.add_argument("--factor", type=float, metavar="F", help="multiply every length by F (> 0)")
     size.add_argument("--stride", type=float, metavar="MM", help="scale so that the leg-frame path is MM wide")

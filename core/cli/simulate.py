@@ -32,10 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Solve one design (a preset or a design JSON file, see docs/cli.md) over one crank "
         "revolution; print a summary, or with --json the joints and the tracked point in both frames.",
     )
-    src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", metavar="FILE", type=Path,
-                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
+    add_source(p)
     p.add_argument("--samples", type=int, default=360, metavar="N", help="crank samples per revolution (default 360)")
     p.add_argument("--json", action="store_true", help="print the whole solution as JSON")
     p.add_argument(
@@ -55,6 +52,16 @@ def add_mode(p: argparse.ArgumentParser) -> None:
     """``--mode``: the RTCLM's other mode of the same design vector (a run's pick is in its primary mode)."""
     p.add_argument("--mode", choices=tuple(MODES),
                    help="for an RTCLM design: this mode of the same leg (its 13 parameters lock it either way)")
+
+
+def add_source(p: argparse.ArgumentParser) -> argparse._MutuallyExclusiveGroup:
+    """The design a command reads: ``--preset NAME`` or ``--design FILE`` (one of them, required); the group, for a
+    command that takes another source too (``clm evaluate --curve``)."""
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
+    src.add_argument("--design", metavar="FILE", type=Path,
+                     help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
+    return src
 
 
 def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
