@@ -26,7 +26,7 @@ from core.analysis.evaluate import (
 )
 from core.analysis.features import FEATURE_NAMES
 from core.analysis.targets import Target
-from core.kinematics.solver import Solution, worst_transmission
+from core.kinematics.solver import MU_DEAD, MU_USUAL, Solution, worst_transmission
 from studio.tables import INSET
 
 F64 = NDArray[np.float64]
@@ -99,8 +99,6 @@ def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:
     return tuple(n for n, v in zip(CONSTRAINT_NAMES, ev.constraints[i], strict=True) if not v <= 0.0)
 
 
-MU_USUAL = 40.0  # deg: the usual lowest transmission angle of a linkage that is to transmit force
-MU_DEAD = 10.0  # deg: below this the linkage passes close to a dead point (it can lock or change branch with play)
 MARGIN_SHARE = 0.01  # a crank or dyad margin under this share of the path width comes close to a dead point
 
 

@@ -136,7 +136,7 @@ def dead_point_html(r: StageResult, i: int) -> str:
     """A warning under the verdict when member i passes close to a dead point (its worst transmission angle, of
     either RTCLM mode too, under ``MU_DEAD``): a pick can meet every constraint of its stage and still lock
     (rehearsal 4: a predesign pick at 0.3 deg read "meets predesign's constraints" in green). Empty otherwise."""
-    from studio.metrics import MU_DEAD
+    from core.kinematics.solver import MU_DEAD
 
     angles = [float(r.metrics[k][i]) for k in ("transmission", "transmission_6", "transmission_4")
               if k in r.metrics]

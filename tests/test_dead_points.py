@@ -8,9 +8,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+from core.kinematics.solver import MU_DEAD, MU_USUAL
 from core.optimize.problem import make_problem
 from studio.chains import RunSettings, build_problem
-from studio.metrics import MU_DEAD, MU_USUAL, metrics_html, motion_warnings
+from studio.metrics import metrics_html, motion_warnings
 from studio.state import Session
 from studio.tables import dead_point_html
 from studio.target import TargetSpec

@@ -28,6 +28,7 @@ from core.analysis.targets import cycloid_params, load_curve, parse_target, path
 from core.cli import CLIError, dumps
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.presets import PAPER_PANTOGRAPH
+from core.kinematics.solver import MU_DEAD, MU_USUAL
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -197,7 +198,9 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
     elif np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
     if np.isfinite(r["transmission"]):  # a design's (a curve has none)
-        rows.append(("worst transmission angle", _fmt(r["transmission"], 1), "deg (90 ideal, 40 the usual minimum)"))
+        rows.append(("worst transmission angle", _fmt(r["transmission"], 1),
+                     f"deg (90 ideal, {MU_USUAL:g} the usual minimum"
+                     + (f"; under {MU_DEAD:g}: close to a dead point)" if r["transmission"] < MU_DEAD else ")")))
     w = max(len(n) for n, _, _ in rows)
     lines = [f"{label}: {status}; T = {ev.period:g} s, {ev.n_samples} samples, target {ev.target}"]
     lines += [f"  {n:<{w}}  {v:>10}  {u}" for n, v, u in rows]

@@ -221,6 +221,10 @@ def transmission_range(ops: NDArray[np.int64], cmin: F64, cmax: F64) -> tuple[F6
     return mu_min, mu_max
 
 
+MU_USUAL = 40.0  # deg: the usual lowest worst transmission angle of a linkage that is to transmit force
+MU_DEAD = 10.0  # deg: under this a dyad passes close to a dead point (with play it can lock or change branch)
+
+
 def worst_transmission(mu_min: F64, mu_max: F64) -> F64:
     """``(pop,)`` the worst transmission angle over the cycle and every dyad, ``min(mu, pi - mu)`` (rad, in
     [0, pi/2]; pi/2 is ideal, 0 a dyad at its dead point); NaN where no dyad closes."""
