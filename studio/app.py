@@ -17,6 +17,7 @@ from typing import Any, Literal
 import numpy as np
 import viser
 
+from core.formats.drawing import Plates
 from core.formats.files import slug
 from core.optimize.lineage import unmet_by
 from studio.address import url_for
@@ -595,12 +596,12 @@ class Studio:
         view = self.session.view
         return f"{slug(view.preset or view.design.mechanism.name)}-design.json", design_json(view)
 
-    def drawing_file(self, kind: str) -> tuple[str, bytes]:
-        return drawing_export(self.session.view, self.session.playback.angle, kind)
+    def drawing_file(self, kind: str, plates: Plates | None = None) -> tuple[str, bytes]:
+        return drawing_export(self.session.view, self.session.playback.angle, kind, plates or Plates())
 
-    def drawing_notes(self) -> list[str]:
+    def drawing_notes(self, plates: Plates | None = None) -> list[str]:
         """The shown design's parts: holes that overlap or leave a thin web (said after a drawing is sent)."""
-        return drawing_warnings(self.session.view, self.session.playback.angle)
+        return drawing_warnings(self.session.view, self.session.playback.angle, plates or Plates())
 
     def trajectories_file(self) -> tuple[str, bytes]:
         view = self.session.view

@@ -11,6 +11,7 @@ from typing import Literal, Protocol
 
 import viser
 
+from core.formats.drawing import Plates
 from studio.chains import ChainStage
 from studio.runner import Runner
 from studio.state import Session
@@ -49,9 +50,9 @@ class StudioContext(Protocol):
 
     def design_file(self) -> tuple[str, bytes]: ...
 
-    def drawing_file(self, kind: str) -> tuple[str, bytes]: ...
+    def drawing_file(self, kind: str, plates: Plates | None = None) -> tuple[str, bytes]: ...
 
-    def drawing_notes(self) -> list[str]: ...
+    def drawing_notes(self, plates: Plates | None = None) -> list[str]: ...
 
     def trajectories_file(self) -> tuple[str, bytes]: ...
 

@@ -14,6 +14,7 @@ import numpy as np
 import plotly.graph_objects as go
 
 from core.formats.design import design_to_dict
+from core.formats.drawing import Plates
 from core.formats.files import slug
 from core.kinematics import presets
 from studio.state import DesignView
@@ -87,7 +88,7 @@ def parse_trajectories_csv(data: bytes) -> dict[str, np.ndarray]:
     return {h: arr[:, k] for k, h in enumerate(head)}
 
 
-def drawing_export(view: DesignView, angle: float, kind: str) -> tuple[str, bytes]:
+def drawing_export(view: DesignView, angle: float, kind: str, plates: Plates | None = None) -> tuple[str, bytes]:
     """The shown design at the shown crank angle as a fabrication drawing: ``dxf`` (one layer per link, pivot
     holes, dimensions, and the parts sheet) or ``svg``; ValueError if it does not assemble there (the panel says so)."""
     from core.formats.drawing import drawing, dxf, svg
@@ -95,18 +96,17 @@ def drawing_export(view: DesignView, angle: float, kind: str) -> tuple[str, byte
     d = drawing(view.design, angle)
     deg = round(math.degrees(d.angle)) % 360  # the angle drawn, in the name too: two drawings of one design differ
     name = f"{slug(view.preset or view.design.mechanism.name)}-drawing-{deg}deg.{kind}"
-    return name, (svg(d) if kind == "svg" else dxf(d)).encode()
+    plates = plates or Plates()
+    return name, (svg(d, plates=plates) if kind == "svg" else dxf(d, plates)).encode()
 
 
-def drawing_warnings(view: DesignView, angle: float) -> list[str]:
+def drawing_warnings(view: DesignView, angle: float, plates: Plates | None = None) -> list[str]:
     """What the drawing's parts sheet warns about (holes that overlap or leave a thin web; ``clm export`` prints
     the same), [] when the design does not assemble there (the export says that)."""
-    from core.formats.drawing import Plates, cutting_warnings, drawing
+    from core.formats.drawing import cutting_warnings, drawing
 
     try:
-        said = cutting_warnings(drawing(view.design, angle), Plates())
+        said = cutting_warnings(drawing(view.design, angle), plates or Plates())
     except ValueError:
         return []
-    # The studio draws 5 mm holes in 15 mm plates; other sizes are clm export's.
-    return [f"{w} ({Plates().hole:g} mm here; clm export --hole takes yours)" if w.endswith("smaller pins") else w
-            for w in said]
+    return [f"{w} (Pin hole Ø above the Drawing buttons)" if w.endswith("smaller pins") else w for w in said]

@@ -978,3 +978,25 @@ def test_run_against_a_target_of_another_unit_asks_first_and_runs_only_if_confir
     studio.session.set_curve(None)  # the cycloid: no question
     press(studio.stages.run, Client())
     assert len(asked) == 1 and started == [1, 1]
+
+
+def test_the_drawings_take_the_pin_hole_set_in_the_panel(studio, tmp_path):
+    """Rehearsal 4: the studio's warning said 'use smaller pins (--hole)', an option the studio did not have."""
+    import ezdxf
+
+    field = studio.files.hole
+    for text in ("4", "0", "abc"):  # a value that is no hole diameter is refused and the last one kept
+        field.handle._impl.value = text
+        field.arrived(text)
+        field.edit(None)  # type: ignore[arg-type]
+        assert studio.files.plates.hole == 4.0
+    studio.files._numbers.cancel_all()  # the refusals' notes: no page here to tell
+    c = Client()
+    press(studio.files.dxf, c)
+    (tmp_path / "d.dxf").write_bytes(c.downloads[-1][1])
+    radii = {e.dxf.radius for e in ezdxf.readfile(tmp_path / "d.dxf").modelspace().query("CIRCLE")
+             if e.dxf.layer.startswith("PART_")}
+    assert radii == {2.0}
+    said = [n for n in c.notes if n[0] == "Check the parts before cutting"]
+    assert said and "4 mm holes" in said[-1][1]  # X3's B-F: 2.5 mm between 4 mm holes, under the 4 beside them
+    studio.files.plates = type(studio.files.plates)()  # the module's studio back at 5 mm
