@@ -542,7 +542,7 @@ class Studio:
                 spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
             except ValueError:
                 return "", []
-            return nxt.name, unmet_by(r, i, spec.problem.constraints)
+            return nxt.name, unmet_by(r, i, spec.problem.constraints, spec.problem.labels)
 
     def view_stage(self, stage: str, client: viser.ClientHandle | None) -> None:
         """Show a stage of the lineage again (its front, candidates, and its shown member animated)."""

@@ -184,7 +184,8 @@ class Composition:
 
 
 def compose(lay: Layout, walk_bounds: F64 | None, gap: float = 60.0, walk_gap: float | None = None) -> Composition:
-    """Place the walking view (if any) below the top views and the inset, and a square inset right of the leg view.
+    """Place the walking view (if any) below the top views and the inset, and a square inset right of the leg view
+    (as high as the leg view, or as 0.6 of its width, and at least half the top views' height).
 
     Args:
         lay: the two top views.
@@ -195,7 +196,9 @@ def compose(lay: Layout, walk_bounds: F64 | None, gap: float = 60.0, walk_gap: f
     """
     s = lay.scene
     leg = lay.leg + np.concatenate([lay.leg_offset, lay.leg_offset])
-    side = max(leg[3] - leg[1], 0.6 * (leg[2] - leg[0]), 1.0)
+    # At least half the top views' height: the RTCLM's 97 mm bench view beside its large linkage made a ~50 px
+    # square whose spheres could not be clicked (rehearsal 5).
+    side = max(leg[3] - leg[1], 0.6 * (leg[2] - leg[0]), 0.5 * (s[3] - s[1]), 1.0)
     cy = 0.5 * (leg[1] + leg[3])
     inset = np.array([leg[2] + gap, cy - 0.5 * side, leg[2] + gap + side, cy + 0.5 * side])
     parts = [s, inset]

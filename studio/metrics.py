@@ -136,7 +136,8 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
     margin = solution.dyad_margin[i]
     margin = margin[np.isfinite(margin)]
     crank, dyad = float(solution.crank_margin[i]), float(margin.min()) if len(margin) else math.nan
-    mu = deg(min_transmission_angle(solution, i))
+    # Undefined where a dyad cannot close: it read 0.0 deg, unmarked, for a design that does not assemble.
+    mu = deg(min_transmission_angle(solution, i)) if solution.violation[i] == 0 else math.nan
     warns = motion_warnings(mu, crank, dyad, float(ev.width[i])) if solution.violation[i] == 0 else {}
     return (
         # Not "Feasible": beside "Gait constraints: 1 unmet" on the paper's X3 it read as a contradiction.

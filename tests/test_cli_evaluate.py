@@ -252,6 +252,8 @@ def test_an_rtclm_mode_names_its_height_and_target_and_the_gait_verdict_is_one_l
     code, out, _ = run(capsys, "evaluate", "--preset", "rtclm/case3")
     assert [ln for ln in out.splitlines() if "gait constraints" in ln][0].endswith(
         ": 5 not defined (order, theta1, theta2, h_bar, psi2: no well-defined bench trajectory)")
+    # Its transmission angle is no number either (it read 0.0 deg, like a measured dead point; rehearsal 5).
+    assert [ln.split()[3:5] for ln in out.splitlines() if "worst transmission angle" in ln] == [["n/a", "deg"]]
 
 
 def test_an_rtclm_design_file_gets_the_five_cases_h4_whatever_its_path_says(tmp_path: Path,

@@ -86,3 +86,10 @@ def test_a_run_with_a_limit_keeps_every_feasible_member_off_dead_points():
     assert r is not None and r.feasible.any()
     assert (r.metrics["transmission"][r.feasible] >= 30.0).all()
     assert (r.metrics["transmission"] < 30.0).any()  # the limit did exclude members
+
+
+def test_a_design_that_does_not_assemble_has_no_transmission_angle_to_show():
+    """rtclm/case3 does not assemble: its angle read 0.0 deg, unmarked, beside a red 24.5 elsewhere (rehearsal 5)."""
+    view = Session.default().load_preset("rtclm/case3")
+    row = next(r for r in view.rows if r.key == "mu_min")
+    assert row.text() == "NaN" and not row.warn

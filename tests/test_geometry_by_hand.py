@@ -53,3 +53,11 @@ def test_inset_points_fill_the_inner_square_and_a_constant_objective_sits_in_its
     box = np.array([0.0, 0.0, 100.0, 100.0])  # 10 % margin: the points fill [10, 90] on each axis
     out = inset_positions(np.array([[0.0, 3.0], [10.0, 3.0], [5.0, 3.0], [np.nan, 1.0]]), box)
     np.testing.assert_allclose(out, [[10.0, 50.0], [90.0, 50.0], [50.0, 50.0], [0.0, 0.0]])
+
+
+def test_the_inset_is_at_least_half_as_high_as_the_top_views():
+    # The RTCLM's small bench view beside its large linkage gave a square too small to click in (rehearsal 5).
+    lay = Layout(design=np.array([0.0, 0.0, 100.0, 300.0]), leg=np.array([-10.0, -20.0, 30.0, 20.0]),
+                 leg_offset=np.array([170.0, 25.0]), scene=np.array([0.0, 0.0, 200.0, 300.0]))
+    c = compose(lay, None, gap=60.0)
+    np.testing.assert_allclose(c.inset, [260.0, 25.0 - 75.0, 410.0, 25.0 + 75.0])  # 150 mm around the leg view

@@ -47,6 +47,8 @@ def test_a_member_s_misses_in_words_are_the_mask_s(result: StageResult) -> None:
             Constraint("violation", upper=-1.0))
     words = [unmet_by(result, i, cons) for i in range(6)]
     assert words == [["f1 0 < 1"], [], ["width nan > 200"], ["width 250 > 200"], [], ["f1 -1 < 1"]]
+    # By the name the stage gives the metric (rehearsal 5 read "crank2 48.4 > 0" where the stage said "Eq. 29 ...").
+    assert unmet_by(result, 3, cons, {"width": "path width (mm)"}) == ["path width (mm) 250 > 200"]
     nxt = ProblemSpec("next", None, ("f1", "f2"), cons)  # type: ignore[arg-type]
     ok = next_feasible(result, nxt)
     assert [bool(ok[i]) for i in range(6)] == [not w and bool(result.feasible[i]) for i, w in enumerate(words)]

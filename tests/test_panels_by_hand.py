@@ -570,12 +570,13 @@ def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s
     for i in np.flatnonzero(r.feasible):
         study.shown["subtask1"] = int(i)
         name, missed = studio.next_unmet("subtask1")
-        assert name == "subtask2" and missed == unmet_by(r, int(i), problem.constraints)
+        assert name == "subtask2" and missed == unmet_by(r, int(i), problem.constraints, problem.labels)
         assert (not missed) == bool(ok[i]), (i, missed)
         seen.add(bool(missed))
-        for text in missed:  # "mse 7.1 > 6": the member's value and the limit it passes
-            metric, value, op, bound = text.split()
-            assert op == ">" and float(value) > float(bound) and metric in r.metrics
+        named = {problem.labels.get(m, m): m for m in r.metrics}
+        for text in missed:  # "f1 = MSE (mm) 7.1 > 6": the metric as the stage names it, its value and limit
+            label, value, op, bound = text.rsplit(maxsplit=3)
+            assert op == ">" and float(value) > float(bound) and named[label] in r.metrics
     assert seen == {True, False}  # both kinds of member were met
     assert studio.next_unmet("subtask3") == ("", [])  # no result there
     # The Pick panel says so before "Use for next stage" asks: the stage's own pick read fine until then.

@@ -197,7 +197,9 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
         rows.append(("shape error, its first point at t = 0", at_zero[1], "mm (no meaning without times)"))
     elif np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
-    if np.isfinite(r["transmission"]):  # a design's (a curve has none)
+    if np.isfinite(r["transmission"]) and r["violation"] > 0:  # a dyad that cannot close: no angle
+        rows.append(("worst transmission angle", "n/a", "deg (it does not assemble over the whole cycle)"))
+    elif np.isfinite(r["transmission"]):  # a design's (a curve has none)
         rows.append(("worst transmission angle", _fmt(r["transmission"], 1),
                      f"deg (90 ideal, {MU_USUAL:g} the usual minimum"
                      + (f"; under {MU_DEAD:g}: close to a dead point)" if r["transmission"] < MU_DEAD else ")")))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import inspect
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import Any
 
@@ -73,15 +73,19 @@ def next_feasible(result: StageResult, nxt: ProblemSpec | None) -> NDArray[np.bo
     return ok
 
 
-def unmet_by(result: StageResult, i: int, constraints: tuple[Constraint, ...]) -> list[str]:
+def unmet_by(result: StageResult, i: int, constraints: tuple[Constraint, ...],
+             labels: Mapping[str, str] | None = None) -> list[str]:
     """Member i's values that miss ``constraints`` (another stage's), in words (``I 30.2 > 20``), as
-    :func:`misses` judges them."""
+    :func:`misses` judges them; a metric by its ``labels`` name when it has one (``Eq. 29 crank HF (mm) 48.4 > 0``:
+    "crank2 48.4 > 0" named it as no other place did)."""
     out = []
+    names = labels or {}
     for c, missed in misses(result, constraints):
         if missed[i]:
             upper = c.upper is not None
             bound = float(c.upper if upper else c.lower)  # type: ignore[arg-type]
-            out.append(f"{c.metric} {float(result.metrics[c.metric][i]):.3g} {'>' if upper else '<'} {bound:.3g}")
+            value = float(result.metrics[c.metric][i])
+            out.append(f"{names.get(c.metric, c.metric)} {value:.3g} {'>' if upper else '<'} {bound:.3g}")
     return out
 
 
