@@ -103,3 +103,16 @@ def test_holes_too_close_are_warned_about_and_bad_sizes_refused(tmp_path, capsys
         assert main(["export", "--preset", "stephenson1/X3", "--dxf", str(tmp_path / "y.dxf"), *bad]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "--hole/--width" in err[0] and not (tmp_path / "y.dxf").exists()
+
+
+def test_the_rtclm_s_parts_are_the_leg_built_its_second_motor_s_crank_apart_with_a_bore_at_h():
+    """Rehearsal 5: the primary mode locks crank H-F to the rocker, and its parts sheet welded them into one plate
+    D-C-H-F with no hole at H (the second motor's axis); the auxiliary mode's drawing has the four-bar alone."""
+    design = get("rtclm/clm-case1").design()
+    d = drawing(design)
+    assert ("D", "C", "H") in d.links and ("H", "F") in d.links and not any(len(b) == 4 for b in d.links)
+    assert {"H", "F"} <= d.pivots()
+    hf = float(np.linalg.norm(d.point("H") - d.point("F")))
+    assert hf == pytest.approx(design.named()["r6"], abs=1e-9)  # the crank's length
+    aux = drawing(get("rtclm/clm-case1/auxiliary").design())
+    assert ("H", "F") in aux.links  # a link of the four-bar there, as it was
