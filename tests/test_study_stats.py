@@ -68,6 +68,14 @@ def test_the_report_shows_the_smallest_feasible_pick_as_best_and_the_median_hv_r
     assert c["best_by"] == "mse" and c["best"]["a"]["seed"] == 2  # seed 3's smaller MSE is not feasible
     assert c["fronts"]["a"]["seed"] == 1  # the median HV of three
     assert c["table"]["mse"]["a"]["median"] == 3.0
+    # An infeasible pick sits in the medians: said under the table, with how many of each algorithm's met them.
+    from core.study.report import markdown
+
+    assert c["feasible_picks"] == {"a": 2}
+    assert "Picks meeting their stage's constraints: A 2 of 3 (the medians above count every run's pick" in \
+        markdown("s", [c])
+    every = case_report(Rows(rows[:2]), "c", ["a"], {"a": "A"}, "a", "mse")
+    assert "Picks meeting" not in markdown("s", [every])  # nothing to say when all do
 
 
 def test_a_case_where_no_run_has_a_feasible_member_reports_hv_0_and_no_igd() -> None:

@@ -26,7 +26,8 @@ PICK_ORDER = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
 COST = ("wall_time", "n_eval")
 LABELS = {"hv": "HV", "igd_plus": "IGD+", "feasible_ratio": "feasible ratio", "mse": "MSE (mm)", "S": "S (%)",
           "I": "I (mm/s)", "h_s": "h_s (mm)", "h6": "h6 (mm)", "h4": "h4 (mm)", "dh6": "|h6 dev| (mm)",
-          "dh4": "|h4 dev| (mm)", "wall_time": "time (s)", "n_eval": "evaluations"}
+          "dh4": "|h4 dev| (mm)", "wall_time": "time (s)", "n_eval": "evaluations",
+          "compile_time": "compile time (s)"}
 
 
 def _fmt(x: float) -> str:
@@ -83,11 +84,12 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
             r, _ = order[(len(order) - 1) // 2]
             fronts[a] = {"seed": r["seed"], "front": r["metrics"].get("front", []),
                          "objectives": r["metrics"].get("objectives", [])}
+    feasible = {a: sum(bool((r["metrics"] or {}).get("pick_feasible")) for r, _ in per_alg[a]) for a in algorithms}
     failed = [{"key": r["key"], "error": r["error"]} for r in rows if r["status"] != "done"]
     values = {a: {m: [v.get(m, math.nan) for _, v in per_alg[a]] for m in metrics} for a in algorithms}
     return {"case": case, "metrics": metrics, "table": table, "best_by": key, "best": best_rows, "fronts": fronts,
             "failed": failed, "values": values, "labels": labels, "reference": reference, "algorithms": algorithms,
-            "left_out": left_out}
+            "left_out": left_out, "feasible_picks": feasible}
 
 
 def _cell(text: str) -> str:
@@ -115,6 +117,11 @@ def markdown(name: str, cases: list[dict[str, Any]]) -> str:
         n = {a: c["table"][c["metrics"][0]][a]["n"] if c["metrics"] else 0 for a in algs}
         out += ["", "Runs: " + ", ".join(f"{labels.get(a, a)} {n[a]}" for a in algs) + f"; reference "
                 f"{labels.get(c['reference'], c['reference'])}.", ""]
+        ok = c.get("feasible_picks") or {}
+        if ok and any(ok.get(a, 0) < n[a] for a in algs):  # rehearsal 5: an infeasible pick sat in the medians unsaid
+            out += ["Picks meeting their stage's constraints: " + ", ".join(
+                f"{labels.get(a, a)} {ok.get(a, 0)} of {n[a]}" for a in algs) + " (the medians above count every "
+                "run's pick, those that miss the constraints too).", ""]
         if c.get("left_out"):
             out += [f"Left out: {c['left_out']} run(s) in this directory that the study no longer lists (other "
                     "seeds, algorithms or settings; `clm study` with `--rerun-changed` runs changed cells again).",
