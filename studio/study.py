@@ -130,13 +130,15 @@ class Branch:
 
 def ran_with(r: StageResult) -> RunSettings | None:
     """The Stages panel's settings a result was produced with (problem, algorithm, population, generations
-    planned, seed), or None if its record does not make valid ones (a hand-made or older file)."""
+    planned, seed, the transmission limit its problem held), or None if its record does not make valid ones (a
+    hand-made or older file). Rehearsal 5: a restored branch lost its limit, and Run went on without it."""
     try:
-        problem = r.settings["problem"]["name"]
+        problem = r.settings["problem"]
         algorithm = r.settings["algorithm"]
-        return RunSettings(str(problem), str(algorithm["name"]), int(algorithm["pop_size"]), int(r.n_gen),
-                           int(r.seed))
-    except (KeyError, TypeError, ValueError):
+        limit = (problem.get("options") or {}).get("transmission_min", 0) or 0
+        return RunSettings(str(problem["name"]), str(algorithm["name"]), int(algorithm["pop_size"]), int(r.n_gen),
+                           int(r.seed), int(round(float(limit))))
+    except (KeyError, TypeError, ValueError, AttributeError):
         return None
 
 

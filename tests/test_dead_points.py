@@ -86,6 +86,11 @@ def test_a_run_with_a_limit_keeps_every_feasible_member_off_dead_points():
     assert r is not None and r.feasible.any()
     assert (r.metrics["transmission"][r.feasible] >= 30.0).all()
     assert (r.metrics["transmission"] < 30.0).any()  # the limit did exclude members
+    # A restored branch sets the Stages panel from its results: the limit comes back with them (rehearsal 5: it
+    # came back 0, and Run went on without it).
+    from studio.study import ran_with
+
+    assert ran_with(r) == RunSettings("subtask1", "nsga2", 16, 3, 2, 30)
 
 
 def test_a_design_that_does_not_assemble_has_no_transmission_angle_to_show():
