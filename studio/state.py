@@ -32,7 +32,7 @@ from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from core.optimize.objectives import target_scale
-from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, is_rtclm
+from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, case_h4, is_rtclm
 from core.optimize.scale import entry_bounds
 from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, shape_error, stance_mask
 from studio.session_pack import pack_study, unpack_study
@@ -119,13 +119,6 @@ def preset_label(name: str) -> str:
 # Mechanisms the paper designs against its compound cycloid (L 300 mm, H 100 mm); the others (the walkers,
 # the four-bar example, RTCLM) get a cycloid scaled to their own path, so MSE compares shapes, not sizes.
 PAPER_TARGET = ("stephenson1", "stephenson3", "watt1")
-
-
-def case_h4(preset: str | None) -> float | None:
-    """The h4 target of the RTCLM case a preset was made for (``Preset.case``; case 3: 260 mm, paper §4.2), else
-    None."""
-    p = presets.PRESETS.get(preset) if preset is not None else None
-    return H4_CASES.get(p.case) if p is not None and p.case is not None else None
 
 
 def preset_target(name: str, period: float = 2.0) -> TargetSpec:

@@ -133,17 +133,16 @@ def rtclm_height(mechanism: str, preset: str | None) -> tuple[str, str] | None:
     h4's target is the case's when ``preset`` was made for one (``Preset.case``: ``rtclm/case3``), else the five
     cases'. (A regex over the label took a case from any path: runs/showcase2/leg.json read case 2's.)"""
     from core.kinematics import presets
-    from core.optimize.rtclm import H4_CASES, H6_TARGET, MODE_HEIGHT
+    from core.optimize.rtclm import H4_CASES, H6_TARGET, MODE_HEIGHT, case_h4
 
     name = MODE_HEIGHT.get(mechanism)
     if name is None:
         return None
     if name == "h6":
         return name, f"{H6_TARGET:g} mm"
-    p = presets.PRESETS.get(preset) if preset is not None else None
-    k = p.case if p is not None else None
-    if k in H4_CASES:
-        return name, f"{H4_CASES[k]:g} mm (case {k})"
+    h4 = case_h4(preset)
+    if h4 is not None:
+        return name, f"{h4:g} mm (case {presets.PRESETS[str(preset)].case})"
     return name, " / ".join(f"{v:g}" for v in H4_CASES.values()) + " mm (cases 1-5)"
 
 

@@ -96,6 +96,15 @@ def mode_metrics(ev: Evaluation, suffix: str) -> Metrics:
     }
 
 
+def case_h4(preset: str | None) -> float | None:
+    """The h4 target of the RTCLM case a preset was made for (``Preset.case``; case 3: 260 mm, paper §4.2), else
+    None (no preset, or one made for no case)."""
+    from core.kinematics import presets
+
+    p = presets.PRESETS.get(preset) if preset is not None else None
+    return H4_CASES.get(p.case) if p is not None and p.case is not None else None
+
+
 def rtclm_metrics(params: F64, h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1],
                   n_samples: int = 360, backend: str = "auto", auxiliary: bool = True) -> Metrics:
     """Every RTCLM metric of ``(pop, 13)`` design vectors (see the module doc).
