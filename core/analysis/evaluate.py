@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.analysis import metrics as M
+from core.analysis.clearance import from_lowest, ground_clearance
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES, FeaturePoints, feature_points, periodic_derivative
 from core.analysis.gait import BIPED, DEFAULT_TRUNK, quadruped, walking_trajectory
 from core.analysis.shape import mse as shape_mse
@@ -70,6 +71,10 @@ class Evaluation:
             **degrees**, the unit of the design rule (40 deg or more is the usual demand, 90 ideal; near 0 a dyad
             passes close to its dead point and transmits almost no force); over the samples where it closes,
             NaN where none does and for paths without a design (``solver.worst_transmission``).
+        clearance: the ground clearance (mm, ``core.analysis.clearance``): how far the lowest joint but the foot
+            stays above the foot's lowest level over the cycle, < 0 when it goes below (the leg would strike the
+            ground, or works upside down); NaN where the design does not assemble, its output stage is a
+            pantograph (k != 1, whose bars are not modelled) and for paths without a design.
     """
 
     feasible: NDArray[np.bool_]
@@ -102,6 +107,7 @@ class Evaluation:
     target: str
     crank_margin: F64
     transmission: F64
+    clearance: F64
 
     @property
     def pop(self) -> int:
@@ -180,7 +186,7 @@ def evaluate(
     # An empty population takes the kernel's path on either backend: both then return the same empty arrays.
     if (use_numba and not phase_optimal) or design.pop == 0:
         return _evaluate_fused(design, n_samples, target, period, obstacle, trunk)
-    sol = design.solve(n_samples, joints=False, backend="numba" if use_numba else "numpy")
+    sol = design.solve(n_samples, joints=True, derivatives=True, backend="numba" if use_numba else "numpy")
     ev = evaluate_paths(
         sol.point,
         sol.leg,
@@ -194,7 +200,8 @@ def evaluate(
         kernel=use_numba,
     )
     mu = np.degrees(worst_transmission(sol.mu_min, sol.mu_max))
-    return replace(ev, crank_margin=sol.crank_margin, transmission=mu)
+    ground = ground_clearance(sol, design.mechanism, design.output).value
+    return replace(ev, crank_margin=sol.crank_margin, transmission=mu, clearance=ground)
 
 
 def _check_args(
@@ -264,15 +271,16 @@ def _evaluate_fused(
     a, b = float(obstacle[0]), float(obstacle[1])
     out = design.output
     pop = prep.vals.shape[0]
-    mmin, cmin, cmax, neg, broken, index, pts, tans, S = K.run_designs(
+    mmin, cmin, cmax, neg, broken, ylow, index, pts, tans, S = K.run_designs(
         prep.program.ops, prep.vals, sample_angles(n), prep.program.tracked, out.kernel_args(),
         _target_samples(tgt, n), float(period), a, b, *_layouts(float(trunk)), pop >= PARALLEL_MIN_POP,
     )
     crank = crank_margin_of(prep)
     kin = assembly_violation(prep, mmin, neg, broken, crank)
     mu = np.degrees(worst_transmission(*transmission_range(prep.program.ops, cmin, cmax)))
+    ground = from_lowest(ylow, design.mechanism, out, kin).value
     return _assemble(_kernel_results(index, pts, tans, S, float(period), n), np.full(pop, np.nan), kin, tgt,
-                     period, (a, b), trunk, n, crank, mu)
+                     period, (a, b), trunk, n, crank, mu, ground)
 
 
 def _kernel(
@@ -399,7 +407,7 @@ def _assemble(
     obstacle: tuple[float, float],
     trunk: float,
     n: int,
-    crank: F64 | None = None, transmission: F64 | None = None,
+    crank: F64 | None = None, transmission: F64 | None = None, clearance: F64 | None = None,
 ) -> Evaluation:
     """The Evaluation from the analysis results (kernel or numpy modules), the kinematic violation, the crank
     margin and the worst transmission angle (None: paths without a design, NaN)."""
@@ -444,6 +452,7 @@ def _assemble(
         target=tgt.name,
         crank_margin=np.full(len(violation), np.nan) if crank is None else np.asarray(crank, dtype=np.float64),
         transmission=np.full(len(violation), np.nan) if transmission is None else transmission,
+        clearance=np.full(len(violation), np.nan) if clearance is None else clearance,
     )
 
 

@@ -99,7 +99,7 @@ def run(
 def _fused_designs(solver_digest: str):  # type: ignore[no-untyped-def]
     @njit(**_JIT)
     def designs(i0, i1, ops, vals, ct, st, tracked, sinks, links, stage, target, period, a, b, offs2, ph2,
-                offs4, ph4, mmin, cmin, cmax, neg, broken, index, pts, tans, S):
+                offs4, ph4, mmin, cmin, cmax, neg, broken, ylow, index, pts, tans, S):
         """Solve and analyse designs i0 .. i1 - 1 with one set of scratch rows."""
         if len(solver_digest) == 0:  # keeps the digest in the cache key
             return
@@ -116,6 +116,12 @@ def _fused_designs(solver_digest: str):  # type: ignore[no-untyped-def]
             for k in range(n):
                 bad |= acc[k] != 0.0
             broken[i] = bad
+            for j in range(ops.shape[0]):  # each joint's lowest y (design frame; NaN samples skipped)
+                m = np.inf
+                for k in range(n):
+                    if y[j, k] < m:
+                        m = y[j, k]
+                ylow[i, j] = m
             # OutputStage.apply / apply_derivative, operation for operation (no fused multiply-add).
             for k in range(n):
                 lx[k] = x[tracked, k] * kx + cx
@@ -132,22 +138,22 @@ def _fused_runs(solver_digest: str):  # type: ignore[no-untyped-def]
     # _fused_chunk is a global here: a dispatcher as a closure variable would change the cache key per process.
     @njit(**_JIT)
     def serial(ops, vals, ct, st, tracked, sinks, links, stage, target, period, a, b, offs2, ph2, offs4, ph4,
-               mmin, cmin, cmax, neg, broken, index, pts, tans, S):
+               mmin, cmin, cmax, neg, broken, ylow, index, pts, tans, S):
         if len(solver_digest) == 0:
             return
         _fused_chunk(0, vals.shape[0], ops, vals, ct, st, tracked, sinks, links, stage, target, period, a, b,
-                     offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken, index, pts, tans, S)
+                     offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken, ylow, index, pts, tans, S)
 
     @njit(**_JIT, parallel=True)
     def parallel(ops, vals, ct, st, tracked, sinks, links, stage, target, period, a, b, offs2, ph2, offs4, ph4,
-                 mmin, cmin, cmax, neg, broken, index, pts, tans, S):
+                 mmin, cmin, cmax, neg, broken, ylow, index, pts, tans, S):
         if len(solver_digest) == 0:
             return
         pop = vals.shape[0]
         for c in prange((pop + _CHUNK - 1) // _CHUNK):
             _fused_chunk(c * _CHUNK, min(pop, (c + 1) * _CHUNK), ops, vals, ct, st, tracked, sinks, links, stage,
-                         target, period, a, b, offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken, index, pts,
-                         tans, S)
+                         target, period, a, b, offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken, ylow, index,
+                         pts, tans, S)
 
     return serial, parallel
 
@@ -162,7 +168,7 @@ _fused_serial, _fused_parallel = _fused_runs(_SOLVER_DIGEST)
 def run_designs(
     ops: NDArray[np.int64], vals: F64, theta: F64, tracked: int, stage: tuple[float, float, float, float],
     target: F64, period: float, a: float, b: float, offs2: F64, ph2: F64, offs4: F64, ph4: F64, parallel: bool,
-) -> tuple[F64, F64, F64, F64, NDArray[np.bool_], F64, F64, F64, F64]:
+) -> tuple[F64, F64, F64, F64, NDArray[np.bool_], F64, F64, F64, F64, F64]:
     """Solve every design (``core.kinematics.kernel``) and analyse its path in the same pass.
 
     The results of ``solver_numba.solve_all(..., stage=stage)`` followed by ``run`` on its point,
@@ -170,8 +176,9 @@ def run_designs(
 
     Returns:
         mmin, cmin, cmax ``(pop, n_steps)`` and neg ``(pop,)`` as ``solver_numba.run``; broken ``(pop,)``
-        True where some sample has a non-finite joint (``~valid.any(1)``); index, pts, tans, S
-        as ``run`` fills them.
+        True where some sample has a non-finite joint (``~valid.any(1)``); ylow ``(pop, n_steps)`` each joint's
+        lowest y over the samples (design frame, mm; +inf where it is never placed); index, pts, tans, S as
+        ``run`` fills them.
     """
     vals = np.ascontiguousarray(vals, dtype=np.float64)
     theta = np.ascontiguousarray(theta, dtype=np.float64)
@@ -184,6 +191,7 @@ def run_designs(
     mmin, cmin, cmax = np.empty((pop, n_steps)), np.empty((pop, n_steps)), np.empty((pop, n_steps))
     neg = np.empty(pop)
     broken = np.empty(pop, dtype=np.bool_)
+    ylow = np.empty((pop, n_steps))
     index = np.empty((pop, 8))
     pts = np.empty((pop, 8, 2))
     tans = np.empty((pop, 8, 2))
@@ -192,5 +200,5 @@ def run_designs(
     kernel(prog.ops, vals, ct, st, prog.tracked, prog.sinks, prog.links,
            tuple(float(v) for v in stage), np.ascontiguousarray(target, dtype=np.float64),
            float(period), float(a), float(b), offs2, ph2, offs4, ph4, mmin, cmin, cmax, neg, broken,
-           index, pts, tans, S)
-    return mmin, cmin, cmax, neg, broken, index, pts, tans, S
+           ylow, index, pts, tans, S)
+    return mmin, cmin, cmax, neg, broken, ylow, index, pts, tans, S

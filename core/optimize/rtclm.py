@@ -15,6 +15,9 @@ auxiliary mode (four-bar E-H-F-G driven at H, h4 = its h_m). Metrics (``(pop,)``
   landing / take-off angle);
 - ``eq31_height_4``, ``eq31_psi2_4``: Eq. 31 for the auxiliary mode (``h_m / 4 - h_bar`` in mm
   and ``0.2 - psi2(25, 25)``, <= 0 satisfied);
+- ``clearance_6``, ``clearance_4``: each mode's ground clearance (mm, ``core.analysis.clearance``): how far the
+  leg's lowest joint but the foot stays above the ground the foot stands on; held >= ``clearance_min`` (0 by
+  default) in each mode a subtask holds: our addition, not the paper's (docs/rtclm.md, "Ground clearance");
 - ``h6``, ``h4``, ``mean_height_6/4``, ``psi2_6/4``, ``S_6/4``, ``I_6/4`` for reports.
 
 Subtask 1 (``rtclm1``) drives h6 to its target: objective dh6, constraints Eqs. 29-30 of the primary mode
@@ -60,6 +63,8 @@ LABELS: dict[str, str] = {
     # (mm, and 1 per extra turn of a crossing path). "(mm)" made a case-4 preset that assembles read "1001 mm".
     "transmission_6": "primary mode's worst transmission angle (deg)",
     "transmission_4": "auxiliary mode's worst transmission angle (deg)",
+    "clearance_6": "primary mode's ground clearance (mm)",
+    "clearance_4": "auxiliary mode's ground clearance (mm)",
     "violation": "primary mode violation (0 ok, 1000+ not)",
     "aux_violation": "auxiliary mode violation (0 ok, 1000+ not)",
     # Eq. 30-31 by what they measure, each <= 0 when met: "order_6 ≤ 0 · theta1_6 ≤ 0" read as unfinished.
@@ -93,6 +98,7 @@ def mode_metrics(ev: Evaluation, suffix: str) -> Metrics:
         f"S_{suffix}": ev.S,
         f"I_{suffix}": ev.I,
         f"transmission_{suffix}": ev.transmission,
+        f"clearance_{suffix}": ev.clearance,
     }
 
 
@@ -146,6 +152,16 @@ def _eq29_30(eq30: bool, auxiliary: bool = True) -> tuple[Constraint, ...]:
     return cons + (_eq30("6") + _eq30("4") if eq30 else ())
 
 
+def clearance_limits(on: bool, minimum: float, modes: int) -> tuple[Constraint, ...]:
+    """The ``clearance`` / ``clearance_min`` options: each of the first ``modes`` modes' ground clearance at
+    least ``minimum`` mm (none when off); ValueError for a minimum that is not a number within +-1e6 mm."""
+    if not isinstance(on, bool):
+        raise ValueError(f"clearance must be true or false, got {on!r}")
+    if isinstance(minimum, bool) or not isinstance(minimum, (int, float)) or not abs(minimum) <= 1e6:
+        raise ValueError(f"clearance_min must be a length in mm within +-1e6, got {minimum!r}")
+    return tuple(Constraint(m, lower=float(minimum)) for m in ("clearance_6", "clearance_4")[:modes]) if on else ()
+
+
 def is_rtclm(mechanism: str) -> bool:
     """Whether the mechanism named is one of the RTCLM's modes."""
     return mechanism in MODE_HEIGHT
@@ -161,7 +177,7 @@ def _rtclm_only(m: Mechanism) -> str | None:
 @register("rtclm1")
 def rtclm1(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], n_samples: int = 360,
            backend: str = "auto", eq30: bool = True, auxiliary: bool = False,
-           transmission_min: float = 0.0) -> ProblemSpec:
+           transmission_min: float = 0.0, clearance: bool = True, clearance_min: float = 0.0) -> ProblemSpec:
     """RTCLM subtask 1: drive the primary-mode height h6 to its target (objective dh6).
 
     Args:
@@ -170,12 +186,16 @@ def rtclm1(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], n_sampl
             which leaves subtask 2 a wider search (measured: it then reaches h4 far more often).
         transmission_min: a lower limit (deg) on the worst transmission angle of each mode it holds (0: none,
             the paper's).
+        clearance, clearance_min: hold each mode's ground clearance >= clearance_min (mm): the foot is the leg's
+            lowest point, so no other joint strikes the ground and the frame does not hang below the feet (our
+            addition; ``clearance = false`` is the paper's problem).
     """
 
     def ev(design: Design) -> Metrics:
         return rtclm_metrics(design.params, h6_target, h4_target, n_samples, backend, auxiliary=auxiliary)
 
     angles = transmission_limits(transmission_min, ("transmission_6", "transmission_4")[: 1 + auxiliary])
+    angles += clearance_limits(clearance, clearance_min, 1 + auxiliary)
     return ProblemSpec("rtclm1", ev, ("dh6",), _eq29_30(eq30, auxiliary) + angles, labels=LABELS,
                        misfit=_rtclm_only)
 
@@ -183,12 +203,13 @@ def rtclm1(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], n_sampl
 @register("rtclm2")
 def rtclm2(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], h6_tol: float = H6_HOLD,
            n_samples: int = 360, backend: str = "auto", eq30: bool = True, eq31: bool = True,
-           transmission_min: float = 0.0) -> ProblemSpec:
+           transmission_min: float = 0.0, clearance: bool = True, clearance_min: float = 0.0) -> ProblemSpec:
     """RTCLM subtask 2: drive the auxiliary-mode height h4 (objectives dh4, dh6) under Eqs. 29-31.
 
     Args:
         h6_tol: the subtask-1 result held as a constraint, ``|h6 - h6_target| <= h6_tol`` (mm).
         transmission_min: a lower limit (deg) on both modes' worst transmission angles (0: none, the paper's).
+        clearance, clearance_min: hold both modes' ground clearance >= clearance_min (mm; see ``rtclm1``).
     """
 
     def ev(design: Design) -> Metrics:
@@ -198,4 +219,5 @@ def rtclm2(h6_target: float = H6_TARGET, h4_target: float = H4_CASES[1], h6_tol:
     if eq31:
         cons += (Constraint("eq31_height_4", upper=0.0), Constraint("eq31_psi2_4", upper=0.0))
     cons += transmission_limits(transmission_min, ("transmission_6", "transmission_4"))
+    cons += clearance_limits(clearance, clearance_min, 2)
     return ProblemSpec("rtclm2", ev, ("dh4", "dh6"), cons, labels=LABELS, misfit=_rtclm_only)
