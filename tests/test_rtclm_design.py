@@ -122,6 +122,15 @@ def test_c_taea_refuses_a_single_objective_by_name() -> None:
     assert np.array_equal(reference_directions(1, 20), [[1.0]])
 
 
+@pytest.mark.parametrize("name", ["agemoea", "agemoea2"])
+def test_age_moea_refuses_a_single_objective_by_name(name: str) -> None:
+    # pymoo's AGE-MOEA-II divided by zero on RTCLM subtask 1 started from our clm-case1 preset (its first front: the
+    # start alone): it fits the front's curvature, which one objective does not have.
+    with pytest.raises(ValueError, match=f"{name} needs at least two objectives.*has 1"):
+        make_algorithm(AlgorithmSpec(name, 20), 1, 5)
+    assert make_algorithm(AlgorithmSpec(name, 20), 2, 5) is not None
+
+
 @pytest.mark.parametrize(("name", "pop", "kept"), [("ctaea", 10, 10), ("nsga3", 12, 12), ("ctaea", 12, None),
                                                    ("nsga3", 9, None), ("unsga3", 20, 20)])
 def test_n_partitions_and_pop_size_must_agree(name: str, pop: int, kept: int | None) -> None:

@@ -54,7 +54,7 @@ for preset in first_presets():
             run = Pipeline([spec], view.design).stage(0)
             try:
                 run.setup()
-            except ValueError:  # C-TAEA refuses the RTCLM's single objective by name
+            except ValueError:  # C-TAEA and AGE-MOEA(-II) refuse the RTCLM's single objective by name
                 continue
             run.run()
 from core.analysis.targets import compound_cycloid

@@ -148,8 +148,11 @@ def _ops_ctaea() -> dict[str, Any]:
 
 
 
-def _ga(cls_path: str, ops: Callable[[], dict[str, Any]]) -> Build:
+def _ga(cls_path: str, ops: Callable[[], dict[str, Any]], front_geometry: bool = False) -> Build:
     def build(spec: AlgorithmSpec, n_obj: int, seed: int, opts: dict[str, Any]) -> Algorithm:
+        if front_geometry and n_obj < 2:  # AGE-MOEA(-II) fits the front's curvature: pymoo divides by zero on one
+            raise ValueError(f"{spec.name} needs at least two objectives (it estimates the shape of the Pareto "
+                             f"front); this problem has {n_obj}")
         cls = _import(cls_path)
         return cls(pop_size=spec.pop_size, seed=seed, **_sbx_pm(opts, ALGORITHMS[spec.name].defaults), **ops())
 
@@ -261,8 +264,8 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
     "nsga2_pymoo": AlgorithmInfo("NSGA-II (pymoo)", GA_OPTIONS, _ga(_MOO + "nsga2.NSGA2", _ops_nsga2), _SBX15),
     "nsga3": AlgorithmInfo("NSGA-III", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "nsga3.NSGA3", _ops_nsga3), _SBX30),
     "unsga3": AlgorithmInfo("U-NSGA-III", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "unsga3.UNSGA3", _ops_unsga3), _SBX30),
-    "agemoea": AlgorithmInfo("AGE-MOEA", GA_OPTIONS, _ga(_MOO + "age.AGEMOEA", _ops_age), _SBX15),
-    "agemoea2": AlgorithmInfo("AGE-MOEA2", GA_OPTIONS, _ga(_MOO + "age2.AGEMOEA2", _ops_age), _SBX15),
+    "agemoea": AlgorithmInfo("AGE-MOEA", GA_OPTIONS, _ga(_MOO + "age.AGEMOEA", _ops_age, True), _SBX15),
+    "agemoea2": AlgorithmInfo("AGE-MOEA2", GA_OPTIONS, _ga(_MOO + "age2.AGEMOEA2", _ops_age, True), _SBX15),
     "smsemoa": AlgorithmInfo("SMS-EMOA", GA_OPTIONS, _ga(_MOO + "sms.SMSEMOA", _ops_sms), _SBX15),
     "spea2": AlgorithmInfo("SPEA2", GA_OPTIONS, _ga(_MOO + "spea2.SPEA2", _ops_spea2), _SBX15),
     "ctaea": AlgorithmInfo("C-TAEA", GA_OPTIONS + REF_OPTIONS, _ref(_MOO + "ctaea.CTAEA", _ops_ctaea, fixed_pop=True),
