@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from core.analysis.clearance import Clearance
 from core.analysis.evaluate import (
     CONSTRAINT_NAMES,
     CONSTRAINT_TEXT,
@@ -119,11 +120,50 @@ def motion_warnings(mu: float, crank: float, dyad: float, width: float) -> dict[
     return out
 
 
+def clearance_rows(c: Clearance | None, i: int = 0) -> tuple[Row, ...]:
+    """The ground clearance row (none where the leg frame is a pantograph's, whose bars are not modelled): red, and
+    said above the table, when a joint goes below the ground the foot stands on."""
+    if c is None:
+        return ()
+    j = c.lowest(i)
+    value = float(c.height[i, j]) if j >= 0 else None
+    note = (f"how far the lowest point after the foot ({c.names[j]}) stays above the ground the foot stands on"
+            if j >= 0 else "not defined: the design does not assemble")
+    warn = c.warning(i)
+    return (Row("clearance", "Ground clearance", value, "mm", 1, note=note, warn=warn, severe=bool(warn)),)
+
+
+def other_mode_row(title: str, solution: Solution, ev: Evaluation, clearance: Clearance, stance_shift: float,
+                   i: int = 0) -> Row:
+    """The RTCLM's other mode in one row (``title``: "Auxiliary mode"): whether it moves, its worst transmission
+    angle, ground clearance and how far its stance level lies from this mode's (``stance_shift``, mm, > 0:
+    lower), marked like the rows of this mode when it does not assemble, is near a dead point or strikes the
+    ground (rehearsal 5: the studio's opening RTCLM looked clean in the primary mode and was 5.6 deg from a dead
+    point in the auxiliary one)."""
+    if solution.violation[i] != 0.0:
+        return Row("other_mode", title, "does not assemble", note=why_infeasible(ev, i) or "",
+                   warn="the leg's other mode does not assemble: it cannot switch", severe=True)
+    mu = math.degrees(min_transmission_angle(solution, i))
+    shift = (f"stance {abs(stance_shift):.0f} mm {'lower' if stance_shift > 0 else 'higher'}"
+             if abs(stance_shift) >= 0.5 else "stance level the same")
+    value = f"μ {mu:.1f}°, clearance {float(clearance.value[i]):.0f} mm, {shift}"
+    note = (f"{title}: worst transmission angle {mu:.1f} deg; ground clearance {clearance.text(i)}; its stance "
+            f"level lies {abs(stance_shift):.1f} mm {'below' if stance_shift > 0 else 'above'} this mode's, so the "
+            f"trunk {'rises' if stance_shift > 0 else 'drops'} by that much when the leg switches")
+    warn, severe = clearance.warning(i), bool(clearance.warning(i))
+    if not warn:
+        crank = float(solution.crank_margin[i])
+        warn, severe = motion_warnings(mu, crank, math.inf, math.inf).get("mu_min", ("", False))
+    return Row("other_mode", title, value, note=note, warn=warn, severe=severe)
+
+
 def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
-                height: tuple[str, float] | None = None, stride: float | None = None) -> tuple[Row, ...]:
-    """The Metrics table of member i: the paper's metrics, then the kinematic facts. ``height``: the RTCLM mode's
-    name for h_m and its target (``("h6", 50.0)``), which the crossing-height row then names. ``stride``: the
-    target cycloid's L when it is the paper's 300 mm, for S as Appendix B prints it (h_s / 300 mm)."""
+                height: tuple[str, float] | None = None, stride: float | None = None,
+                extra: tuple[Row, ...] = ()) -> tuple[Row, ...]:
+    """The Metrics table of member i: the paper's metrics, then the kinematic facts, then ``extra`` (the ground
+    clearance, the RTCLM's other mode). ``height``: the RTCLM mode's name for h_m and its target (``("h6",
+    50.0)``), which the crossing-height row then names. ``stride``: the target cycloid's L when it is the paper's
+    300 mm, for S as Appendix B prints it (h_s / 300 mm)."""
     deg = math.degrees
     h_m = float(ev.h_m[i])
     h_label, h_note = "Crossing height hₘ", "max swing height, walking trajectory"
@@ -174,6 +214,7 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
             "limit", warn=warns.get("dyad_margin", ("", False))[0]),
         Row("mu_min", "Min transmission angle μ", mu, "deg", 1, note="min over dyads and cycle of min(mu, 180 - mu)",
             warn=warns.get("mu_min", ("", False))[0], severe=warns.get("mu_min", ("", False))[1]),
+        *extra,
     )
 
 

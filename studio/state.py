@@ -22,19 +22,30 @@ import msgspec
 import numpy as np
 from numpy.typing import NDArray
 
+from core.analysis.clearance import ground_clearance, rigid
 from core.analysis.evaluate import Evaluation, evaluate
 from core.analysis.targets import compound_cycloid
 from core.formats.design import check_params, design_from_dict, design_to_dict, value_problem
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
 from core.kinematics.design import Design
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
 from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from core.optimize.objectives import target_scale
 from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, case_h4, is_rtclm
 from core.optimize.scale import entry_bounds
-from studio.metrics import Row, evaluate_solution, feature_labels, metric_rows, shape_error, stance_mask
+from studio.metrics import (
+    Row,
+    clearance_rows,
+    evaluate_solution,
+    feature_labels,
+    metric_rows,
+    other_mode_row,
+    shape_error,
+    stance_mask,
+)
 from studio.session_pack import pack_study, unpack_study
 from studio.study import Branch, Selection, Study
 from studio.target import Curve, TargetSpec
@@ -239,9 +250,23 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     height = None if mode is None else (mode, float(getattr(target, mode)))
     # The paper printed S as h_s / 300 mm (its stride), the studio's S is h_s / l_s: both, for the paper's target.
     stride = target.length if height is None and target.curve is None and target.length == 300.0 else None
+    extra = clearance_rows(ground_clearance(sol, design.mechanism, design.output) if rigid(design.output) else None)
+    if mode is not None:
+        extra += (other_mode_view(design, sol, ev, target, n_samples, walk),)
     return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev,
-                      metric_rows(sol, ev, 0, height, stride),
+                      metric_rows(sol, ev, 0, height, stride, extra),
                       stance_mask(ev, n_samples), feature_labels(ev), walk, walking)
+
+
+def other_mode_view(design: Design, sol: Solution, ev: Evaluation, target: TargetSpec, n_samples: int,
+                    walk: WalkSpec) -> Row:
+    """The RTCLM's other mode as one Metrics row: the same leg locked the other way, solved and judged."""
+    other = RTCLM_AUXILIARY if design.mechanism.name == RTCLM_PRIMARY.name else RTCLM_PRIMARY
+    osol = solve(other, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
+    oev = evaluate_solution(osol, target.target(), target.period, walk.obstacle)
+    title = "Auxiliary mode" if other is RTCLM_AUXILIARY else "Primary mode"
+    return other_mode_row(title, osol, oev, ground_clearance(osol, other, design.output),
+                          float(ev.y_min[0] - oev.y_min[0]))
 
 
 def assembly_reason(view: DesignView) -> str | None:

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from core.analysis.clearance import ground_clearance, rigid
 from core.analysis.evaluate import (
     CONSTRAINT_NAMES,
     CONSTRAINT_TEXT,
@@ -125,13 +126,17 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     ev = evaluate(design, args.samples, backend=args.backend, **kw)
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
             "output": design.output.to_dict()}
+    if rigid(design.output):  # which joint is lowest, in words (a pantograph's bars are not modelled)
+        info["clearance_note"] = ground_clearance(design.solve(args.samples, derivatives=False, backend=args.backend),
+                                                  design.mechanism, design.output).text()
     return ev, design_label(args, preset), info
 
 
-def rtclm_height(mechanism: str, preset: str | None) -> tuple[str, str] | None:
+def rtclm_height(mechanism: str, preset: str | None, run_h4: float | None = None) -> tuple[str, str] | None:
     """An RTCLM mode's name for h_m and its target in words (``("h6", "50 mm")``), or None for another mechanism;
-    h4's target is the case's when ``preset`` was made for one (``Preset.case``: ``rtclm/case3``), else the five
-    cases'. (A regex over the label took a case from any path: runs/showcase2/leg.json read case 2's.)"""
+    h4's target is the run's (``run_h4``: a ``clm design`` run's pick drove to it) or the case's when ``preset`` was
+    made for one (``Preset.case``: ``rtclm/case3``), else the five cases'. (A regex over the label took a case from
+    any path: runs/showcase2/leg.json read case 2's.)"""
     from core.kinematics import presets
     from core.optimize.rtclm import H4_CASES, H6_TARGET, MODE_HEIGHT, case_h4
 
@@ -140,6 +145,8 @@ def rtclm_height(mechanism: str, preset: str | None) -> tuple[str, str] | None:
         return None
     if name == "h6":
         return name, f"{H6_TARGET:g} mm"
+    if run_h4 is not None:
+        return name, f"{run_h4:g} mm (the run's)"
     h4 = case_h4(preset)
     if h4 is not None:
         return name, f"{h4:g} mm (case {presets.PRESETS[str(preset)].case})"
@@ -161,12 +168,13 @@ def _fmt(v: float, digits: int = 3) -> str:
 
 
 def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, str] | None = None,
-          untimed: bool = False) -> str:
+          untimed: bool = False, clearance: str | None = None) -> str:
     """A readable summary of member 0; ``papers``: also the paper's S (h_s / 300 mm), for its stride; ``height``:
     an RTCLM mode's name for h_m and its target (:func:`rtclm_height`), whose cases drive heights, not a shape;
     ``untimed``: the target has no times, so its shape error is the best phase's (the optimizer's f1), and the
     one with its first point as t = 0 comes second (it read 76.7 mm for a right target above 24 mm for the same
-    target upside down)."""
+    target upside down); ``clearance``: the ground clearance in words (``Clearance.text``), for a design whose leg
+    frame is rigid."""
     r = ev.record(0)
     deg = math.degrees
     status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g}: {why_infeasible(ev)})"
@@ -202,6 +210,11 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
         rows.append(("worst transmission angle", _fmt(r["transmission"], 1),
                      f"deg (90 ideal, {MU_USUAL:g} the usual minimum"
                      + (f"; under {MU_DEAD:g}: close to a dead point)" if r["transmission"] < MU_DEAD else ")")))
+    if clearance is not None:
+        value = r["clearance"]
+        rows.append(("ground clearance", _fmt(value, 1), "mm" if not np.isfinite(value) else
+                     "mm (" + (clearance.partition("(")[2] or clearance + ")") if value >= 0 else
+                     f"mm: {clearance}"))
     w = max(len(n) for n, _, _ in rows)
     lines = [f"{label}: {status}; T = {ev.period:g} s, {ev.n_samples} samples, target {ev.target}"]
     lines += [f"  {n:<{w}}  {v:>10}  {u}" for n, v, u in rows]
@@ -235,10 +248,13 @@ def run(args: argparse.Namespace) -> int:
         rec["constraint_names"] = list(CONSTRAINT_NAMES)
         print(dumps({**rec, **info}))
     else:
-        height = rtclm_height(str(info.get("mechanism", "")), args.preset)
+        from core.cli.simulate import run_h4
+
+        height = rtclm_height(str(info.get("mechanism", "")), args.preset,
+                              run_h4(getattr(args, "design", None)))
         target = parse_target(args.target) if args.target is not None else None
         text = table(ev, label, papers_stride(args.target) and height is None, height,
-                     untimed=target is not None and not target.has_time)
+                     untimed=target is not None and not target.has_time, clearance=info.get("clearance_note"))
         if info.get("time_law") is False:
             head, _, rest = text.partition("\n")
             text = f"{head}\n{NO_TIMES}\n{rest}"

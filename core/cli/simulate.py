@@ -151,6 +151,21 @@ def run_pick(path: Path) -> Design:
         raise CLIError(str(e)) from None
 
 
+def run_h4(path: Path | None) -> float | None:
+    """The h4 target (mm) a ``clm design`` run of the RTCLM drove to (its rtclm2 stage's ``h4_target``), or None
+    (not a run, not the RTCLM's, unreadable: the caller then names the cases' targets)."""
+    if path is None or not (path.is_dir() or _is_run(path)):
+        return None
+    from core.formats.files import read_design_result
+
+    try:
+        stages = read_design_result(path / "result.json" if path.is_dir() else path)["pipeline"]["stages"]
+        targets = [s["problem"]["options"].get("h4_target") for s in stages if s["problem"]["name"] == "rtclm2"]
+    except (KeyError, TypeError, ValueError, OSError):
+        return None
+    return float(targets[-1]) if targets and isinstance(targets[-1], (int, float)) else None
+
+
 def extent(points: np.ndarray) -> dict[str, float | None]:
     """Bounding box of a ``(n_samples, 2)`` path over its finite samples (mm); None if there are none."""
     ok = np.isfinite(points).all(axis=-1)
