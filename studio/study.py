@@ -35,6 +35,7 @@ from core.optimize.algorithms import ALGORITHMS, make_algorithm
 from core.optimize.box import Box
 from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
+from core.optimize.problem import make_problem, problem_names
 from core.optimize.result import StageResult, dumps
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, sized_where, stage_spec
@@ -227,6 +228,19 @@ def branch_stages(lineage: list[StageResult], shown: dict[str, int]) -> str:
     return ", ".join(parts) + (f" by {name}" if name else "") + cut
 
 
+def result_labels(r: StageResult) -> dict[str, str]:
+    """The display names of the metrics of the problem a result ran (``{"order_4": "Eq. 30 order ..."}``), from the
+    registry; {} for a problem it does not know (a session from elsewhere)."""
+    problem = r.settings.get("problem") if isinstance(r.settings, dict) else None
+    name = problem.get("name") if isinstance(problem, dict) else None
+    if not isinstance(name, str) or name not in problem_names():
+        return {}
+    try:
+        return dict(make_problem(name).labels)  # the labels are the problem's, whatever its options
+    except (TypeError, ValueError):
+        return {}
+
+
 def status_text(r: StageResult) -> str:
     """The stage's state in words; a population with no feasible member says so and names what its least
     violating member misses (``complete — no feasible member: h_s 8.72 > 6.5``)."""
@@ -247,7 +261,7 @@ def status_text(r: StageResult) -> str:
         text += f" — its early stop [{', '.join(f'{float(v):g}' for v in stop)}] not reached (pick: {got})"
     if r.pop and not r.feasible.any():
         i = int(np.argmin(np.where(np.isnan(r.cv), np.inf, r.cv)))
-        unmet = "; ".join(r.unmet(i))
+        unmet = "; ".join(r.unmet(i, result_labels(r)))
         text += " — no feasible member" + (f": {unmet}" if unmet else "")
     return text
 

@@ -23,7 +23,10 @@ def test_no_feasible_member_is_named_with_the_unmet_constraint_and_its_values():
     assert text.startswith("complete — no feasible member: ")
     i = int(np.argmin(res.cv))
     h_s = float(res.metrics["h_s"][i])
-    assert f"h_s {h_s:.3g} > 0.01" in text
+    # By the problem's own name for it, as the Pick table and the pass-on prompt say it (session 30: the RTCLM's
+    # read "order_4 0.00721 > 0" here and "Eq. 30 order t1→t2→t5→t4, auxiliary (rad)" there).
+    assert f"f4 = h_s (mm) {h_s:.3g} > 0.01" in text
+    assert res.unmet(i) == [f"h_s {h_s:.3g} > 0.01"]  # without labels, the metric's key
 
 
 def test_a_stage_with_feasible_members_just_says_complete():

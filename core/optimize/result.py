@@ -198,8 +198,10 @@ class StageResult:
         """The feasible non-dominated members."""
         return self.shortlist.front
 
-    def unmet(self, i: int) -> list[str]:
-        """Member i's unmet constraints in words, with its values: ``h_s 8.72 > 6.5``, ``does not assemble``."""
+    def unmet(self, i: int, labels: Mapping[str, str] | None = None) -> list[str]:
+        """Member i's unmet constraints in words, with its values: ``h_s 8.72 > 6.5``, ``does not assemble``; a
+        metric by its ``labels`` name when it has one (the problem's: ``Eq. 30 order t1→t2→t5→t4, auxiliary (rad)
+        0.00721 > 0``, where "order_4" named it as no other place did)."""
         out = []
         for j, name in enumerate(self.constraints):
             if not self.G[i, j] > 0:
@@ -214,7 +216,7 @@ class StageResult:
                 continue
             v = self.metrics.get(metric)
             shown = f"{float(v[i]):.3g}" if v is not None else "?"
-            out.append(f"{metric} {shown} {'>' if op == '<=' else '<'} {float(bound):.3g}")
+            out.append(f"{(labels or {}).get(metric, metric)} {shown} {'>' if op == '<=' else '<'} {float(bound):.3g}")
         return out
 
     def named(self, i: int) -> dict[str, float]:
