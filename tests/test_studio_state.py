@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from core.analysis.features import FEATURE_NAMES
 from core.kinematics import presets
 from core.kinematics.solver import solve
-from studio.metrics import feature_labels, metrics_html, min_transmission_angle
+from studio.metrics import feature_labels, metrics_html, min_transmission_angle, shape_error
 from studio.state import (
     MAX_SPEED,
     Playback,
@@ -547,3 +547,24 @@ def test_the_session_summary_gives_the_metrics_rows_mse_for_a_target_without_tim
     assert abs(float(ev.mse[0]) - float(ev.mse_phase[0])) > 1.0  # the two differ for this curve
     row = next(r for r in session.view.rows if r.key == "mse")
     assert f"MSE {row.value:.3g} mm" in session.summary() and row.value == shape_error(ev)
+
+
+def test_a_design_file_gets_a_target_of_its_own_whatever_the_editor_showed_before() -> None:
+    # Review of session 29: a Jansen leg scaled x0.4 read MSE 58.6 mm loaded over the Jansen preset (the preset's
+    # fitted target) and 0.99 mm loaded over X3 (one fitted to it); the same file, two answers.
+    small = presets.get("jansen").design().scaled(0.4)
+    over_jansen = Session.default()
+    over_jansen.load_preset("jansen")
+    a = over_jansen.set_design(small, by_hand=True, cause="design j04.json", refit=True)
+    over_x3 = Session.default()
+    b = over_x3.set_design(small, by_hand=True, cause="design j04.json", refit=True)
+    assert a.target == b.target and a.target.origin.startswith("scaled to the design j04.json path")
+    assert shape_error(a.evaluation) == pytest.approx(shape_error(b.evaluation), abs=1e-9)
+    assert shape_error(a.evaluation) < 2.0
+    # A pick of a run (no refit) keeps the target the run was made against, and so does the paper's cycloid.
+    kept = Session.default()
+    kept.load_preset("jansen")
+    before = kept.view.target
+    assert kept.set_design(small, cause="subtask1's pick").target == before
+    x3 = Session.default()
+    assert x3.set_design(presets.get("stephenson1/X3").design().scaled(0.5), refit=True).target == x3.view.target

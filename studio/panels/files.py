@@ -152,7 +152,7 @@ class FilesPanel:
             return False
         try:
             design = design_from_dict(data)
-            self.studio.session.set_design(design, by_hand=True, cause=f"design {name}")
+            self.studio.session.set_design(design, by_hand=True, cause=f"design {name}", refit=True)
         except ValueError as exc:
             self.studio.notify(client, "Design not loaded", f"{name}: {exc}. The editor's design is kept.")
             return True
