@@ -18,16 +18,16 @@ from numpy.typing import NDArray
 
 from core.analysis.clearance import Clearance
 from core.analysis.evaluate import (
-    CONSTRAINT_NAMES,
     CONSTRAINT_TEXT,
     DEFAULT_OBSTACLE,
     Evaluation,
     evaluate_paths,
+    gait_verdict,
     why_infeasible,
 )
 from core.analysis.features import FEATURE_NAMES
 from core.analysis.targets import Target
-from core.kinematics.solver import MU_DEAD, MU_USUAL, Solution, worst_transmission
+from core.kinematics.solver import DEAD_POINT_RISK, MU_DEAD, MU_USUAL, Solution, worst_transmission
 from studio.tables import INSET
 
 F64 = NDArray[np.float64]
@@ -95,9 +95,16 @@ def min_transmission_angle(solution: Solution, i: int = 0) -> float:
     return float(worst_transmission(solution.mu_min[i : i + 1], solution.mu_max[i : i + 1])[0])
 
 
-def unmet_constraints(ev: Evaluation, i: int = 0) -> tuple[str, ...]:
-    """Names of the Eq. 30-31 gait constraints member i does not meet (value > 0)."""
-    return tuple(n for n, v in zip(CONSTRAINT_NAMES, ev.constraints[i], strict=True) if not v <= 0.0)
+def gait_text(ev: Evaluation, i: int = 0) -> tuple[str, str]:
+    """The Gait constraints row of member i: ``("1 unmet", "landing angle theta1 >= 15 deg")``, ``"all met"``, or
+    ``"5 not defined"`` where there is no bench trajectory to measure them on (core's ``gait_verdict``, which
+    ``clm evaluate`` reads too)."""
+    unmet, undefined = gait_verdict(ev.constraints[i])
+    said = ([f"{len(unmet)} unmet"] if unmet else []) + ([f"{len(undefined)} not defined"] if undefined else [])
+    note = "; ".join(CONSTRAINT_TEXT[n] for n in unmet)
+    if undefined:
+        note += ("; " if note else "") + f"not defined ({', '.join(undefined)}): no well-defined bench trajectory"
+    return ("; ".join(said) or "all met"), (note or "Eq. 30-31 all met")
 
 
 MARGIN_SHARE = 0.01  # a crank or dyad margin under this share of the path width comes close to a dead point
@@ -109,8 +116,7 @@ def motion_warnings(mu: float, crank: float, dyad: float, width: float) -> dict[
     ``width`` (mm). Nothing for undefined values (a design that does not assemble says so elsewhere)."""
     out: dict[str, tuple[str, bool]] = {}
     if math.isfinite(mu) and mu < MU_DEAD:
-        out["mu_min"] = (f"close to a dead point (under {MU_DEAD:g} deg): with play in its joints the leg can lock "
-                         "or change branch", True)
+        out["mu_min"] = (f"close to a dead point (under {MU_DEAD:g} deg): {DEAD_POINT_RISK}", True)
     elif math.isfinite(mu) and mu < MU_USUAL:
         out["mu_min"] = (f"below the usual {MU_USUAL:g} deg: the linkage transmits force poorly there", False)
     room = MARGIN_SHARE * width if math.isfinite(width) and width > 0 else 0.0
@@ -171,7 +177,7 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
         name, goal = height
         h_label = f"{name} (crossing height hₘ)"
         h_note = f"the RTCLM's {name}: target {goal:g} mm, off by {abs(h_m - goal):.3g} mm (Target panel)"
-    unmet = unmet_constraints(ev, i)
+    gait, gait_note = gait_text(ev, i)
     why = why_infeasible(ev, i)
     margin = solution.dyad_margin[i]
     margin = margin[np.isfinite(margin)]
@@ -204,8 +210,7 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
             note="obstacle crossing probability, quadruped"),
         Row("width", "Path width l", float(ev.width[i]), "mm", note="x_max - x_min, design frame"),
         Row("y_min", "Lowest path y", float(ev.y_min[i]), "mm", note="lowest point, design frame (target: -H)"),
-        Row("gait", "Gait constraints", "all met" if not unmet else f"{len(unmet)} unmet",
-            note="; ".join(CONSTRAINT_TEXT[n] for n in unmet) or "Eq. 30-31 all met"),
+        Row("gait", "Gait constraints", gait, note=gait_note),
         Row("violation", "Assembly violation", float(solution.violation[i]), "mm",
             note="assembly shortfall, 0 if it assembles"),
         Row("crank_margin", "Crank margin", crank, "mm", note="> 0: the crank turns fully",

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from core.analysis.evaluate import gait_verdict
 from core.optimize.box import Box
 from studio.candidates import HistoryRow
 from studio.metrics import (
@@ -19,7 +20,6 @@ from studio.metrics import (
     min_transmission_angle,
     shape_error,
     stance_mask,
-    unmet_constraints,
     why_infeasible,
 )
 from studio.tables import BETTER, WORSE, box_html, compare_html, history_html, verdict_html
@@ -83,12 +83,19 @@ def test_the_shape_error_is_the_best_shift_one_when_there_is_one():
     assert shape_error(evaluation(mse_phase=np.array([2.0]), mse=np.array([3.0]))) == 2.0
 
 
-def test_a_constraint_counts_as_unmet_above_zero_or_unreadable():
+def test_a_constraint_is_unmet_above_zero_and_not_defined_when_unreadable():
+    # The review of session 29: the studio counted NaN as "unmet" where clm evaluate says "not defined" (one rule
+    # now, core's gait_verdict).
     ev = evaluation(constraints=np.array([[0.0, -1.0, 0.5, np.nan, 0.0]]))
-    assert unmet_constraints(ev) == ("theta2", "h_bar")
+    assert gait_verdict(ev.constraints[0]) == (("theta2",), ("h_bar",))
     rows = metric_rows(solution(), ev)
-    assert row(rows, "gait").text() == "2 unmet"
-    assert row(rows, "gait").note == "take-off angle theta2 >= 15 deg; mean swing height h_bar > h_m / 4 (Eq. 31)"
+    assert row(rows, "gait").text() == "1 unmet; 1 not defined"
+    assert row(rows, "gait").note == ("take-off angle theta2 >= 15 deg; not defined (h_bar): no well-defined bench "
+                                      "trajectory")
+    none = metric_rows(solution(), evaluation(constraints=np.full((1, 5), np.nan)))
+    assert row(none, "gait").text() == "5 not defined"
+    met = metric_rows(solution(), evaluation(constraints=np.zeros((1, 5))))
+    assert row(met, "gait").text() == "all met" and row(met, "gait").note == "Eq. 30-31 all met"
 
 
 def test_why_not_names_the_first_reason_that_applies():

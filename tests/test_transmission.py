@@ -63,8 +63,10 @@ def test_a_batch_agrees_with_each_design_alone_and_the_backends_agree() -> None:
     np.testing.assert_allclose(batch[:3], alone[:3], rtol=1e-12)
     assert np.isfinite(batch[:3]).all() and 0.0 < batch[:3].min() and batch[:3].max() <= 90.0
     sol = design.solve(360, backend="numpy")
-    np.testing.assert_allclose(batch, np.degrees(worst_transmission(sol.mu_min, sol.mu_max)), rtol=1e-12)
-    assert np.isnan(sol.mu_min[3]).all() == np.isnan(batch[3])
+    np.testing.assert_allclose(batch[:3], np.degrees(worst_transmission(sol.mu_min, sol.mu_max))[:3], rtol=1e-12)
+    # The design that does not assemble has no angle (its dyad reaches 0 deg at the edge of where it closes, which
+    # read as a measured dead point: the review of session 29), on both backends.
+    assert sol.violation[3] > 0 and np.isnan(batch[3]) and np.isnan(alone[3])
 
 
 def test_the_worst_angle_takes_both_ends_and_ignores_dyads_that_never_close() -> None:

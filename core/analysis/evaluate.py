@@ -69,8 +69,8 @@ class Evaluation:
             crank closes no loop, NaN for paths without a design): how far the design is from a dead point.
         transmission: the worst transmission angle over the cycle and every dyad, ``min(mu, 180 - mu)`` in
             **degrees**, the unit of the design rule (40 deg or more is the usual demand, 90 ideal; near 0 a dyad
-            passes close to its dead point and transmits almost no force); over the samples where it closes,
-            NaN where none does and for paths without a design (``solver.worst_transmission``).
+            passes close to its dead point and transmits almost no force); NaN where the design does not assemble
+            over the whole cycle and for paths without a design (``solver.worst_transmission``).
         clearance: the ground clearance (mm, ``core.analysis.clearance``): how far the lowest joint but the foot
             stays above the foot's lowest level over the cycle, < 0 when it goes below (the leg would strike the
             ground, or works upside down); NaN where the design does not assemble, its output stage is a
@@ -199,9 +199,26 @@ def evaluate(
         phase_optimal=phase_optimal,
         kernel=use_numba,
     )
-    mu = np.degrees(worst_transmission(sol.mu_min, sol.mu_max))
+    mu = _assembled(np.degrees(worst_transmission(sol.mu_min, sol.mu_max)), sol.violation)
     ground = ground_clearance(sol, design.mechanism, design.output).value
     return replace(ev, crank_margin=sol.crank_margin, transmission=mu, clearance=ground)
+
+
+def _assembled(mu: F64, violation: F64) -> F64:
+    """The worst transmission angle where the design assembles, NaN elsewhere: a dyad that cannot close reaches
+    0 deg at the edge of where it does, which read as a measured dead point (rehearsal 5, the review of session
+    29: the Pick panel warned "0.0 deg" of a member that does not assemble)."""
+    return np.where(np.asarray(violation) > 0.0, np.nan, mu)
+
+
+def gait_verdict(constraints: F64) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The Eq. 30-31 constraint values of one member, ``(5,)``: the names of those it misses (> 0) and of those
+    not defined (NaN: no well-defined bench trajectory, so not measured). One rule for ``clm evaluate`` and the
+    studio (the studio said "5 unmet" where the CLI said "5 not defined")."""
+    values = np.asarray(constraints, dtype=np.float64)
+    unmet = tuple(n for n, v in zip(CONSTRAINT_NAMES, values, strict=True) if v > 0.0)
+    undefined = tuple(n for n, v in zip(CONSTRAINT_NAMES, values, strict=True) if np.isnan(v))
+    return unmet, undefined
 
 
 def _check_args(
@@ -277,7 +294,7 @@ def _evaluate_fused(
     )
     crank = crank_margin_of(prep)
     kin = assembly_violation(prep, mmin, neg, broken, crank)
-    mu = np.degrees(worst_transmission(*transmission_range(prep.program.ops, cmin, cmax)))
+    mu = _assembled(np.degrees(worst_transmission(*transmission_range(prep.program.ops, cmin, cmax))), kin)
     ground = from_lowest(ylow, design.mechanism, out, kin).value
     return _assemble(_kernel_results(index, pts, tans, S, float(period), n), np.full(pop, np.nan), kin, tgt,
                      period, (a, b), trunk, n, crank, mu, ground)

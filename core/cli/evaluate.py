@@ -21,6 +21,7 @@ from core.analysis.evaluate import (
     Evaluation,
     evaluate,
     evaluate_paths,
+    gait_verdict,
     why_infeasible,
 )
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
@@ -168,13 +169,13 @@ def _fmt(v: float, digits: int = 3) -> str:
 
 
 def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, str] | None = None,
-          untimed: bool = False, clearance: str | None = None) -> str:
+          untimed: bool = False, clearance: str | None = None, design: bool = True) -> str:
     """A readable summary of member 0; ``papers``: also the paper's S (h_s / 300 mm), for its stride; ``height``:
     an RTCLM mode's name for h_m and its target (:func:`rtclm_height`), whose cases drive heights, not a shape;
     ``untimed``: the target has no times, so its shape error is the best phase's (the optimizer's f1), and the
     one with its first point as t = 0 comes second (it read 76.7 mm for a right target above 24 mm for the same
     target upside down); ``clearance``: the ground clearance in words (``Clearance.text``), for a design whose leg
-    frame is rigid."""
+    frame is rigid; ``design``: a design's (a curve has no transmission angle)."""
     r = ev.record(0)
     deg = math.degrees
     status = "feasible" if r["feasible"] else f"INFEASIBLE (violation {r['violation']:.4g}: {why_infeasible(ev)})"
@@ -204,7 +205,7 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
         rows.append(("shape error, its first point at t = 0", at_zero[1], "mm (no meaning without times)"))
     elif np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
-    if np.isfinite(r["transmission"]) and r["violation"] > 0:  # a dyad that cannot close: no angle
+    if design and r["kinematic_violation"] > 0:  # a dyad cannot close: no angle
         rows.append(("worst transmission angle", "n/a", "deg (it does not assemble over the whole cycle)"))
     elif np.isfinite(r["transmission"]):  # a design's (a curve has none)
         rows.append(("worst transmission angle", _fmt(r["transmission"], 1),
@@ -225,8 +226,7 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
     lines.append("  constraints (<= 0 satisfied): " + ", ".join(
         f"{n} {_fmt(v, 4)}" + ("" if u == "1" else f" {u}")  # psi2's is a fraction: no unit
         for (n, v), u in zip(r["constraints"].items(), CONSTRAINT_UNITS, strict=True)))
-    unmet = [n for n, v in r["constraints"].items() if v > 0.0]
-    undefined = [n for n, v in r["constraints"].items() if not np.isfinite(v)]
+    unmet, undefined = gait_verdict(ev.constraints[0])
     held = "the RTCLM stages hold Eq. 30, and Eq. 31 in the auxiliary mode; the paper's §3 subtasks neither"
     said = [f"{len(unmet)} unmet: " + "; ".join(CONSTRAINT_TEXT[n] for n in unmet)] if unmet else []
     if undefined:  # no bench trajectory to measure them on (it does not assemble): not measured, so not "unmet"
@@ -254,7 +254,8 @@ def run(args: argparse.Namespace) -> int:
                               run_h4(getattr(args, "design", None)))
         target = parse_target(args.target) if args.target is not None else None
         text = table(ev, label, papers_stride(args.target) and height is None, height,
-                     untimed=target is not None and not target.has_time, clearance=info.get("clearance_note"))
+                     untimed=target is not None and not target.has_time, clearance=info.get("clearance_note"),
+                     design="mechanism" in info)
         if info.get("time_law") is False:
             head, _, rest = text.partition("\n")
             text = f"{head}\n{NO_TIMES}\n{rest}"
