@@ -188,7 +188,7 @@ def build_problem(name: str, target: TargetSpec, transmission_min: int = 0) -> P
     (deg, 0: none): its lower limit on the worst transmission angle; ValueError for a problem without one."""
     extra: dict[str, Any] = {"transmission_min": float(transmission_min)} if transmission_min else {}
     if extra and not _takes(name, **extra):
-        raise ValueError(f"problem {name!r} takes no limit on the transmission angle: set Min transmission angle "
+        raise ValueError(f"problem {name!r} takes no limit on the transmission angle: set Min transmission μ "
                          "to 0 to run it")
     if takes_heights(name):
         return make_problem(name, h6_target=float(target.h6), h4_target=float(target.h4), **extra)

@@ -109,4 +109,4 @@ def drawing_warnings(view: DesignView, angle: float, plates: Plates | None = Non
         said = cutting_warnings(drawing(view.design, angle), plates or Plates())
     except ValueError:
         return []
-    return [f"{w} (Pin hole Ø above the Drawing buttons)" if w.endswith("smaller pins") else w for w in said]
+    return [f"{w.text} (Pin hole Ø above the Drawing buttons)" if w.overlap else w.text for w in said]

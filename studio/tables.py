@@ -136,7 +136,7 @@ def dead_point_html(r: StageResult, i: int) -> str:
     """A warning under the verdict when member i passes close to a dead point (its worst transmission angle, of
     either RTCLM mode too, under ``MU_DEAD``): a pick can meet every constraint of its stage and still lock
     (rehearsal 4: a predesign pick at 0.3 deg read "meets predesign's constraints" in green). Empty otherwise."""
-    from core.kinematics.solver import MU_DEAD
+    from core.kinematics.solver import DEAD_POINT_RISK, MU_DEAD
 
     angles = [float(r.metrics[k][i]) for k in ("transmission", "transmission_6", "transmission_4")
               if k in r.metrics]
@@ -144,8 +144,8 @@ def dead_point_html(r: StageResult, i: int) -> str:
     if not angles or min(angles) >= MU_DEAD:
         return ""
     text = (f"⚠ #{i} passes close to a dead point: worst transmission angle {min(angles):.1f} deg (under "
-            f"{MU_DEAD:g}); with play in its joints the leg can lock or change branch. A limit: the stage's "
-            "transmission_min option (clm design), or pick another member")
+            f"{MU_DEAD:g}); {DEAD_POINT_RISK}. A limit: Stages ▸ Min transmission μ (a config's transmission_min), "
+            "or pick another member")
     return f'<div class="clm-dead-point" style="{VERDICT}color:#b91c1c">{html.escape(text)}</div>'
 
 

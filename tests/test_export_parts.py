@@ -85,8 +85,10 @@ def test_each_part_is_a_closed_plate_whose_holes_are_as_far_apart_as_the_design_
 def test_holes_too_close_are_warned_about_and_bad_sizes_refused(tmp_path, capsys):
     d = drawing(get("stephenson1/X3").design())
     bf = float(np.linalg.norm(d.point("B") - d.point("F")))  # 6.54 mm
-    assert [w.split(" (")[0] for w in cutting_warnings(d, Plates(5.0))] == ["holes B and F of link A-B-F"]
-    assert "overlap" in cutting_warnings(d, Plates(bf + 0.1))[0]
+    assert [w.text.split(" (")[0] for w in cutting_warnings(d, Plates(5.0))] == ["holes B and F of link A-B-F"]
+    assert not cutting_warnings(d, Plates(5.0))[0].overlap
+    over = cutting_warnings(d, Plates(bf + 0.1))[0]
+    assert "overlap" in over.text and over.overlap
     assert cutting_warnings(d, Plates(3.0, 6.0)) == []  # 3.54 mm between them, 1.5 beside each hole
     out = tmp_path / "x.dxf"
     assert main(["export", "--preset", "stephenson1/X3", "--dxf", str(out), "--hole", "3", "--width", "12"]) == 0
@@ -116,3 +118,16 @@ def test_the_rtclm_s_parts_are_the_leg_built_its_second_motor_s_crank_apart_with
     assert hf == pytest.approx(design.named()["r6"], abs=1e-9)  # the crank's length
     aux = drawing(get("rtclm/clm-case1/auxiliary").design())
     assert ("H", "F") in aux.links  # a link of the four-bar there, as it was
+
+
+def test_the_studio_names_its_own_hole_field_where_only_smaller_pins_help() -> None:
+    # Review of session 29: both front ends found the overlap by the last words of core's sentence.
+    from studio.exports import drawing_warnings
+    from studio.state import build_view
+    from studio.target import TargetSpec
+
+    view = build_view(get("stephenson1/X3").design(), "stephenson1/X3", TargetSpec())
+    said = drawing_warnings(view, 0.0, Plates(7.0))
+    assert said and all(w.endswith("(Pin hole Ø above the Drawing buttons)") == ("overlap" in w) for w in said)
+    assert any("overlap" in w for w in said)
+    assert not any(w.endswith("buttons)") for w in drawing_warnings(view, 0.0, Plates(5.0)))

@@ -70,6 +70,6 @@ def run(args: argparse.Namespace) -> int:
     if args.svg is not None:
         atomic_write(args.svg, svg(d, plates=plates))
         print(f"wrote {args.svg}")
-    for text in cutting_warnings(d, plates):
-        print(f"clm: warning: {text}{' (--hole)' if text.endswith('smaller pins') else ''}", file=sys.stderr)
+    for w in cutting_warnings(d, plates):
+        print(f"clm: warning: {w.text}{' (--hole)' if w.overlap else ''}", file=sys.stderr)
     return 0

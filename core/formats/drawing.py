@@ -149,7 +149,16 @@ def part_frame(d: Drawing, body: tuple[str, ...]) -> tuple[F64, F64]:
     return pts @ rot.T, rot
 
 
-def cutting_warnings(d: Drawing, plates: Plates) -> list[str]:
+@dataclass(frozen=True)
+class CutWarning:
+    """One thing that makes a part uncuttable or weak, in words; ``overlap``: two holes overlap, so only smaller pins
+    help (each front end names its own control for the hole: ``--hole``, the studio's Pin hole field)."""
+
+    text: str
+    overlap: bool
+
+
+def cutting_warnings(d: Drawing, plates: Plates) -> list[CutWarning]:
     """What would make a part uncuttable or weak: two holes of one link that overlap, or leave less material
     between them than beside each hole (the plate's web)."""
     out = []
@@ -161,10 +170,10 @@ def cutting_warnings(d: Drawing, plates: Plates) -> list[str]:
             where = (f"holes {a} and {b} of link {'-'.join(body)} (centres {dist:.2f} mm apart, "
                      f"{plates.hole:g} mm holes)")
             if left < 0:
-                out.append(f"{where} overlap: the part cannot be cut as drawn; use smaller pins")
+                out.append(CutWarning(f"{where} overlap: the part cannot be cut as drawn; use smaller pins", True))
             elif left < plates.web:
-                out.append(f"{where} leave {left:.2f} mm of material between them, less than the {plates.web:.2f} "
-                           "mm beside each hole")
+                out.append(CutWarning(f"{where} leave {left:.2f} mm of material between them, less than the "
+                                      f"{plates.web:.2f} mm beside each hole", False))
     return out
 
 

@@ -223,6 +223,7 @@ def transmission_range(ops: NDArray[np.int64], cmin: F64, cmax: F64) -> tuple[F6
 
 MU_USUAL = 40.0  # deg: the usual lowest worst transmission angle of a linkage that is to transmit force
 MU_DEAD = 10.0  # deg: under this a dyad passes close to a dead point (with play it can lock or change branch)
+DEAD_POINT_RISK = "with play in its joints the leg can lock or change branch"  # what MU_DEAD warns of, in words
 
 
 def worst_transmission(mu_min: F64, mu_max: F64) -> F64:
