@@ -260,3 +260,44 @@ def test_a_study_written_before_the_narrowed_settings_keeps_its_rows(tmp_path: P
         assert current_rows({**old, "digest": 2}, rows) == []  # read as today's digests, none would match
     finally:
         store.close()
+
+
+def test_cells_run_by_other_code_are_refused_kept_or_run_again_but_never_pooled_unsaid(
+        tmp_path: Path, client: _Client) -> None:
+    # Rehearsal 6: a resumed study reused four seeds of the old NSGA-II and ran the fifth with a changed one.
+    from core.study.provenance import code_digest
+    from core.study.report import write_report
+
+    (tmp_path / "s.toml").write_text(STUDY)
+    study = load_study(tmp_path / "s.toml")
+    out = str(tmp_path / "out")
+    runner.run_study(study, out, stream=None, task=fake_task)
+    store = Store(out)
+    assert set(store.codes().values()) == {code_digest()}  # each finished cell keeps its code's digest
+    store.db.execute("UPDATE runs SET code = 'feedfacecafe' WHERE key = 'subtask2/nsga2/1'")
+    store.close()
+    client.sent.clear()
+    with pytest.raises(runner.StudyChanged, match=r"1 finished cell\(s\) run with other code \(core digest "
+                                                  r"feedfacecafe; this code: " + code_digest()):
+        runner.run_study(study, out, stream=None, task=fake_task)
+    assert client.sent == []
+    runner.run_study(study, out, stream=None, task=fake_task, mixed_code=True)  # kept: the report says so
+    assert client.sent == ["subtask2/spea2/2"]  # the failed one only
+    md = write_report(out)[0].read_text()
+    assert "Code: **2 versions** among the runs" in md and "1 run(s) by core digest feedfacecafe" in md
+    client.sent.clear()
+    runner.run_study(study, out, stream=None, task=fake_task, rerun_changed=True)  # run again with this code
+    assert "subtask2/nsga2/1" in client.sent
+    assert set(Store(out).codes().values()) == {code_digest()}
+    md = write_report(out)[0].read_text()
+    assert f"Code: core digest {code_digest()}" in md and "for every run" in md
+
+
+def test_a_directory_of_another_study_is_refused(tmp_path: Path, client: _Client) -> None:
+    # Rehearsal 6: --out into another study's directory took it over and overwrote its report.
+    (tmp_path / "a.toml").write_text(STUDY)
+    (tmp_path / "b.toml").write_text(STUDY.replace('name = "resume"', 'name = "other"', 1))
+    out = str(tmp_path / "out")
+    runner.run_study(load_study(tmp_path / "a.toml"), out, stream=None, task=fake_task)
+    with pytest.raises(runner.StudyChanged, match="holds the study 'resume', not 'other'"):
+        runner.run_study(load_study(tmp_path / "b.toml"), out, stream=None, task=fake_task)

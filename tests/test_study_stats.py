@@ -142,3 +142,38 @@ def test_the_exact_rank_sum_p_counts_every_split_of_the_pooled_ranks(a: list[int
     assert rank_sum_p(a, b) == pytest.approx(brute, rel=1e-12)
     if len(set(a + b)) == len(a + b):
         assert rank_sum_p(a, b) == pytest.approx(mannwhitneyu(a, b, method="exact").pvalue, rel=1e-9)
+
+
+def test_the_report_says_what_each_median_counts_who_has_no_best_design_and_what_cannot_be_significant() -> None:
+    # Rehearsal 6: IGD+ "0 [0]" was one run beside HV over two; an algorithm without a feasible pick vanished from
+    # the best-design list; three seeds gave a column of ≈ without a word; subtask 1's IGD+ restated its MSE.
+    rows = [run_row("a", 1, 4.0, [[0.0, 1.0], [1.0, 0.0]]), run_row("a", 2, 3.0, [], False),
+            run_row("b", 1, 2.0, [], False), run_row("b", 2, 1.0, [], False)]
+    c = case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")
+    md = markdown("s", [c])
+    igd = next(x for x in md.splitlines() if x.startswith("| IGD+"))
+    assert "0 [0] (1 of 2)" in igd and "(1 of 2)" not in next(x for x in md.splitlines() if x.startswith("| HV"))
+    assert "- **A** (seed 1)" in md and "- **B**: none of its 2 picks met the stage's constraints" in md
+    assert "With 2 against 2 runs no difference can reach 5 % (the exact test's smallest p is 0.33)" in md
+    flat = [run_row("a", s, 3.0 + s, [[3.0 + s, 0.0]]) for s in (1, 2, 3, 4, 5)]  # every front (f1, 0)
+    md = markdown("s", [case_report(Rows(flat), "c", ["a"], {"a": "A"}, "a", "mse")])
+    assert "HV and IGD+ here are not normalised in f1, f2: the pooled front's non-dominated points share" in md
+    assert "not normalised" not in markdown("s", [c]) and "can reach 5 %" not in markdown("s", [
+        case_report(Rows(flat), "c", ["a"], {"a": "A"}, "a", "mse")])
+
+
+def test_the_report_names_the_study_file_seeds_case_settings_and_code() -> None:
+    import json
+
+    rows = [run_row("a", s, 1.0, [[0.0, 1.0]]) for s in (1, 2, 3)]
+    for r in rows:
+        r["code"] = "abc123abc123"
+        r["settings"] = json.dumps({"algorithm": {"name": "a", "pop_size": 40},
+                                    "case": {"budget": 5000, "start": "stephenson1/X0", "stages": ["subtask1"]}})
+    c = case_report(Rows(rows), "c", ["a"], {"a": "A"}, "a", "mse")
+    meta = {"path": "/x/paper.toml", "algorithms": ["a"], "labels": {"a": "A"}, "reference": "a", "seeds": [1, 2, 3]}
+    md = markdown("s", [c], meta, {"digest": "abc123abc123", "commit": "0123456789ab"})
+    assert "Study file `/x/paper.toml`; algorithms A (reference A); seeds 1-3 (3 per algorithm and case)." in md
+    assert "Code: core digest abc123abc123 (commit 0123456789ab) for every run." in md
+    assert ("Each run: subtask1, from stephenson1/X0; population 40; a budget of 5000 function evaluations a "
+            "stage.") in md

@@ -20,6 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "study",
         usage="clm study STUDY.toml --out DIR [--scheduler ADDRESS | --workers N] [--quiet] [--rerun-changed]\n"
+              "                 [--mixed-code]\n"
               "       clm study report DIR",
         help="run a study of algorithms x cases x seeds on Dask, or write its report",
         description="Run every (algorithm, case, seed) cell of a study file as a Dask task (a local cluster with one "
@@ -35,7 +36,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     p.add_argument("--rerun-changed", action="store_true",
                    help="run again the finished cells whose settings changed since (budget, population, options, "
-                   "the case config); without it such a directory is refused")
+                   "the case config) or whose code did (a digest of core/); without it such a directory is refused")
+    p.add_argument("--mixed-code", action="store_true",
+                   help="keep finished cells another version of the code ran; the report counts the runs of each")
     p.set_defaults(func=run)
 
 
@@ -77,7 +80,8 @@ def _run(args: argparse.Namespace) -> int:
     study = load_study(args.args[0])
     out = _check_out(args.out)
     summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
-                        stream=None if args.quiet else sys.stderr, rerun_changed=args.rerun_changed)
+                        stream=None if args.quiet else sys.stderr, rerun_changed=args.rerun_changed,
+                        mixed_code=args.mixed_code)
     md, page = write_report(out)
     print(f"{study.name}: {summary.total} cells, {summary.skipped} already done, {summary.ran} run now "
           f"({summary.failed} failed) in {summary.wall_time:.1f} s; report: {md}, {page}")

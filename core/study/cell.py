@@ -22,6 +22,7 @@ from core.kinematics.kernel_cache import CompileTimer
 from core.optimize.decision import pareto_front
 from core.optimize.result import dumps
 from core.optimize.run import run_design
+from core.study.provenance import code_digest
 
 PICK_METRICS = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
 def read_config(path: str) -> dict[str, Any]:
@@ -105,7 +106,7 @@ def run_cell(cell: dict[str, Any]) -> dict[str, Any]:
     """Run one cell; never raises: a failure comes back as ``status = "failed"`` with its message."""
     t0 = time.perf_counter()
     record: dict[str, Any] = {"key": cell["key"], "algorithm": cell["algorithm"]["name"],
-                              "case": cell["case"]["name"], "seed": cell["seed"]}
+                              "case": cell["case"]["name"], "seed": cell["seed"], "code": code_digest()}
     try:
         if cell.get("threads"):
             import numba

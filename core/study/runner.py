@@ -19,6 +19,7 @@ from typing import Any, TextIO
 from core.formats.study import Study, effective_settings, settings_change
 from core.optimize.workers import connect
 from core.study.cell import check_cells, run_cell, warm_cells, warm_up
+from core.study.provenance import code_digest, code_version
 from core.study.store import DIGEST, Store, settings_digest, study_lock
 
 
@@ -99,7 +100,7 @@ class Progress:
 
 def run_study(study: Study, out: str, scheduler: str | None = None, workers: int | None = None,
               stream: TextIO | None = sys.stderr, task: Callable[[dict[str, Any]], dict[str, Any]] = run_cell,
-              limit: int | None = None, rerun_changed: bool = False) -> Summary:
+              limit: int | None = None, rerun_changed: bool = False, mixed_code: bool = False) -> Summary:
     """Run every unfinished cell of ``study`` and keep the results in ``out``.
 
     Args:
@@ -111,18 +112,21 @@ def run_study(study: Study, out: str, scheduler: str | None = None, workers: int
         task: the function a cell runs (tests swap in one that fails).
         limit: run at most this many cells now (the rest wait for the next invocation).
         rerun_changed: run again the finished cells whose settings changed since (budget, population, options,
-            the case config's contents); without it such a study is refused (StudyChanged), never reused.
+            the case config's contents), or whose code did (``core.study.provenance``); without it such a study is
+            refused (StudyChanged), never reused.
+        mixed_code: keep finished cells another version of the code ran (or whose code was not recorded); the
+            report then counts the runs of each version.
     """
     t0 = time.perf_counter()
     check_cells(study)
     cells = study.cells()
     with study_lock(out):
-        return _run(study, cells, out, scheduler, workers, stream, task, limit, rerun_changed, t0)
+        return _run(study, cells, out, scheduler, workers, stream, task, limit, rerun_changed, mixed_code, t0)
 
 
 def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | None, workers: int | None,
          stream: TextIO | None, task: Callable[[dict[str, Any]], dict[str, Any]], limit: int | None,
-         rerun_changed: bool, t0: float) -> Summary:
+         rerun_changed: bool, mixed_code: bool, t0: float) -> Summary:
     from distributed import as_completed
 
     store = Store(out)
@@ -136,6 +140,21 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
             raise StudyChanged(
                 f"{out} holds {len(changed)} finished cell(s) run with other settings, e.g. {first['key']}: "
                 f"{settings_change(was, now)}; pass --rerun-changed to run them again, or choose another --out")
+        other = study.name != (store.meta("study") or {}).get("name", study.name)
+        if other and kept:  # rehearsal 6: another study's directory was taken over, its report overwritten
+            raise StudyChanged(f"{out} holds the study {store.meta('study')['name']!r}, not {study.name!r}; choose "
+                               "another --out")
+        codes, here = store.codes(), code_digest()
+        stale = [c for c in cells if c["key"] in kept and c not in changed and codes.get(c["key"]) != here]
+        if stale and not (rerun_changed or mixed_code):
+            versions = sorted({str(codes.get(c["key"]) or "not recorded") for c in stale})
+            raise StudyChanged(
+                f"{out} holds {len(stale)} finished cell(s) run with other code (core digest {', '.join(versions)}; "
+                f"this code: {here}): pass --rerun-changed to run them again with this code, --mixed-code to keep "
+                "them (the report counts the runs of each version), or choose another --out")
+        if rerun_changed:
+            changed += [c for c in stale if c not in changed]
+        store.set_meta("code", code_version())
         store.set_meta("study", {"name": study.name, "path": study.path, "reference": study.reference,
                                  "algorithms": [a.name for a in study.algorithms],
                                  "labels": {a.name: a.title for a in study.algorithms},
@@ -173,7 +192,8 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
                         record = {"key": cell["key"], "algorithm": cell["algorithm"]["name"],
                                   "case": cell["case"]["name"], "seed": cell["seed"], "status": "failed",
                                   "error": f"{type(exc).__name__}: {exc}"}
-                    store.save(dict(record, settings=cell["settings"]))
+                    # A task that does not say which code ran it (a test's stand-in) ran this process's.
+                    store.save(dict(record, settings=cell["settings"], code=record.get("code") or here))
                     failed += record["status"] != "done"
                     progress.step(record["status"] != "done")
                     fut.release()

@@ -58,6 +58,19 @@ def normaliser(fronts: Sequence[F64]) -> Normaliser | None:
     return Normaliser(ideal, nadir, base(nd))
 
 
+def flat_objectives(rows: list[dict[str, Any]]) -> list[str]:
+    """The objectives in which the pooled front of a case's runs spans nothing (its non-dominated points share one
+    value, so ``Normaliser`` divides by 1, not by a span): there HV and IGD+ measure in the objective's own unit
+    (subtask 1: every front is one point (f1, 0, 0), and IGD+ was MSE minus the best MSE, in mm)."""
+    done = [r for r in rows if r["status"] == "done" and r["metrics"]]
+    fronts = [np.asarray(r["metrics"].get("front", []), dtype=np.float64) for r in done]
+    norm = normaliser(fronts)
+    if norm is None:
+        return []
+    names = next((list(r["metrics"].get("objectives") or []) for r in done), [])
+    return [names[k] if k < len(names) else f"objective {k + 1}" for k in np.flatnonzero(norm.nadir - norm.ideal <= 0)]
+
+
 def front_quality(front: F64, norm: Normaliser | None) -> dict[str, float]:
     """HV (normalised, ref 1.1; 0 for an empty front) and IGD+ (NaN for an empty front) of one run."""
     if norm is None or np.size(front) == 0:  # no run of the case has a feasible member, or this one has none

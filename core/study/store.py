@@ -31,7 +31,8 @@ CREATE TABLE IF NOT EXISTS runs (
     result_path TEXT,
     task_time REAL,
     attempts INTEGER NOT NULL DEFAULT 1,
-    settings TEXT
+    settings TEXT,
+    code TEXT
 );
 CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
@@ -97,6 +98,8 @@ class Store:
         columns = {row[1] for row in self.db.execute("PRAGMA table_info(runs)")}
         if "settings" not in columns:  # a study begun before cells kept their settings: those read as unknown
             self.db.execute("ALTER TABLE runs ADD COLUMN settings TEXT")
+        if "code" not in columns:  # begun before cells kept the digest of their code (session 30): unknown
+            self.db.execute("ALTER TABLE runs ADD COLUMN code TEXT")
 
     def close(self) -> None:
         self.db.close()
@@ -117,6 +120,11 @@ class Store:
         rows = self.db.execute("SELECT key, settings, result_path FROM runs WHERE status = 'done'").fetchall()
         return {key: settings for key, settings, path in rows if path is None or (self.dir / path).is_file()}
 
+    def codes(self) -> dict[str, str | None]:
+        """The finished cells' keys and the digest of the code that ran them (None: not recorded)."""
+        rows = self.db.execute("SELECT key, code FROM runs WHERE status = 'done'").fetchall()
+        return {key: code for key, code in rows}
+
     def save(self, record: dict[str, Any]) -> None:
         """Keep a finished cell: its result file first, then its row (replacing an earlier failed one)."""
         path = None
@@ -128,10 +136,10 @@ class Store:
         attempts = 1 if prev is None else prev[0] + 1
         self.db.execute(
             "INSERT OR REPLACE INTO runs (key, case_name, algorithm, seed, status, error, metrics, result_path, "
-            "task_time, attempts, settings) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            "task_time, attempts, settings, code) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (record["key"], record["case"], record["algorithm"], record["seed"], record["status"],
              record.get("error"), json.dumps(record.get("metrics")), path, record.get("task_time"), attempts,
-             record.get("settings")),
+             record.get("settings"), record.get("code")),
         )
 
     def rows(self) -> list[dict[str, Any]]:
@@ -140,13 +148,14 @@ class Store:
 
 
 def _rows(db: sqlite3.Connection) -> list[dict[str, Any]]:
-    # A study begun before cells kept their settings has no such column when read without migrating it.
-    has_settings = "settings" in {row[1] for row in db.execute("PRAGMA table_info(runs)")}
+    # A study begun before cells kept their settings (or code) has no such column when read without migrating it.
+    columns = {row[1] for row in db.execute("PRAGMA table_info(runs)")}
     cur = db.execute(
         "SELECT key, case_name, algorithm, seed, status, error, metrics, result_path, task_time, attempts, "
-        f"{'settings' if has_settings else 'NULL'} FROM runs ORDER BY case_name, algorithm, seed")
+        f"{'settings' if 'settings' in columns else 'NULL'}, {'code' if 'code' in columns else 'NULL'} FROM runs "
+        "ORDER BY case_name, algorithm, seed")
     names = ("key", "case", "algorithm", "seed", "status", "error", "metrics", "result_path", "task_time",
-             "attempts", "settings")
+             "attempts", "settings", "code")
     out = []
     for row in cur:
         d = dict(zip(names, row, strict=True))
