@@ -142,3 +142,29 @@ def test_the_compile_timer_counts_a_compile_another_thread_began_before_it_and_e
         assert 0.5 * waited <= first <= waited + 0.05
         later(1.0)
         assert t.seconds > first
+
+
+def test_a_compile_under_way_when_the_timer_starts_counts_its_callees_once() -> None:
+    # Review of session 29: a callee the outer compile typed (a nested start and end in its thread) was counted as a
+    # window of its own and again inside the outer compile's [enter, end]: 0.54 s for 0.30 s of compiling.
+    import threading
+    import time
+
+    from core.kinematics.kernel_cache import CompileTimer
+
+    with CompileTimer() as t:
+        def outer_under_way() -> None:
+            t._listener.on_start(None)
+            time.sleep(0.2)
+            t._listener.on_end(None)  # the callee
+            time.sleep(0.1)
+            t._listener.on_end(None)  # the outer compile, begun before the timer
+
+        th = threading.Thread(target=outer_under_way)
+        th.start()
+        th.join()
+        assert 0.28 <= t.seconds <= 0.45
+        t._listener.on_start(None)  # this thread's own compile afterwards: its own window, added
+        time.sleep(0.05)
+        t._listener.on_end(None)
+        assert 0.33 <= t.seconds <= 0.5
