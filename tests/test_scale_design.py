@@ -74,3 +74,17 @@ def test_a_design_that_does_not_assemble_scales_by_factor_but_has_no_stride(tmp_
     assert "no width to scale from (it does not assemble" in capsys.readouterr().err
     assert main(["scale", "--design", str(bad), "--factor", "3"]) == 0
     assert json.loads(capsys.readouterr().out)["params"]["r1"] == 3.0
+
+
+def test_a_size_the_solver_cannot_follow_is_refused_naming_the_option_given(tmp_path, capsys):
+    # Review of session 29: --stride 1e-7 wrote a design that no longer assembles, exit 0, "298.94 -> 0.00 mm"; and a
+    # factor derived from --stride was reported as a --factor error.
+    out = tmp_path / "s.json"
+    assert main(["scale", "--preset", "stephenson1/X3", "--stride", "1e-7", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("clm: error: --stride: scaled by 3.34516e-10 the design no longer assembles")
+    assert not out.exists()
+    assert main(["scale", "--preset", "stephenson1/X3", "--factor", "1e-9"]) == 2
+    assert capsys.readouterr().err.startswith("clm: error: --factor: scaled by 1e-09 the design no longer assembles")
+    assert main(["scale", "--preset", "stephenson1/X3", "--stride", "1e305"]) == 2
+    assert capsys.readouterr().err.startswith("clm: error: --stride: output ox (mm) must be within")

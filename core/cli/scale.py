@@ -48,12 +48,19 @@ def run(args: argparse.Namespace) -> int:
         factor = args.stride / width
     else:
         factor = args.factor
+    given = "--stride" if args.stride is not None else "--factor"
     try:
         scaled = design.scaled(factor)
     except ValueError as exc:
-        raise CLIError(f"--factor: {exc}") from None
+        raise CLIError(f"{given}: {exc} (scale factor {factor:.6g})") from None
     label = design_label(args, preset)
-    new = extent(scaled.solve(360).leg[0])["width"]
+    after = scaled.solve(360)
+    if sol.violation[0] == 0 and after.violation[0] != 0:
+        # The solver's tolerances are absolute (mm): a leg scaled to microns no longer assembles there (review of
+        # session 29: --stride 1e-7 wrote such a design with exit 0 and "width 298.94 -> 0.00 mm").
+        raise CLIError(f"{given}: scaled by {factor:.6g} the design no longer assembles (violation "
+                       f"{after.violation[0]:.3g} mm; the solver's tolerances are absolute): choose a larger size")
+    new = extent(after.leg[0])["width"]
     data = {"name": f"{label} x{factor:.4g}", "title": design.mechanism.title, **design_to_dict(scaled),
             "source": f"{label} scaled by {factor:.6g}"
                       + (f" (leg-frame path width {width:.2f} -> {new:.2f} mm)" if width and new else "")}
