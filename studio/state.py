@@ -316,18 +316,33 @@ def leg_scale(mechanism: Mechanism, target: TargetSpec) -> float:
         return 1.0
 
 
-def bounds_text(param: Param, k: float = 1.0) -> str:
+PAPER_BOUNDS = ("stephenson1", "stephenson3", "watt1", "fourbar", "rtclm_primary", "rtclm_auxiliary")
+
+
+def paper_bounds(mechanism: Mechanism) -> bool:
+    """Whether a mechanism's parameter bounds are the paper's (its Appendix B-1/C-1 and the four-bar it stands in
+    with), not the project's own (Jansen, Klann: the same ranges, set here)."""
+    return mechanism.name in PAPER_BOUNDS
+
+
+def bounds_text(param: Param, k: float = 1.0, paper: bool = True) -> str:
     """``[12, 500] mm (the paper's 30-500 mm, sized to a 120 mm stride)``: a parameter's entry bounds and, when the
-    leg's scale moved them, where they come from (rehearsal 4 read "[11.9993, 500]" and took it for physics)."""
+    leg's scale moved them, where they come from (rehearsal 4 read "[11.9993, 500]" and took it for physics).
+    Printed inside what is taken, at the fields' precision (0.01 mm, 0.0001 rad): "[1.133, 500]" refused 1.1333
+    for a bound of 1.13333 (review of session 29). ``paper``: the bounds are the paper's (``paper_bounds``)."""
     lo, hi = entry_bounds(param, k)
-    text = f"[{lo:.4g}, {hi:.4g}] {param.unit}"
+    step = 0.01 if param.unit == "mm" else 1e-4
+    inner_lo = lo if lo == round(lo / step) * step else math.ceil(lo / step - 1e-9) * step
+    inner_hi = hi if hi == round(hi / step) * step else math.floor(hi / step + 1e-9) * step
+    text = f"[{inner_lo:.6g}, {inner_hi:.6g}] {param.unit}"
     if (lo, hi) != (param.lo, param.hi):
-        text += (f" (the paper's {param.lo:g}-{param.hi:g} {param.unit} for its 300 mm stride, sized to this target's "
+        whose = "the paper's" if paper else "the global"
+        text += (f" ({whose} {param.lo:g}-{param.hi:g} {param.unit} for a 300 mm stride, sized to this target's "
                  f"{300 * k:.4g} mm)")
     return text
 
 
-def check_value(param: Param, value: object, k: float = 1.0) -> float:
+def check_value(param: Param, value: object, k: float = 1.0, paper: bool = True) -> float:
     """A typed value for one parameter, or ValueError with the reason (name, unit, bounds).
 
     Lengths must be > 0; every non-angle must lie within the parameter's global bounds (for a leg of scale
@@ -342,12 +357,12 @@ def check_value(param: Param, value: object, k: float = 1.0) -> float:
     # Bounds first: 1e9 for a length read "must be within +-1e+06 mm" (the file format's limit), not its own bounds.
     # (A length at or below 0 still reads "must be > 0".)
     if param.kind != "angle" and math.isfinite(v) and not (param.kind == "length" and v <= 0) and not lo <= v <= hi:
-        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds {bounds_text(param, k)}")
+        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds {bounds_text(param, k, paper)}")
     problem = value_problem(param, v)  # what any design file refuses too
     if problem is not None:
         raise ValueError(problem)
     if param.kind != "angle" and not lo <= v <= hi:
-        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds {bounds_text(param, k)}")
+        raise ValueError(f"{param.name} = {v:g} {param.unit} is outside its bounds {bounds_text(param, k, paper)}")
     return v
 
 
@@ -605,7 +620,7 @@ class Session:
             if name not in names:
                 raise ValueError(f"{design.mechanism.name} has no parameter {name!r}; it has {', '.join(names)}")
             v = check_value(design.mechanism.params[names.index(name)], value,
-                            leg_scale(design.mechanism, self.view.target))
+                            leg_scale(design.mechanism, self.view.target), paper_bounds(design.mechanism))
             if v == design.named(0)[name]:
                 return self.view
             new = design.replace(**{name: v})

@@ -176,7 +176,7 @@ def test_the_studio_takes_a_half_size_legs_crank_once_the_target_is_half_size() 
     with pytest.raises(ValueError, match=r"outside its bounds \[30, 500\] mm"):
         session.set_param("r1", 20.0)
     session.set_target(length=150.0, height=50.0)
-    with pytest.raises(ValueError, match=r"outside its bounds \[15, 500\] mm \(the paper's 30-500 mm for its 300 mm "
+    with pytest.raises(ValueError, match=r"outside its bounds \[15, 500\] mm \(the paper's 30-500 mm for a 300 mm "
                                          r"stride, sized to this target's 150 mm\)$"):
         session.set_param("r1", 14.0)
     # Within the half-size bounds: X3 (the paper's size) then refuses it only for its assembly.
@@ -184,6 +184,11 @@ def test_the_studio_takes_a_half_size_legs_crank_once_the_target_is_half_size() 
         session.set_param("r1", 20.0)
     session.set_param("r1", 45.0)
     assert session.view.design.named(0)["r1"] == 45.0
+    # A walker's bounds are the project's, not the paper's, and what is printed is taken (review of session 29:
+    # "[1.133, 500]" refused 1.1333 for a bound of 1.13333).
+    session.load_preset("jansen")
+    with pytest.raises(ValueError, match=r"outside its bounds \[1.14, 500\] mm \(the global 5-500 mm for a 300 mm "):
+        session.set_param("b", 1.13)
 
 
 def test_the_studio_sizes_its_chains_steps_and_pick_limits_to_the_target() -> None:

@@ -16,7 +16,15 @@ from core.kinematics import mechanisms, presets
 from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from studio.panels._inputs import NumberField, NumberFields, NumberForm, set_value
-from studio.state import DesignView, assembly_reason, bounds_text, leg_scale, preset_label, presets_for
+from studio.state import (
+    DesignView,
+    assembly_reason,
+    bounds_text,
+    leg_scale,
+    paper_bounds,
+    preset_label,
+    presets_for,
+)
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -38,14 +46,14 @@ def param_label(name: str, unit: str) -> str:
     return f"{name} [{unit}]"
 
 
-def param_form(p: Param, k: float = 1.0) -> NumberForm:
+def param_form(p: Param, k: float = 1.0, paper: bool = True) -> NumberForm:
     """What a parameter's field takes on a leg of scale ``k``; the model checks the bounds
     (``studio.state.check_value``) and assembly. Shown to 0.01 mm and 0.0001 rad (0.006 deg), as the paper's
     tables give them: a run's picks read "100.609144" beside a preset's "128.33". Exports keep every digit."""
     if p.kind == "angle":
         return NumberForm(text=f"an angle in {p.unit} (any number within ±1e6; angles are periodic)", decimals=4)
     what = "a length" if p.kind == "length" else "a number"
-    return NumberForm(text=f"{what} in {p.unit} within its bounds {bounds_text(p, k)} that keeps the design "
+    return NumberForm(text=f"{what} in {p.unit} within its bounds {bounds_text(p, k, paper)} that keeps the design "
                       "assembled", decimals=2 if p.unit == "mm" else 4)
 
 
@@ -109,8 +117,9 @@ class MechanismPanel:
         with self.params_folder:
             for p in mech.params:
                 self._inputs[p.name] = self._numbers.add(
-                    p.name, param_label(p.name, p.unit), float(values[p.name]), form=param_form(p, k), hint=p.doc,
-                    apply=self._setter(p.name), current=self._getter(p.name), disabled=self._running)
+                    p.name, param_label(p.name, p.unit), float(values[p.name]),
+                    form=param_form(p, k, paper_bounds(mech)), hint=p.doc, apply=self._setter(p.name),
+                    current=self._getter(p.name), disabled=self._running)
         self._mechanism = mech
 
     def _setter(self, name: str) -> Callable[[float], object]:
