@@ -26,6 +26,7 @@ from core.analysis.clearance import ground_clearance, rigid
 from core.analysis.evaluate import Evaluation, evaluate
 from core.analysis.targets import compound_cycloid
 from core.formats.design import check_params, design_from_dict, design_to_dict, value_problem
+from core.formats.drawing import Plates
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
 from core.kinematics.design import Design
@@ -432,6 +433,9 @@ class Session:
     redone: list[Step] = field(default_factory=list, repr=False, compare=False)  # what Redo brings back
     # The cycloid an upload replaced, as it was (its T too: a curve's period took its place), for going back to it.
     cycloid: TargetSpec | None = field(default=None, repr=False, compare=False)
+    # How the drawings' parts are made (Pin hole Ø): the designer's, saved with the session (review of session 29:
+    # it lived on the panel, and a reload put 5 mm holes back in the DXF without a word).
+    plates: Plates = field(default_factory=Plates, compare=False)
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
@@ -748,6 +752,8 @@ class Session:
                 "study": pack_study(self.study.to_dict()),
                 **({"cycloid": self.cycloid.to_dict()} if self.cycloid is not None and v.target.curve is not None
                    else {}),
+                **({"plates": {"hole": self.plates.hole, "width": self.plates.width}}
+                   if self.plates != Plates() else {}),
             }
 
     @classmethod
@@ -786,6 +792,11 @@ class Session:
                 raise ValueError(f"cycloid: {exc}") from None
             if session.cycloid.curve is not None:
                 raise ValueError("cycloid: must be a compound cycloid (L, H, T), not a curve")
+        if f.plates is not None:
+            try:
+                session.plates = Plates(float(f.plates.hole), None if f.plates.width is None else float(f.plates.width))
+            except ValueError as exc:
+                raise ValueError(f"plates: {exc}") from None
         return session
 
     def restore_branch(self, j: int) -> DesignView:
@@ -826,6 +837,12 @@ class Session:
                     + f"; editor: {who}{' (edited)' if v.edited else ''}"
                     + (f", MSE {mse:.3g} mm" if math.isfinite(mse) else ", not assembled"))
 
+    def set_plates(self, plates: Plates) -> None:
+        """The drawings' pin holes and plate width (mm), kept with the session."""
+        with self.lock:
+            self.plates = plates
+            self.version += 1
+
     def restore(self, other: Session) -> None:
         """Take over another session's state (a loaded file) in one step; ValueError while a stage runs."""
         with self.lock:
@@ -833,6 +850,7 @@ class Session:
                 raise ValueError("a stage is running; stop it before loading a session")
             self.undone, self.redone = [], []  # a loaded session is another piece of work
             self.cycloid = other.cycloid
+            self.plates = other.plates
             self.view = other.view
             self.playback = other.playback
             self.study = other.study

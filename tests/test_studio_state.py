@@ -568,3 +568,25 @@ def test_a_design_file_gets_a_target_of_its_own_whatever_the_editor_showed_befor
     assert kept.set_design(small, cause="subtask1's pick").target == before
     x3 = Session.default()
     assert x3.set_design(presets.get("stephenson1/X3").design().scaled(0.5), refit=True).target == x3.view.target
+
+
+def test_the_pin_holes_travel_with_the_session_and_a_bad_one_is_refused() -> None:
+    # Review of session 29: the Pin hole Ø lived on the panel; a reload put 5 mm holes back in the DXF unsaid.
+    from core.formats.drawing import Plates
+    from studio.state import Session as S
+
+    s = S.default()
+    assert "plates" not in s.to_dict()  # the default is not written: older sessions read the same
+    s.set_plates(Plates(3.0))
+    data = json.loads(json.dumps(s.to_dict()))
+    assert data["plates"] == {"hole": 3.0, "width": None}
+    back = S.from_dict(data)
+    assert back.plates == Plates(3.0)
+    fresh = S.default()
+    fresh.restore(back)
+    assert fresh.plates == Plates(3.0)
+    for bad, said in (({"hole": -1.0}, "plates: the hole diameter must be a positive number"),
+                      ({"hole": 5.0, "width": 4.0}, "plates: the plate width must be more than the hole"),
+                      ({"hole": 5.0, "depth": 1}, "depth")):
+        with pytest.raises(ValueError, match=said):
+            S.from_dict(dict(data, plates=bad))

@@ -54,6 +54,13 @@ class StudyFile(Struct, forbid_unknown_fields=True, frozen=True):
     curves: dict[str, dict[str, Any]] = {}  # version 4: the targets' curves by content hash
 
 
+class PlatesFile(Struct, forbid_unknown_fields=True, frozen=True):
+    """The drawings' pivot hole diameter and plate width (mm; width None: three holes wide)."""
+
+    hole: float
+    width: float | None = None
+
+
 class SessionFile(Struct, forbid_unknown_fields=True, frozen=True):
     """A CLM Studio session: the editor's design, target, walking view and playback, and the study."""
 
@@ -66,6 +73,7 @@ class SessionFile(Struct, forbid_unknown_fields=True, frozen=True):
     playback: PlaybackFile = PlaybackFile()
     study: StudyFile | None = None
     cycloid: dict[str, Any] | None = None  # version 6: the cycloid the uploaded target curve replaced
+    plates: PlatesFile | None = None  # from session 30, when set: the drawings' pin holes and plate width
 
 
 def parse_json(content: str | bytes) -> Any:

@@ -38,14 +38,13 @@ class FilesPanel:
                                                    "back)")
             self.design = gui.add_button("Design (JSON)", icon=viser.Icon.FILE_DOWNLOAD,
                                          hint="the current design; clm simulate --design reads it")
-            self.plates = Plates()
             self._numbers = NumberFields(studio)
             self.hole = self._numbers.add(
-                "hole", "Pin hole Ø [mm]", self.plates.hole,
+                "hole", "Pin hole Ø [mm]", self.studio.session.plates.hole,
                 form=NumberForm(lo=0.0, lo_open=True, hi=100.0, unit="mm", decimals=2), apply=self._set_hole,
-                current=lambda: self.plates.hole,
-                hint="the drawings' pivot holes (your pins'); the parts sheet's plates are three holes wide "
-                     "(clm export --hole, --width)")
+                current=lambda: self.studio.session.plates.hole,
+                hint="the drawings' pivot holes (your pins'), saved with the session; the parts sheet's plates are "
+                     "three holes wide (clm export --hole, --width)")
             self.dxf = gui.add_button("Drawing (DXF)", icon=viser.Icon.FILE_DOWNLOAD,
                                       hint="the design at the shown crank angle: one layer per link, pivot holes, "
                                       "dimensions in mm, and each link as a plate laid flat to cut")
@@ -61,10 +60,10 @@ class FilesPanel:
                                         hint="one crank revolution of the scene, self-contained (works offline)")
         self.download.on_click(self._send(self.studio.session_file))
         self.design.on_click(self._send(self.studio.design_file))
-        self.dxf.on_click(self._send(lambda: self.studio.drawing_file("dxf", self.plates),
-                                     notes=lambda: self.studio.drawing_notes(self.plates)))
-        self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg", self.plates),
-                                     notes=lambda: self.studio.drawing_notes(self.plates)))
+        self.dxf.on_click(self._send(lambda: self.studio.drawing_file("dxf", self.studio.session.plates),
+                                     notes=lambda: self.studio.drawing_notes(self.studio.session.plates)))
+        self.svg.on_click(self._send(lambda: self.studio.drawing_file("svg", self.studio.session.plates),
+                                     notes=lambda: self.studio.drawing_notes(self.studio.session.plates)))
         self.csv.on_click(self._send(self.studio.trajectories_file))
         self.pareto.on_click(self._send(self.studio.pareto_file))
         self.pareto_png.on_click(self._send(self.studio.pareto_png_file, slow="kaleido draws the chart on the server"))
@@ -73,7 +72,7 @@ class FilesPanel:
 
     def _set_hole(self, value: float) -> None:
         """The drawings' hole diameter (mm); ValueError (the field says why, the old value stays) if unusable."""
-        self.plates = Plates(float(value))
+        self.studio.session.set_plates(Plates(float(value)))
 
     def _send(self, make: Any, slow: str | None = None, notes: Any = None) -> Any:
         """A button's handler: ``make()`` -> (name, bytes) sent to the page. ``slow``: what takes the time, said in a
