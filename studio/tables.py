@@ -149,11 +149,13 @@ def dead_point_html(r: StageResult, i: int) -> str:
     return f'<div class="clm-dead-point" style="{VERDICT}color:#b91c1c">{html.escape(text)}</div>'
 
 
-def verdict_html(r: StageResult, i: int, stage: str, other_target: str = "") -> str:
-    """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``).
-    ``other_target``: the target the stage ran against, when the editor's is another (the rows below, MSE
-    among them, are measured against the editor's; the verdict against the run's)."""
-    unmet = r.unmet(i) if r.cv[i] > 0 else []
+def verdict_html(r: StageResult, i: int, stage: str, other_target: str = "",
+                 labels: Mapping[str, str] | None = None) -> str:
+    """Whether member i meets its stage's constraints, naming what it misses (``h_s 8.72 > 6.5``) by the problem's
+    ``labels`` where given (the table below names them so). ``other_target``: the target the stage ran against,
+    when the editor's is another (the rows below, MSE among them, are measured against the editor's; the verdict
+    against the run's)."""
+    unmet = r.unmet(i, labels) if r.cv[i] > 0 else []
     if not unmet and r.cv[i] > 0:
         unmet = [f"violation {r.cv[i]:.3g}"]
     against = f" (against the target it ran with: {html.escape(other_target)})" if other_target else ""

@@ -990,7 +990,7 @@ def test_the_drawings_take_the_pin_hole_set_in_the_panel(studio, tmp_path):
         field.handle._impl.value = text
         field.arrived(text)
         field.edit(None)  # type: ignore[arg-type]
-        assert studio.files.plates.hole == 4.0
+        assert studio.session.plates.hole == 4.0
     studio.files._numbers.cancel_all()  # the refusals' notes: no page here to tell
     c = Client()
     press(studio.files.dxf, c)
@@ -1000,4 +1000,5 @@ def test_the_drawings_take_the_pin_hole_set_in_the_panel(studio, tmp_path):
     assert radii == {2.0}
     said = [n for n in c.notes if n[0] == "Check the parts before cutting"]
     assert said and "4 mm holes" in said[-1][1]  # X3's B-F: 2.5 mm between 4 mm holes, under the 4 beside them
-    studio.files.plates = type(studio.files.plates)()  # the module's studio back at 5 mm
+    assert studio.session.to_dict()["plates"]["hole"] == 4.0  # saved with the session
+    studio.session.set_plates(type(studio.session.plates)())  # the module's studio back at 5 mm

@@ -193,9 +193,13 @@ def test_the_lineage_table_shows_feasible_and_front_counts_in_their_columns():
 
 
 def test_a_feasible_member_gets_the_tick_and_an_infeasible_one_names_what_it_misses():
-    r = SimpleNamespace(cv=np.array([0.0, 0.4, 0.2]),
-                        unmet=lambda i: ["h_s 8.72 > 6.5"] if i == 1 else [])
+    def unmet(i: int, labels: dict[str, str] | None = None) -> list[str]:
+        return [f"{(labels or {}).get('h_s', 'h_s')} 8.72 > 6.5"] if i == 1 else []
+
+    r = SimpleNamespace(cv=np.array([0.0, 0.4, 0.2]), unmet=unmet)
     ok, bad, vague = (verdict_html(r, i, "subtask2") for i in range(3))
     assert 'data-feasible="true"' in ok and "✓ #0 meets subtask2's constraints" in ok
     assert 'data-feasible="false"' in bad and "h_s 8.72 &gt; 6.5" in bad
     assert 'data-feasible="false"' in vague and "violation 0.2" in vague
+    # By the problem's labels, as the table under it names the metrics (session 30).
+    assert "f4 = h_s (mm) 8.72 &gt; 6.5" in verdict_html(r, 1, "subtask2", labels={"h_s": "f4 = h_s (mm)"})

@@ -149,7 +149,7 @@ class PickPanel:
         lower = {labels.get(n, n) for n in names if n in r.objectives or n in upper or n in LOWER_BETTER}
         one = len(self._cands) == 1 and self._cands[0].kind != "fallback" and self._cands[0].member == sv.shown
         nxt, missed = self.studio.next_unmet(sv.viewing) if sv.viewing is not None and r.cv[sv.shown] <= 0 else ("", [])
-        return (verdict_html(r, sv.shown, sv.viewing or "") + dead_point_html(r, sv.shown)
+        return (verdict_html(r, sv.shown, sv.viewing or "", labels=labels) + dead_point_html(r, sv.shown)
                 + next_verdict_html(sv.shown, nxt, missed)
                 + (one_design_html(sv.viewing or "") if one else "")
                 + compare_html(rows, "start", f"#{sv.shown}", lower))
