@@ -26,9 +26,9 @@ class Clearance:
     """Frozen: the ground clearance of a population.
 
     Attributes:
-        height: ``(pop, n_joints)`` each joint's lowest y over the cycle above ``ground``, the foot's lowest y
-            (mm); NaN for the foot itself, and in every column where the design does not assemble or the output
-            stage is not rigid.
+        height: ``(pop, n_joints)`` each joint's lowest y over the cycle above the ground, the foot's lowest y
+            (mm); NaN for the foot itself, for every joint of a member that does not assemble, and everywhere when
+            the output stage is not rigid.
         names: the joint names.
         frame: ``(n_joints,)`` True for the points fixed in this mechanism (its ground points).
     """
