@@ -177,3 +177,19 @@ def test_the_report_names_the_study_file_seeds_case_settings_and_code() -> None:
     assert "Code: core digest abc123abc123 (commit 0123456789ab) for every run." in md
     assert ("Each run: subtask1, from stephenson1/X0; population 40; a budget of 5000 function evaluations a "
             "stage.") in md
+
+
+def test_a_budget_below_an_algorithms_first_generation_is_said() -> None:
+    # Rehearsal 6: budget 50 at population 40: MCCMO spent 280, NSGA-II 80, and the report read "≈".
+    import json
+
+    rows = [run_row("a", s, 1.0, [[0.0, 1.0]]) for s in (1, 2)] + [run_row("b", s, 1.0, [[0.0, 1.0]]) for s in (1, 2)]
+    for r in rows:
+        r["metrics"]["n_eval"] = 280 if r["algorithm"] == "b" else 80
+        r["settings"] = json.dumps({"algorithm": {"pop_size": 40}, "case": {"budget": 50, "stages": ["subtask3"]}})
+    md = markdown("s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
+    assert "The budget (50 evaluations) is not what every algorithm spent: A 80 (×1.6), B 280 (×5.6)" in md
+    for r in rows:
+        r["metrics"]["n_eval"] = 52
+    assert "is not what every algorithm spent" not in markdown(
+        "s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])

@@ -148,6 +148,32 @@ def case_line(settings: str | None) -> str:
     return f"Each run: {stages}, from {start}; population {alg.get('pop_size', '?')}; {spent}."
 
 
+def budget_of(settings: str | None) -> float | None:
+    """A case's whole budget in evaluations (its per-stage budget times the stages it runs), None without one."""
+    try:
+        case = json.loads(settings or "")["case"]
+        stages = case.get("stages") or case["config"].get("stages") or [None]
+        return float(case["budget"]) * len(stages) if case.get("budget") else None
+    except (ValueError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def overspent(c: dict[str, Any]) -> str:
+    """A line when an algorithm spent well over the case's budget (its first generation alone may spend more:
+    rehearsal 6's budget of 50 at population 40 let MCCMO spend 280, NSGA-II 80, unsaid), else ""."""
+    budget = budget_of(c.get("settings"))
+    spent = c["table"].get("n_eval", {})
+    if not budget or not spent:
+        return ""
+    over = {a: s["median"] for a, s in spent.items() if s["n"] and s["median"] > 1.5 * budget}
+    if not over:
+        return ""
+    labels = c["labels"]
+    said = ", ".join(f"{labels.get(a, a)} {v:.0f} (×{v / budget:.1f})" for a, v in over.items())
+    return (f"The budget ({budget:.0f} evaluations) is not what every algorithm spent: {said}, a first generation "
+            "alone costing more; the comparison is not at equal evaluations (raise the budget).")
+
+
 def min_p(n: int, m: int) -> float:
     """The smallest two-sided p the exact rank-sum test can give with n and m runs."""
     return 2.0 / math.comb(n + m, n) if n and m else 1.0
@@ -192,6 +218,9 @@ def markdown(name: str, cases: list[dict[str, Any]], meta: dict[str, Any] | None
             out += [f"HV and IGD+ here are not normalised in {', '.join(c['flat'])}: the pooled front's non-dominated "
                     "points share one value there, so they measure in that objective's own unit and restate the rows "
                     "above, not further evidence.", ""]
+        line = overspent(c)
+        if line:
+            out += [line, ""]
         ref_n = runs.get(c["reference"], 0)
         small = [a for a in algs if a != c["reference"] and runs.get(a) and min_p(runs[a], ref_n) >= ALPHA]
         if small:
