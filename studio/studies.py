@@ -36,7 +36,9 @@ class StudyRun:
     @property
     def label(self) -> str:
         m = self.metrics
-        shown = " · ".join(f"{k} {m[k]:.3g}" for k in ("mse", "S", "I", "h_s") if isinstance(m.get(k), int | float))
+        # The RTCLM's are its deviations (rehearsal 6: its runs were listed without a number to choose by).
+        shown = " · ".join(f"{k} {m[k]:.3g}" for k in ("mse", "S", "I", "h_s", "dh6", "dh4")
+                           if isinstance(m.get(k), int | float))
         return f"{self.case} · {self.named} · seed {self.seed}" + (f" · {shown}" if shown else "")
 
 
@@ -66,7 +68,17 @@ def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
     labels = labels if isinstance(labels, dict) else {}
     # The study as its file last ran, as its report counts it: not the runs of removed seeds or changed settings.
     kept = current_rows(study if isinstance(study, dict) else None, rows)
-    return str(name), [dict(r, title=str(labels.get(r["algorithm"], r["algorithm"]))) for r in kept]
+    # In the study file's order, its reference marked, as the report has them (rehearsal 6: alphabetical, IMTCMO
+    # before the reference NSGA-II, and nothing said which one the others are compared with).
+    order = study.get("algorithms") if isinstance(study, dict) and isinstance(study.get("algorithms"), list) else []
+    ref = study.get("reference") if isinstance(study, dict) else None
+    rank = {a: k for k, a in enumerate(order)}
+    kept = sorted(kept, key=lambda r: (rank.get(r["algorithm"], len(rank)), r["algorithm"]))
+
+    def title(a: str) -> str:
+        return str(labels.get(a, a)) + (" (reference)" if a == ref else "")
+
+    return str(name), [dict(r, title=title(r["algorithm"])) for r in kept]
 
 
 def flat_metrics(m: dict[str, Any]) -> dict[str, float]:

@@ -41,8 +41,9 @@ def test_studies_are_found_and_read_without_writing(studies):
     assert {r.algorithm for r in runs} == {"nsga2", "cmoes"} and all("mse" in r.metrics for r in runs)
     fig = box_figure(runs, "subtask2", "mse")
     # Named as the study file labels them, as its report does (a rehearsal read "nsga2" where it said "NSGA-II").
-    assert [t.name for t in fig.data] == ["CMOES (2024)", "nsga2"] and all(len(t.y) == 2 for t in fig.data)
-    assert {r.label.split(" · ")[1] for r in runs} == {"CMOES (2024)", "nsga2"}
+    # In the study file's order, its reference marked (rehearsal 6: alphabetical, the reference unsaid).
+    assert [t.name for t in fig.data] == ["nsga2 (reference)", "CMOES (2024)"] and all(len(t.y) == 2 for t in fig.data)
+    assert {r.label.split(" · ")[1] for r in runs} == {"CMOES (2024)", "nsga2 (reference)"}
     assert fig.layout.yaxis.title.text == "MSE (mm)" and fig.layout.title.text == "subtask2: MSE (mm)"
     with pytest.raises(ValueError, match="not a folder"):
         find_studies(studies / "missing")
@@ -159,3 +160,8 @@ def test_a_run_file_outside_the_study_is_refused(studies):
     bad = StudyRun("subtask2", "nsga2", 1, {}, "../tiny.toml")
     with pytest.raises(ValueError, match="outside the study directory"):
         picked_design(studies / "tiny_dir", bad)
+
+
+def test_an_rtclm_run_is_listed_with_its_deviations() -> None:
+    run = StudyRun("rtclm_case1", "imtcmo", 4, {"dh6": 0.2681, "dh4": 0.1984, "h6": 50.27}, "runs/x.json", "IMTCMO")
+    assert run.label == "rtclm_case1 · IMTCMO · seed 4 · dh6 0.268 · dh4 0.198"
