@@ -366,3 +366,11 @@ def test_an_rtclm_runs_auxiliary_mode_can_be_evaluated_simulated_and_drawn(tmp_p
     assert main(["simulate", "--preset", "stephenson1/X3", "--mode", "auxiliary"]) == 2
     assert capsys.readouterr().err.strip() == ("clm: error: --mode auxiliary: stephenson1 has no modes; only the RTCLM "
                                                "(rtclm_primary, rtclm_auxiliary) has")
+
+
+def test_compare_given_a_study_directory_points_to_its_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Rehearsal 6: it said only "expected a 'clm design --out' directory".
+    (tmp_path / "study.sqlite").write_bytes(b"")
+    assert main(["compare", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path} is a study directory: compare its runs' files ({tmp_path}/runs/<case>/<algorithm>/" in err

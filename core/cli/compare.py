@@ -63,6 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def load_rows(path: Path) -> list[dict[str, Any]]:
     """The summary rows of one saved run (see ``DesignRun.rows``)."""
     f = path / "result.json" if path.is_dir() else path
+    if path.is_dir() and (path / "study.sqlite").is_file():  # rehearsal 6 gave the study directory itself
+        raise CLIError(f"{path} is a study directory: compare its runs' files ({path}/runs/<case>/<algorithm>/"
+                       f"<seed>.json), or see its report (clm study report {path})")
     if not f.exists():
         raise CLIError(f"{str(f)!r} not found (expected a 'clm design --out' directory)")
     data = read_design_result(f)  # its ValueError is one clm: error line
