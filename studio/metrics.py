@@ -281,7 +281,8 @@ def metrics_html(rows: tuple[Row, ...]) -> str:
     dead = [r for r in rows if r.severe]
     banner = "".join(
         f'<div class="clm-dead-point" style="color:#b91c1c;font-size:0.85em;padding:2px 0">⚠ {html.escape(r.label)} '
-        f"{html.escape(r.text())} {html.escape(r.unit)}: {html.escape(r.warn)}.</div>" for r in dead)
+        f"{html.escape(r.text())}{' ' + html.escape(r.unit) if r.unit else ''}: {html.escape(r.warn)}.</div>"
+        for r in dead)
     return (
         banner + f'<table class="clm-metrics" style="{INSET};font-size:0.85em">' + "".join(cells) + "</table>"
     )
