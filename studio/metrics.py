@@ -140,20 +140,25 @@ def clearance_rows(c: Clearance | None, i: int = 0) -> tuple[Row, ...]:
 
 
 def other_mode_row(title: str, solution: Solution, ev: Evaluation, clearance: Clearance, stance_shift: float,
-                   i: int = 0) -> Row:
-    """The RTCLM's other mode in one row (``title``: "Auxiliary mode"): whether it moves, its worst transmission
-    angle, ground clearance and how far its stance level lies from this mode's (``stance_shift``, mm, > 0:
-    lower), marked like the rows of this mode when it does not assemble, is near a dead point or strikes the
-    ground (rehearsal 5: the studio's opening RTCLM looked clean in the primary mode and was 5.6 deg from a dead
-    point in the auxiliary one)."""
+                   i: int = 0, height: tuple[str, float] | None = None) -> Row:
+    """The RTCLM's other mode in one row (``title``: "Auxiliary mode"): whether it moves, its crossing height
+    (``height``: its name and target, ``("h4", 220.0)``), worst transmission angle, ground clearance and how far
+    its stance level lies from this mode's (``stance_shift``, mm, > 0: lower), marked like the rows of this mode
+    when it does not assemble, is near a dead point or strikes the ground (rehearsal 5: the studio's opening
+    RTCLM looked clean in the primary mode and was 5.6 deg from a dead point in the auxiliary one; rehearsal 6:
+    a design loaded from a study's RTCLM case showed h6 and not the h4 it was judged on)."""
     if solution.violation[i] != 0.0:
         return Row("other_mode", title, "does not assemble", note=why_infeasible(ev, i) or "",
                    warn="the leg's other mode does not assemble: it cannot switch", severe=True)
     mu = math.degrees(min_transmission_angle(solution, i))
     shift = (f"stance {abs(stance_shift):.0f} mm {'lower' if stance_shift > 0 else 'higher'}"
              if abs(stance_shift) >= 0.5 else "stance level the same")
-    value = f"μ {mu:.1f}°, clearance {float(clearance.value[i]):.0f} mm, {shift}"
-    note = (f"{title}: worst transmission angle {mu:.1f} deg; ground clearance {clearance.text(i)}; its stance "
+    h_m = float(ev.h_m[i])
+    said = f"{height[0]} {h_m:.1f} mm, " if height is not None and math.isfinite(h_m) else ""
+    value = f"{said}μ {mu:.1f}°, clearance {float(clearance.value[i]):.0f} mm, {shift}"
+    target = (f"{height[0]} {h_m:.2f} mm (target {height[1]:g}, off by {abs(h_m - height[1]):.3g}); "
+              if said and height is not None else "")
+    note = (f"{title}: {target}worst transmission angle {mu:.1f} deg; ground clearance {clearance.text(i)}; its stance "
             f"level lies {abs(stance_shift):.1f} mm {'below' if stance_shift > 0 else 'above'} this mode's, so the "
             f"trunk {'rises' if stance_shift > 0 else 'drops'} by that much when the leg switches")
     warn, severe = clearance.warning(i), bool(clearance.warning(i))

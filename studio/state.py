@@ -269,8 +269,9 @@ def other_mode_view(design: Design, sol: Solution, ev: Evaluation, target: Targe
     osol = solve(other, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
     oev = evaluate_solution(osol, target.target(), target.period, walk.obstacle)
     title = "Auxiliary mode" if other is RTCLM_AUXILIARY else "Primary mode"
+    name = MODE_HEIGHT[other.name]
     return other_mode_row(title, osol, oev, ground_clearance(osol, other, design.output),
-                          float(ev.y_min[0] - oev.y_min[0]))
+                          float(ev.y_min[0] - oev.y_min[0]), height=(name, float(getattr(target, name))))
 
 
 def assembly_reason(view: DesignView) -> str | None:

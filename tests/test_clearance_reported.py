@@ -49,12 +49,13 @@ def test_the_rtclm_shows_its_other_mode_in_one_row() -> None:
     shift = float(here.y_min[0] - there.y_min[0])
     mu = float(there.transmission[0])
     assert r.label == "Auxiliary mode"
-    assert r.value == (f"μ {mu:.1f}°, clearance {float(there.clearance[0]):.0f} mm, stance {abs(shift):.0f} mm "
-                       f"{'lower' if shift > 0 else 'higher'}")
+    # Its crossing height first: the h4 an RTCLM case is judged on (rehearsal 6 loaded a study's design and saw h6).
+    assert r.value == (f"h4 {float(there.h_m[0]):.1f} mm, μ {mu:.1f}°, clearance {float(there.clearance[0]):.0f} mm, "
+                       f"stance {abs(shift):.0f} mm {'lower' if shift > 0 else 'higher'}")
     assert (r.warn != "") == (mu < 40.0)
     # The other way round: the auxiliary preset names the primary mode, with the opposite shift.
     back = rows("rtclm/case4/auxiliary")["other_mode"]
-    assert back.label == "Primary mode"
+    assert back.label == "Primary mode" and str(back.value).startswith(f"h6 {float(here.h_m[0]):.1f} mm, ")
     assert f"stance {abs(shift):.0f} mm {'higher' if shift > 0 else 'lower'}" in str(back.value)
 
 
