@@ -70,7 +70,8 @@ def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
     kept = current_rows(study if isinstance(study, dict) else None, rows)
     # In the study file's order, its reference marked, as the report has them (rehearsal 6: alphabetical, IMTCMO
     # before the reference NSGA-II, and nothing said which one the others are compared with).
-    order = study.get("algorithms") if isinstance(study, dict) and isinstance(study.get("algorithms"), list) else []
+    listed = study.get("algorithms") if isinstance(study, dict) else None
+    order: list[Any] = listed if isinstance(listed, list) else []
     ref = study.get("reference") if isinstance(study, dict) else None
     rank = {a: k for k, a in enumerate(order)}
     kept = sorted(kept, key=lambda r: (rank.get(r["algorithm"], len(rank)), r["algorithm"]))
