@@ -354,3 +354,26 @@ def test_a_failing_stage_names_where_it_failed_not_where_the_failure_was_passed_
     assert record["error"].startswith("StageFailed: stage ")
     assert record["error"].endswith("failed: ZeroDivisionError: float division by zero (test_study.py:"
                                     f"{fails.__code__.co_firstlineno + 1})")
+
+
+def test_a_local_cluster_asks_for_no_fixed_dashboard_port() -> None:
+    # Rehearsal 6: with another cluster on 8787 every study, --quiet too, printed "Port 8787 is already in use".
+    import socket
+    import warnings
+
+    from core.study.runner import client_for
+
+    held = socket.socket()
+    try:
+        held.bind(("127.0.0.1", 8787))
+        held.listen()
+    except OSError:  # another process has it already: the same situation
+        pass
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", UserWarning)
+            with client_for(None, 1) as client:
+                assert client.dashboard_link.startswith("http://127.0.0.1:")
+                assert ":8787/" not in client.dashboard_link
+    finally:
+        held.close()

@@ -61,8 +61,11 @@ def client_for(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     n = workers or default_workers()
     # CRITICAL: a cell's failure comes back as data, and a worker's death through its futures; the workers'
     # own ERROR lines (heartbeats to a cluster that is closing) only buried the one line that says what happened.
+    # The scheduler's HTTP server on a free local port: None still asked for 8787, and with another cluster there
+    # every run, --quiet too, printed "Port 8787 is already in use" (rehearsal 6).
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
+                      dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL) as cluster, \
+            Client(cluster) as client:
         client.run(ignore_sigint)
         yield client
 
