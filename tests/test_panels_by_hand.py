@@ -1002,3 +1002,22 @@ def test_the_drawings_take_the_pin_hole_set_in_the_panel(studio, tmp_path):
     assert said and "4 mm holes" in said[-1][1]  # X3's B-F: 2.5 mm between 4 mm holes, under the 4 beside them
     assert studio.session.to_dict()["plates"]["hole"] == 4.0  # saved with the session
     studio.session.set_plates(type(studio.session.plates)())  # the module's studio back at 5 mm
+
+
+def test_a_studys_failed_runs_are_said_with_the_first_ones_message(studio, tmp_path):
+    # Rehearsal 6: an all-failed study read "0 runs done, 4 failed" and nothing of why.
+    from core.study.store import Store
+
+    d = tmp_path / "failing"
+    store = Store(d)
+    store.set_meta("study", {"name": "failing", "algorithms": ["nsga2"], "labels": {}, "reference": "nsga2",
+                             "cases": ["c"], "seeds": [1]})
+    store.save({"key": "c/nsga2/1", "case": "c", "algorithm": "nsga2", "seed": 1, "status": "failed",
+                "error": "StageFailed: stage 'subtask1' failed: boom"})
+    store.close()
+    panel = studio.studies
+    panel._dirs = {"failing": d}
+    panel.study.value = "failing"
+    panel._on_study(None)
+    text = panel.summary.content
+    assert "0 runs done, 1 failed. First failure, c/nsga2/1: StageFailed: stage 'subtask1' failed: boom." in text

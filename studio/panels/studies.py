@@ -110,7 +110,10 @@ class StudiesPanel:
         failed = sum(r["status"] == "failed" for r in rows)
         report = d / "report.html"
         said = f"Report: `{report}`." if report.is_file() else f"No report yet: `clm study report {d}` writes one."
-        self.summary.content = f"**{name}**: {len(self._runs)} runs done, {failed} failed. {said}"
+        # The first failure's message (rehearsal 6: an all-failed study said only "4 failed", not why).
+        first = next((r for r in rows if r["status"] == "failed" and r.get("error")), None)
+        why = f" First failure, {first['key']}: {str(first['error'])[:300]}." if first is not None else ""
+        self.summary.content = f"**{name}**: {len(self._runs)} runs done, {failed} failed.{why} {said}"
         keys = list(dict.fromkeys(k for r in self._runs for k in r.metrics))
         metrics = tuple(k for k in FIRST if k in keys) + tuple(k for k in keys if k not in FIRST)
         self._metric_key = {metric_name(k): k for k in metrics or FIRST}
