@@ -35,7 +35,7 @@ from core.kinematics.model import Mechanism
 from core.kinematics.params import Param
 from core.kinematics.solver import Backend, Solution, solve
 from core.optimize.objectives import target_scale
-from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, case_h4, is_rtclm
+from core.optimize.rtclm import H4_CASES, MODE_HEIGHT, case_h4, is_rtclm, mode_clearance
 from core.optimize.scale import entry_bounds
 from studio.metrics import (
     Row,
@@ -254,7 +254,8 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     height = None if mode is None else (mode, float(getattr(target, mode)))
     # The paper printed S as h_s / 300 mm (its stride), the studio's S is h_s / l_s: both, for the paper's target.
     stride = target.length if height is None and target.curve is None and target.length == 300.0 else None
-    extra = clearance_rows(ground_clearance(sol, design.mechanism, design.output) if rigid(design.output) else None)
+    extra = clearance_rows(mode_clearance(ground_clearance(sol, design.mechanism, design.output), design.mechanism,
+                                          design.params) if rigid(design.output) else None)
     if mode is not None:
         extra += (other_mode_view(design, sol, ev, target, n_samples, walk),)
     return DesignView(design, preset, target, sol, tgt, design.output.apply(tgt), ev,
@@ -270,7 +271,8 @@ def other_mode_view(design: Design, sol: Solution, ev: Evaluation, target: Targe
     oev = evaluate_solution(osol, target.target(), target.period, walk.obstacle)
     title = "Auxiliary mode" if other is RTCLM_AUXILIARY else "Primary mode"
     name = MODE_HEIGHT[other.name]
-    return other_mode_row(title, osol, oev, ground_clearance(osol, other, design.output),
+    return other_mode_row(title, osol, oev, mode_clearance(ground_clearance(osol, other, design.output), other,
+                                                           design.params),
                           float(ev.y_min[0] - oev.y_min[0]), height=(name, float(getattr(target, name))))
 
 

@@ -127,3 +127,30 @@ def test_the_rtclm_problems_hold_the_clearance_unless_told_not_to() -> None:
             make_problem("rtclm1", clearance_min=bad)
     with pytest.raises((TypeError, ValueError), match="clearance"):
         make_problem("rtclm2", clearance="yes")
+
+
+def test_the_auxiliary_mode_counts_the_left_legs_locked_crank_and_rocker() -> None:
+    # Review of session 30: in the auxiliary mode both legs are locked in the switching state; this design's left
+    # crank tip B stood 7.8 mm in the ground while the right leg's clearance read 14.3 mm, and rtclm2 took it.
+    from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, switching_state
+    from core.optimize.rtclm import mode_clearance, rtclm_metrics
+    from studio.state import build_view
+    from studio.target import TargetSpec
+
+    params = np.array([[51.7282, 233.6429, 170.5449, 182.2574, 139.7624, 35.0462, 143.3577, 97.3132, 177.134,
+                        59.374, 148.9073, 106.7225, 2.2563]])
+    aux = Design(RTCLM_AUXILIARY, params)
+    ground = float(aux.solve(360).leg[0, :, 1].min())
+    left_b = float(switching_state(params)["B"][0, 1, 1])
+    right = float(evaluate(aux).clearance[0])  # the mechanism's own joints: the right leg
+    assert right == pytest.approx(14.34, abs=0.01) and left_b - ground == pytest.approx(-7.754, abs=0.001)
+    assert float(rtclm_metrics(params)["clearance_4"][0]) == pytest.approx(left_b - ground, abs=1e-9)
+    assert not make_problem("rtclm2").evaluate_metrics(aux)["clearance_4"][0] >= 0.0  # now refused
+    c = mode_clearance(ground_clearance(aux.solve(360), aux.mechanism, aux.output), aux.mechanism, params)
+    assert c.warning().startswith("B of the left leg (fixed) sits 7.8 mm below the ground")
+    row = next(r for r in build_view(aux, None, TargetSpec()).rows if r.key == "clearance")
+    assert row.severe and row.warn == c.warning()
+    # The primary mode's left leg is the same mechanism half a turn later: nothing to add.
+    primary = Design(get("rtclm/case4").mechanism, params)
+    c6 = ground_clearance(primary.solve(360), primary.mechanism, primary.output)
+    assert mode_clearance(c6, primary.mechanism, params) is c6

@@ -31,11 +31,20 @@ class Clearance:
             the output stage is not rigid.
         names: the joint names.
         frame: ``(n_joints,)`` True for the points fixed in this mechanism (its ground points).
+        ground: ``(pop,)`` the foot's lowest y (mm, design frame), NaN where the heights are.
     """
 
     height: F64
     names: tuple[str, ...]
     frame: NDArray[np.bool_]
+    ground: F64
+
+    def with_fixed(self, names: tuple[str, ...], y: F64) -> Clearance:
+        """With more fixed points of the leg that its mechanism does not draw, at heights ``y`` ``(pop, k)`` (mm,
+        design frame): the RTCLM's auxiliary mode locks the left leg's crank and rocker too."""
+        extra = np.asarray(y, dtype=np.float64) - self.ground[:, None]
+        return Clearance(np.concatenate([self.height, extra], axis=1), self.names + tuple(names),
+                         np.concatenate([self.frame, np.ones(len(names), dtype=bool)]), self.ground)
 
     @property
     def value(self) -> F64:
@@ -102,6 +111,8 @@ def from_lowest(lowest: F64, mechanism: Mechanism, output: OutputStage, violatio
     height[:, foot] = np.nan
     if not rigid(output):
         height[:] = np.nan
-    height[(np.asarray(violation) != 0.0) | ~np.isfinite(height).any(axis=1)] = np.nan
+    bad = (np.asarray(violation) != 0.0) | ~np.isfinite(height).any(axis=1)
+    height[bad] = np.nan
     height[~np.isfinite(height)] = np.nan
-    return Clearance(height, names, frame)
+    ground = np.where(bad | (not rigid(output)), np.nan, lowest[:, foot])
+    return Clearance(height, names, frame, ground)

@@ -128,8 +128,12 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
             "output": design.output.to_dict()}
     if rigid(design.output):  # which joint is lowest, in words (a pantograph's bars are not modelled)
-        info["clearance_note"] = ground_clearance(design.solve(args.samples, derivatives=False, backend=args.backend),
-                                                  design.mechanism, design.output).text()
+        from core.optimize.rtclm import mode_clearance
+
+        sol = design.solve(args.samples, derivatives=False, backend=args.backend)
+        c = mode_clearance(ground_clearance(sol, design.mechanism, design.output), design.mechanism, design.params)
+        ev = dataclasses.replace(ev, clearance=c.value)  # the RTCLM's auxiliary mode: both legs' locked points
+        info["clearance_note"] = c.text()
     return ev, design_label(args, preset), info
 
 

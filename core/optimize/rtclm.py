@@ -32,9 +32,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from core.analysis.clearance import Clearance
 from core.analysis.evaluate import Evaluation, evaluate
 from core.kinematics.design import Design
-from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions
+from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY, crank_conditions, switching_state
 from core.kinematics.model import Mechanism
 from core.optimize.objectives import ASSEMBLY_TIER, quantize_all, tiered
 from core.optimize.problem import ASSEMBLY, Constraint, Metrics, ProblemSpec, register, transmission_limits
@@ -102,6 +103,24 @@ def mode_metrics(ev: Evaluation, suffix: str) -> Metrics:
     }
 
 
+# In the auxiliary mode both legs are locked in the switching state, the left half a turn on: its A, D, E, H and its
+# four-bar sit at the right leg's heights, its crank tip B and rocker tip C do not (the review of session 30 found a
+# design whose left B stood 7.8 mm in the ground while the right leg's clearance read 14.3 mm).
+LEFT_LOCKED = ("B of the left leg", "C of the left leg")
+
+
+def left_locked(params: F64) -> F64:
+    """``(pop, 2)`` heights (mm, design frame) of the left leg's B and C in the switching state; NaN where there is
+    no switching state."""
+    st = switching_state(params)
+    return np.stack([st["B"][:, 1, 1], st["C"][:, 1, 1]], axis=1)
+
+
+def mode_clearance(c: Clearance, mechanism: Mechanism, params: F64) -> Clearance:
+    """A mode's ground clearance of both legs: the auxiliary mode's with the left leg's locked B and C added."""
+    return c.with_fixed(LEFT_LOCKED, left_locked(params)) if mechanism.name == RTCLM_AUXILIARY.name else c
+
+
 def case_h4(preset: str | None) -> float | None:
     """The h4 target of the RTCLM case a preset was made for (``Preset.case``; case 3: 260 mm, paper §4.2), else
     None (no preset, or one made for no case)."""
@@ -133,6 +152,9 @@ def rtclm_metrics(params: F64, h6_target: float = H6_TARGET, h4_target: float = 
     if auxiliary:
         aux = evaluate(Design(RTCLM_AUXILIARY, params), n_samples, backend=backend)  # type: ignore[arg-type]
         out.update(mode_metrics(aux, "4"))
+        with np.errstate(invalid="ignore"):  # both legs: the left one's locked B and C too (``mode_clearance``)
+            left = left_locked(params).min(axis=1) - aux.y_min
+            out["clearance_4"] = np.where(np.isnan(aux.clearance), np.nan, np.fmin(aux.clearance, left))
         out["aux_violation"] = tiered(aux.violation)
         out["dh4"] = np.abs(aux.h_m - h4_target)
     else:
