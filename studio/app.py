@@ -197,6 +197,7 @@ class Studio:
                 self.bench.show(view, shown)
                 self._shown, self._optimized_by = view, optimized_by
             self.playback.show(pb, self.held())
+            self.files.show(self.session.plates)  # a loaded session's pin holes (the field kept the old ones)
             sv = self.study_view()
             study_changed = sv.key != self._study_key
             if changed and not fit_camera:

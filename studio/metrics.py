@@ -151,16 +151,21 @@ def other_mode_row(title: str, solution: Solution, ev: Evaluation, clearance: Cl
         return Row("other_mode", title, "does not assemble", note=why_infeasible(ev, i) or "",
                    warn="the leg's other mode does not assemble: it cannot switch", severe=True)
     mu = math.degrees(min_transmission_angle(solution, i))
-    shift = (f"stance {abs(stance_shift):.0f} mm {'lower' if stance_shift > 0 else 'higher'}"
-             if abs(stance_shift) >= 0.5 else "stance level the same")
+    if not math.isfinite(stance_shift):  # this mode has no stance to compare with (it does not assemble)
+        shift = "stance not comparable"
+    elif abs(stance_shift) >= 0.5:
+        shift = f"stance {abs(stance_shift):.0f} mm {'lower' if stance_shift > 0 else 'higher'}"
+    else:
+        shift = "stance level the same"
     h_m = float(ev.h_m[i])
     said = f"{height[0]} {h_m:.1f} mm, " if height is not None and math.isfinite(h_m) else ""
     value = f"{said}μ {mu:.1f}°, clearance {float(clearance.value[i]):.0f} mm, {shift}"
     target = (f"{height[0]} {h_m:.2f} mm (target {height[1]:g}, off by {abs(h_m - height[1]):.3g}); "
               if said and height is not None else "")
-    note = (f"{title}: {target}worst transmission angle {mu:.1f} deg; ground clearance {clearance.text(i)}; its stance "
-            f"level lies {abs(stance_shift):.1f} mm {'below' if stance_shift > 0 else 'above'} this mode's, so the "
-            f"trunk {'rises' if stance_shift > 0 else 'drops'} by that much when the leg switches")
+    note = f"{title}: {target}worst transmission angle {mu:.1f} deg; ground clearance {clearance.text(i)}"
+    if math.isfinite(stance_shift):
+        note += (f"; its stance level lies {abs(stance_shift):.1f} mm {'below' if stance_shift > 0 else 'above'} this "
+                 f"mode's, so the trunk {'rises' if stance_shift > 0 else 'drops'} by that much when the leg switches")
     warn, severe = clearance.warning(i), bool(clearance.warning(i))
     if not warn:
         crank = float(solution.crank_margin[i])

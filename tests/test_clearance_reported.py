@@ -97,3 +97,18 @@ def test_clm_evaluate_of_an_rtclm_run_names_the_runs_h4(tmp_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     h_m = next(ln for ln in out.stdout.splitlines() if "h_m = h4" in ln)
     assert "target 255 mm (the run's)" in h_m and "220 / 240" not in h_m
+
+
+def test_the_other_mode_row_says_no_stance_shift_when_this_mode_does_not_assemble() -> None:
+    # Review of session 30: it read "stance level the same" and "lies nan mm above" when this mode (the one on
+    # screen) does not assemble, so its stance level is NaN.
+    from core.analysis.clearance import ground_clearance
+    from studio.metrics import evaluate_solution, other_mode_row
+
+    aux = Design(RTCLM_AUXILIARY, get("rtclm/case4").design().params)
+    sol = aux.solve(360)
+    ev = evaluate_solution(sol, TargetSpec().target(), 2.0)
+    r = other_mode_row("Auxiliary mode", sol, ev, ground_clearance(sol, aux.mechanism, aux.output), float("nan"))
+    assert "stance not comparable" in str(r.value) and "nan" not in r.note.lower()
+    shifted = other_mode_row("Auxiliary mode", sol, ev, ground_clearance(sol, aux.mechanism, aux.output), 12.0)
+    assert "stance 12 mm lower" in str(shifted.value) and "the trunk rises by that much" in shifted.note

@@ -1001,7 +1001,28 @@ def test_the_drawings_take_the_pin_hole_set_in_the_panel(studio, tmp_path):
     said = [n for n in c.notes if n[0] == "Check the parts before cutting"]
     assert said and "4 mm holes" in said[-1][1]  # X3's B-F: 2.5 mm between 4 mm holes, under the 4 beside them
     assert studio.session.to_dict()["plates"]["hole"] == 4.0  # saved with the session
+    # Written to the session file at once (review of session 30: only the next unrelated change saved it), and a
+    # loaded session's holes show in the field (it kept showing the old ones).
+    import json
+
+    from core.formats.drawing import Plates
+    from studio.state import Session
+
+    was, studio.session_path = studio.session_path, tmp_path / "s.json"
+    try:
+        field.handle._impl.value = "3.5"
+        field.arrived("3.5")
+        field.edit(None)  # type: ignore[arg-type]
+        assert json.loads((tmp_path / "s.json").read_text())["plates"]["hole"] == 3.5
+    finally:
+        studio.session_path = was
+    loaded = Session.default()
+    loaded.set_plates(Plates(2.5))
+    studio.session.restore(loaded)
+    studio.refresh()
+    assert float(field.handle.value) == 2.5
     studio.session.set_plates(type(studio.session.plates)())  # the module's studio back at 5 mm
+    studio.refresh()
 
 
 def test_a_studys_failed_runs_are_said_with_the_first_ones_message(studio, tmp_path):

@@ -71,8 +71,14 @@ class FilesPanel:
         self.load.on_upload(self._on_load)
 
     def _set_hole(self, value: float) -> None:
-        """The drawings' hole diameter (mm); ValueError (the field says why, the old value stays) if unusable."""
+        """The drawings' hole diameter (mm); ValueError (the field says why, the old value stays) if unusable. Kept
+        with the session, and saved with it at once (a restart lost it: the review of session 30)."""
         self.studio.session.set_plates(Plates(float(value)))
+        self.studio.autosave()
+
+    def show(self, plates: Plates) -> None:
+        """Show the session's pin holes (a loaded session's, a restored one's)."""
+        self.hole.show(plates.hole)
 
     def _send(self, make: Any, slow: str | None = None, notes: Any = None) -> Any:
         """A button's handler: ``make()`` -> (name, bytes) sent to the page. ``slow``: what takes the time, said in a
