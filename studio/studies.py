@@ -74,7 +74,9 @@ def study_rows(directory: Path) -> tuple[str, list[dict[str, Any]]]:
     order: list[Any] = listed if isinstance(listed, list) else []
     ref = study.get("reference") if isinstance(study, dict) else None
     rank = {a: k for k, a in enumerate(order)}
-    kept = sorted(kept, key=lambda r: (rank.get(r["algorithm"], len(rank)), r["algorithm"]))
+    cases = {c: k for k, c in enumerate(dict.fromkeys(r["case"] for r in kept))}  # within each case, in its place
+    kept = sorted(kept, key=lambda r: (cases[r["case"]], rank.get(r["algorithm"], len(rank)), r["algorithm"],
+                                       r["seed"]))
 
     def title(a: str) -> str:
         return str(labels.get(a, a)) + (" (reference)" if a == ref else "")

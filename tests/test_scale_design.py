@@ -88,3 +88,11 @@ def test_a_size_the_solver_cannot_follow_is_refused_naming_the_option_given(tmp_
     assert capsys.readouterr().err.startswith("clm: error: --factor: scaled by 1e-09 the design no longer assembles")
     assert main(["scale", "--preset", "stephenson1/X3", "--stride", "1e305"]) == 2
     assert capsys.readouterr().err.startswith("clm: error: --stride: output ox (mm) must be within")
+
+
+def test_a_size_too_large_is_refused_with_the_right_advice_and_a_tiny_one_keeps_its_digits(capsys):
+    # Review of session 30: x30000 was told to "choose a larger size", and x1e-5 printed "-> 0.00 mm".
+    assert main(["scale", "--preset", "jansen", "--factor", "3e4"]) == 2
+    assert capsys.readouterr().err.rstrip().endswith("choose a smaller size")
+    assert main(["scale", "--preset", "jansen", "--factor", "1e-5"]) == 0
+    assert "(leg-frame path width 67.91 -> 0.000679 mm)" in capsys.readouterr().out

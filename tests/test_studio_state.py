@@ -567,7 +567,8 @@ def test_a_design_file_gets_a_target_of_its_own_whatever_the_editor_showed_befor
     before = kept.view.target
     assert kept.set_design(small, cause="subtask1's pick").target == before
     x3 = Session.default()
-    assert x3.set_design(presets.get("stephenson1/X3").design().scaled(0.5), refit=True).target == x3.view.target
+    paper = x3.view.target
+    assert x3.set_design(presets.get("stephenson1/X3").design().scaled(0.5), refit=True).target == paper
 
 
 def test_the_pin_holes_travel_with_the_session_and_a_bad_one_is_refused() -> None:

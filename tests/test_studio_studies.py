@@ -165,3 +165,22 @@ def test_a_run_file_outside_the_study_is_refused(studies):
 def test_an_rtclm_run_is_listed_with_its_deviations() -> None:
     run = StudyRun("rtclm_case1", "imtcmo", 4, {"dh6": 0.2681, "dh4": 0.1984, "h6": 50.27}, "runs/x.json", "IMTCMO")
     assert run.label == "rtclm_case1 · IMTCMO · seed 4 · dh6 0.268 · dh4 0.198"
+
+
+def test_runs_are_listed_case_by_case_in_the_study_files_algorithm_order(tmp_path) -> None:
+    # Review of session 30: ordering by algorithm alone scattered each case's runs over the algorithms' blocks.
+    from core.study.store import Store
+
+    store = Store(tmp_path)
+    store.set_meta("study", {"name": "two", "algorithms": ["nsga2", "cmoes"], "labels": {}, "reference": "nsga2",
+                             "cases": ["c1", "c2"], "seeds": [1, 2]})
+    for case in ("c1", "c2"):
+        for alg in ("cmoes", "nsga2"):
+            for seed in (2, 1):
+                store.save({"key": f"{case}/{alg}/{seed}", "case": case, "algorithm": alg, "seed": seed,
+                            "status": "done", "result": "{}", "metrics": {}})
+    store.close()
+    _, rows = study_rows(tmp_path)
+    assert [(r["case"], r["algorithm"], r["seed"]) for r in rows] == [
+        ("c1", "nsga2", 1), ("c1", "nsga2", 2), ("c1", "cmoes", 1), ("c1", "cmoes", 2),
+        ("c2", "nsga2", 1), ("c2", "nsga2", 2), ("c2", "cmoes", 1), ("c2", "cmoes", 2)]

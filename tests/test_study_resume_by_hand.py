@@ -301,3 +301,37 @@ def test_a_directory_of_another_study_is_refused(tmp_path: Path, client: _Client
     runner.run_study(load_study(tmp_path / "a.toml"), out, stream=None, task=fake_task)
     with pytest.raises(runner.StudyChanged, match="holds the study 'resume', not 'other'"):
         runner.run_study(load_study(tmp_path / "b.toml"), out, stream=None, task=fake_task)
+
+
+def test_the_commit_is_named_only_when_the_checkout_holds_the_code(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    # Review of session 30: core installed, git-ignored, inside another repository reported that repository's
+    # commit as clean.
+    import subprocess
+
+    from core.study import provenance
+
+    repo = tmp_path / "host"
+    pkg = repo / "venv" / "core"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (repo / ".gitignore").write_text("venv/\n")
+    git = ["git", "-C", str(repo), "-c", "user.email=t@t", "-c", "user.name=t"]
+    subprocess.run([*git, "init", "-q"], check=True)
+    subprocess.run([*git, "add", ".gitignore"], check=True)
+    subprocess.run([*git, "commit", "-q", "-m", "host"], check=True)
+    monkeypatch.setattr(provenance, "ROOT", pkg)
+    provenance.git_commit.cache_clear()
+    try:
+        assert provenance.git_commit() is None  # not this repository's code
+        (repo / ".gitignore").write_text("")
+        subprocess.run([*git, "add", "."], check=True)
+        subprocess.run([*git, "commit", "-q", "-m", "core"], check=True)
+        provenance.git_commit.cache_clear()
+        head = subprocess.run([*git, "rev-parse", "HEAD"], capture_output=True, text=True, check=True).stdout
+        assert provenance.git_commit() == head.strip()[:12]
+        (pkg / "__init__.py").write_text("x = 1\n")
+        provenance.git_commit.cache_clear()
+        assert provenance.git_commit() == head.strip()[:12] + "+dirty"
+    finally:
+        provenance.git_commit.cache_clear()

@@ -193,3 +193,21 @@ def test_a_budget_below_an_algorithms_first_generation_is_said() -> None:
         r["metrics"]["n_eval"] = 52
     assert "is not what every algorithm spent" not in markdown(
         "s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
+
+
+def test_too_few_runs_names_only_the_algorithms_it_applies_to_and_populations_per_algorithm() -> None:
+    # Review of session 30: "every sign is ≈ whatever the values" stood under another algorithm's "+", and the
+    # case line gave one algorithm's population for every run.
+    import json
+
+    rows = [run_row("r", s, 10.0 + s, [[0.0, 1.0]]) for s in range(1, 6)]
+    rows += [run_row("a", s, 1.0 + s, [[0.0, 1.0]]) for s in (1, 2)]
+    rows += [run_row("b", s, 0.1 * s, [[0.0, 1.0]]) for s in range(1, 6)]
+    for r in rows:
+        pop = 40 if r["algorithm"] == "b" else 200
+        r["settings"] = json.dumps({"algorithm": {"pop_size": pop}, "case": {"budget": 1000, "stages": ["x"]}})
+    c = case_report(Rows(rows), "c", ["r", "a", "b"], {"r": "R", "a": "A", "b": "B"}, "r", "mse")
+    md = markdown("s", [c])
+    assert "every sign is ≈" not in md
+    assert "Too few runs against the reference's 5 for any difference to reach 5 %: A (2 runs, smallest p 0.095)" in md
+    assert "population R 200, A 200, B 40;" in md

@@ -33,6 +33,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def _mm(v: float) -> str:
+    """A width to 0.01 mm, or to 3 digits below that (a leg scaled to 6.8 um read "0.00 mm": review of session 30)."""
+    return f"{v:.2f}" if abs(v) >= 0.01 else f"{v:.3g}"
+
+
 def run(args: argparse.Namespace) -> int:
     from core.cli.simulate import design_label, extent, load_design
 
@@ -58,12 +63,14 @@ def run(args: argparse.Namespace) -> int:
     if sol.violation[0] == 0 and after.violation[0] != 0:
         # The solver's tolerances are absolute (mm): a leg scaled to microns no longer assembles there (review of
         # session 29: --stride 1e-7 wrote such a design with exit 0 and "width 298.94 -> 0.00 mm").
+        way = "larger" if factor < 1 else "smaller"
         raise CLIError(f"{given}: scaled by {factor:.6g} the design no longer assembles (violation "
-                       f"{after.violation[0]:.3g} mm; the solver's tolerances are absolute): choose a larger size")
+                       f"{after.violation[0]:.3g} mm: the solver's tolerances are absolute and its lengths bounded): "
+                       f"choose a {way} size")
     new = extent(after.leg[0])["width"]
     data = {"name": f"{label} x{factor:.4g}", "title": design.mechanism.title, **design_to_dict(scaled),
             "source": f"{label} scaled by {factor:.6g}"
-                      + (f" (leg-frame path width {width:.2f} -> {new:.2f} mm)" if width and new else "")}
+                      + (f" (leg-frame path width {_mm(width)} -> {_mm(new)} mm)" if width and new else "")}
     text = json.dumps(data, indent=2) + "\n"
     if args.out is None:
         sys.stdout.write(text)

@@ -32,7 +32,9 @@ def git_commit() -> str | None:
     try:
         head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True,
                               timeout=10)
-        if head.returncode != 0:
+        tracked = subprocess.run(["git", "-C", str(ROOT), "ls-files", "--", "__init__.py"], capture_output=True,
+                                 text=True, timeout=10)
+        if head.returncode != 0 or not tracked.stdout.strip():  # not ours: core installed inside another repository
             return None
         dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--", "."], capture_output=True,
                                text=True, timeout=10)

@@ -91,7 +91,8 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
             "failed": failed, "values": values, "labels": labels, "reference": reference, "algorithms": algorithms,
             "left_out": left_out, "feasible_picks": feasible, "runs": {a: len(per_alg[a]) for a in algorithms},
             "flat": flat_objectives(rows), "codes": [r.get("code") for r in rows if r["status"] == "done"],
-            "settings": next((r.get("settings") for r in rows if r.get("settings")), None)}
+            "settings": next((r.get("settings") for r in rows if r.get("settings")), None),
+            "populations": populations(rows, algorithms, labels)}
 
 
 def _cell(text: str) -> str:
@@ -134,7 +135,21 @@ def study_lines(meta: dict[str, Any] | None, code: dict[str, Any] | None, cases:
     return out + [""]
 
 
-def case_line(settings: str | None) -> str:
+def populations(rows: list[dict[str, Any]], algorithms: list[str], labels: dict[str, str]) -> str:
+    """``200``, or ``NSGA-II 200, CMOES 40`` when a study sets the population per algorithm; "" when unknown."""
+    pops: dict[str, Any] = {}
+    for r in rows:
+        if r["algorithm"] not in pops and r.get("settings"):
+            try:
+                pops[r["algorithm"]] = json.loads(r["settings"])["algorithm"].get("pop_size")
+            except (ValueError, KeyError, TypeError, AttributeError):
+                pass
+    if len(set(map(str, pops.values()))) == 1:
+        return str(next(iter(pops.values())))
+    return ", ".join(f"{labels.get(a, a)} {pops[a]}" for a in algorithms if a in pops)
+
+
+def case_line(settings: str | None, population: str = "") -> str:
     """A case's budget, population and start from one of its cells' settings, in words."""
     try:
         data = json.loads(settings or "")
@@ -145,7 +160,7 @@ def case_line(settings: str | None) -> str:
     stages = ", ".join(case.get("stages") or []) or "every stage of its config"
     budget = case.get("budget")
     spent = f"a budget of {budget} function evaluations a stage" if budget else "its config's generations"
-    return f"Each run: {stages}, from {start}; population {alg.get('pop_size', '?')}; {spent}."
+    return f"Each run: {stages}, from {start}; population {population or alg.get('pop_size', '?')}; {spent}."
 
 
 def budget_of(settings: str | None) -> float | None:
@@ -191,7 +206,7 @@ def markdown(name: str, cases: list[dict[str, Any]], meta: dict[str, Any] | None
     for c in cases:
         algs, labels = c["algorithms"], c["labels"]
         runs = c.get("runs") or {}
-        line = case_line(c.get("settings"))
+        line = case_line(c.get("settings"), c.get("populations", ""))
         out += [f"## {c['case']}", "", *([line, ""] if line else []),
                 "| metric | " + " | ".join(_cell(labels.get(a, a)) for a in algs) + " |", "|---|" + "---|" * len(algs)]
         for m in c["metrics"]:
@@ -223,11 +238,16 @@ def markdown(name: str, cases: list[dict[str, Any]], meta: dict[str, Any] | None
             out += [line, ""]
         ref_n = runs.get(c["reference"], 0)
         small = [a for a in algs if a != c["reference"] and runs.get(a) and min_p(runs[a], ref_n) >= ALPHA]
-        if small:
-            least = min_p(runs[small[0]], ref_n)
+        others = [a for a in algs if a != c["reference"] and runs.get(a)]
+        if small and small == others:
             least = min_p(runs[small[0]], ref_n)
             out += [f"With {runs[small[0]]} against {ref_n} runs no difference can reach 5 % (the exact test's "
                     f"smallest p is {least:.2g}): every sign is ≈ whatever the values.", ""]
+        elif small:  # only some: name them (a "+" of another algorithm stood right above "every sign is ≈")
+            said = ", ".join(f"{labels.get(a, a)} ({runs[a]} runs, smallest p {min_p(runs[a], ref_n):.2g})"
+                             for a in small)
+            out += [f"Too few runs against the reference's {ref_n} for any difference to reach 5 %: {said}; their "
+                    "signs are ≈ whatever the values.", ""]
         if c["best"]:
             out += [f"Best picked design per algorithm (smallest {c['best_by']}):", ""]
             for a in algs:
