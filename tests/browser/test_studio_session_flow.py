@@ -34,8 +34,9 @@ def test_a_whole_session_keeps_its_state_straight(page, studio, ready):
     page.get_by_role("button", name="Run", exact=True).click()
 
     # Item 3: the status names the unmet constraints; Pick and Metrics judge against the stage's constraints.
-    expect(page.get_by_text(re.compile(r"Last run: subtask2 complete — no feasible member: .*f1 [\d.]+ > 6")))\
-        .to_be_visible(timeout=60_000)
+    # By the problem's label for f1, as the Pick table names it (session 30).
+    unmet = re.compile(r"Last run: subtask2 complete — no feasible member: .*f1 = MSE \(mm\) [\d.]+ > 6")
+    expect(page.get_by_text(unmet)).to_be_visible(timeout=60_000)
     r = studio.session.study.result("subtask2")
     assert r is not None and not r.feasible.any()
     # The editor took the least violating member: said, and its Undo step named so (rehearsal 4).
