@@ -335,3 +335,38 @@ def test_the_commit_is_named_only_when_the_checkout_holds_the_code(tmp_path: Pat
         assert provenance.git_commit() == head.strip()[:12] + "+dirty"
     finally:
         provenance.git_commit.cache_clear()
+
+
+def test_workers_running_other_code_are_refused_before_any_cell(tmp_path: Path, client: _Client) -> None:
+    # Review of session 30: a long-lived worker started before an edit ran the old modules; nothing compared them.
+    from core.study.cell import run_cell
+
+    client.run = lambda fn, *args: {"tcp://w1": "deadbeef0000"}  # type: ignore[attr-defined]
+    (tmp_path / "s.toml").write_text(STUDY)
+    with pytest.raises(runner.StudyChanged, match=r"the cluster's workers run other code \(core digest "
+                                                  r"deadbeef0000; this code: "):
+        runner.run_study(load_study(tmp_path / "s.toml"), str(tmp_path / "out"), stream=None, task=run_cell)
+    assert client.sent == []
+
+
+def test_the_digest_is_the_code_imported_not_the_files_edited_since(tmp_path: Path) -> None:
+    import shutil
+    import subprocess
+    import sys
+
+    import core
+    from core.study.provenance import code_digest
+
+    assert code_digest() == core.CODE_DIGEST
+    # A copy of core imported, then edited: the process still names the code it imported.
+    shutil.copytree(ROOT / "core", tmp_path / "core", ignore=shutil.ignore_patterns("__pycache__"))
+    script = ("import sys; sys.path.insert(0, sys.argv[1]); import core\n"
+              "from pathlib import Path; p = Path(sys.argv[1]) / 'core' / 'cli' / '__init__.py'\n"
+              "p.write_text(p.read_text() + '# edited\\n')\n"
+              "from core.study.provenance import code_digest; print(code_digest(), core.__file__)")
+    out = subprocess.run([sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True, timeout=120)
+    digest, where = out.stdout.split()
+    assert where.startswith(str(tmp_path)) and digest == core.CODE_DIGEST
+    edited = subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); import core; "
+                             "print(core.CODE_DIGEST)", str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert edited.stdout.strip() != core.CODE_DIGEST

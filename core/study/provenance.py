@@ -7,7 +7,6 @@ resumed study reused four seeds of the old NSGA-II and ran the fifth with a chan
 
 from __future__ import annotations
 
-import hashlib
 import subprocess
 from functools import cache
 from pathlib import Path
@@ -15,14 +14,27 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]  # the core package
 
 
-@cache
 def code_digest() -> str:
-    """12 hex digits of SHA-256 over every ``core/**/*.py`` file's path and bytes: equal iff the library's code
-    is (docs, tests, the studio and data files are not in it)."""
-    h = hashlib.sha256()
-    for path in sorted(ROOT.rglob("*.py")):
-        h.update(str(path.relative_to(ROOT)).encode("utf-8") + b"\0" + path.read_bytes() + b"\0")
-    return h.hexdigest()[:12]
+    """12 hex digits of SHA-256 over every ``core/**/*.py`` file's path and bytes, taken when ``core`` was imported:
+    equal iff the library's code is (docs, tests, the studio and data files are not in it), and the code this process
+    runs even after the files are edited (review of session 30: read at the first call, a long-lived worker named the
+    edited files while the old modules ran)."""
+    import core
+
+    return core.CODE_DIGEST
+
+
+def libraries() -> dict[str, str]:
+    """The versions of the libraries whose code the results depend on."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in ("numpy", "scipy", "numba", "pymoo", "moocore"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            pass
+    return out
 
 
 @cache
@@ -43,6 +55,6 @@ def git_commit() -> str | None:
     return head.stdout.strip()[:12] + ("+dirty" if dirty.stdout.strip() else "")
 
 
-def code_version() -> dict[str, str | None]:
-    """``{"digest": ..., "commit": ...}``: what a result records of the code that made it."""
-    return {"digest": code_digest(), "commit": git_commit()}
+def code_version() -> dict[str, object]:
+    """``{"digest": ..., "commit": ..., "libraries": {...}}``: what a study records of the code that made it."""
+    return {"digest": code_digest(), "commit": git_commit(), "libraries": libraries()}

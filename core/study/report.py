@@ -126,12 +126,14 @@ def study_lines(meta: dict[str, Any] | None, code: dict[str, Any] | None, cases:
     def name(k: str) -> str:
         return f"core digest {k}" + (f" (commit {commit})" if k == now and commit else "")
 
+    libs = (code or {}).get("libraries") or {}
+    with_libs = ("; " + ", ".join(f"{k} {v}" for k, v in libs.items())) if libs else ""
     if len(counts) == 1:
-        out.append(f"Code: {name(next(iter(counts)))} for every run.")
+        out.append(f"Code: {name(next(iter(counts)))} for every run{with_libs}.")
     elif counts:
         out.append(f"Code: **{len(counts)} versions** among the runs (resumed with `--mixed-code`): " + "; ".join(
             f"{n} run(s) by {name(k)}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1])) +
-            ". A median may pool runs of different code.")
+            f". A median may pool runs of different code{with_libs}.")
     return out + [""]
 
 

@@ -144,7 +144,7 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
                 f"{out} holds {len(changed)} finished cell(s) run with other settings, e.g. {first['key']}: "
                 f"{settings_change(was, now)}; pass --rerun-changed to run them again, or choose another --out")
         other = study.name != (store.meta("study") or {}).get("name", study.name)
-        if other and kept:  # rehearsal 6: another study's directory was taken over, its report overwritten
+        if other:  # rehearsal 6: another study's directory was taken over, its report overwritten
             raise StudyChanged(f"{out} holds the study {store.meta('study')['name']!r}, not {study.name!r}; choose "
                                "another --out")
         codes, here = store.codes(), code_digest()
@@ -174,6 +174,13 @@ def _run(study: Study, cells: list[dict[str, Any]], out: str, scheduler: str | N
         failed = 0
         if todo:
             with client_for(scheduler, workers) as client:
+                if task is run_cell:  # a worker running other code (a --scheduler's, started before an edit) would
+                    # record its own digest, and the study would pool two versions: refused before any cell runs
+                    theirs = {str(d) for d in client.run(code_digest).values()}
+                    if theirs - {here}:
+                        raise StudyChanged(f"the cluster's workers run other code (core digest "
+                                           f"{', '.join(sorted(theirs - {here}))}; this code: {here}): restart them "
+                                           "with this code")
                 if task is run_cell:  # every worker loads the kernels before any cell is timed
                     try:
                         client.run(warm_up, warm_cells(todo))
