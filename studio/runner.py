@@ -21,20 +21,24 @@ re-evaluates the population's metrics and knee points: made after every generati
 4 ms generation (subtask 2, pop 100), so a run took 1.6 times its compute time."""
 
 
+COMPILE_TICK = 0.5  # s between the status's compile-time updates before the first generation
+
+
 class Runner:
     """Runs one stage at a time in a worker thread.
 
     Args:
         lock: the session lock guarding ``study``.
         study: returns the current study (it may be replaced by a session load between runs).
-        on_generation: called in the worker after a generation whose result was recorded.
+        on_generation: called in the worker after a generation whose result was recorded (None: before the first,
+            when the status has news: the time compiling).
         on_finish: called in the worker when the run ends (recorded, status updated).
         live_period: seconds between recorded generations (the first is recorded at once, the last by the
             run's end); 0 records every one (a studio with a session file saves each to disk).
     """
 
     def __init__(self, lock: threading.RLock, study: Callable[[], Study],
-                 on_generation: Callable[[Progress], None], on_finish: Callable[[], None],
+                 on_generation: Callable[[Progress | None], None], on_finish: Callable[[], None],
                  live_period: float = LIVE_PERIOD) -> None:
         self._lock = lock
         self._live_period = live_period
@@ -90,6 +94,8 @@ class Runner:
         pipe, k = plan.pipeline, plan.index
         message, ok = "", True
         n_gen = plan.spec.n_gen  # a stage that stops on its target is done there: its bar ends full
+        first = threading.Event()  # set once the first generation is in
+        threading.Thread(target=self._compiling, args=(study, timer, first, cancel), daemon=True).start()
         try:
             stage = pipe.stage(k, pick=plan.pick, spec=plan.spec)
             stage.setup()
@@ -106,6 +112,7 @@ class Runner:
                                            message=f"generation {progress.generation}/{progress.n_gen}",
                                            compiled=timer.seconds)
                     study.touch()
+                first.set()
                 if fresh:
                     recorded = time.monotonic()
                     self._on_generation(progress)
@@ -127,12 +134,27 @@ class Runner:
             message = f"failed: {exc}"
             traceback.print_exc()
         finally:
+            first.set()
             with self._lock:
                 study.live = None
                 study.status = RunStatus("idle", plan.stage.name, study.status.generation, n_gen, message, ok,
                                          study.status.elapsed, timer.seconds)
                 study.touch()
             self._on_finish()
+
+
+    def _compiling(self, study: Study, timer: CompileTimer, first: threading.Event, cancel: threading.Event) -> None:
+        """Until the first generation is in, say every half second how long numba has been compiling: a fresh
+        install's first run read "generation 0/150 (< 0.01 s compute)" for 41 s, which looked hung (rehearsal 7)."""
+        while not first.wait(COMPILE_TICK) and not cancel.is_set():
+            seconds = timer.seconds
+            if seconds <= 0.0:
+                continue
+            with self._lock:
+                if study.status.state == "running" and study.status.generation == 0:
+                    study.status = replace(study.status, compiled=seconds)
+                    study.touch()
+            self._on_generation(None)
 
 
 def progress_dict(p: Progress) -> dict[str, Any]:

@@ -788,6 +788,36 @@ def test_the_run_status_says_its_seconds_are_compute_time() -> None:
     sv = SimpleNamespace(status=RunStatus("idle", "predesign", 20, 20, "complete", True, 29.2, 28.6))
     assert StagesPanel._status(sv) == ("Last run: predesign complete (29.2 s compute, 28.6 s of it compiling the "
                                        "numeric kernels, kept for later runs).")
+    # Before its first generation a run says it is compiling (rehearsal 7: "generation 0/150 (< 0.01 s compute)" for
+    # 41 s looked hung in front of an audience).
+    sv = SimpleNamespace(status=RunStatus("running", "rtclm1", 0, 150, "", True, 0.0, 12.4))
+    assert StagesPanel._status(sv).startswith("**Running** rtclm1: compiling the numeric kernels, 12.4 s so far")
+
+
+def test_the_runner_says_how_long_it_has_compiled_before_the_first_generation() -> None:
+    import threading
+    import time
+
+    from studio.runner import Runner
+    from studio.study import RunStatus
+
+    study = SimpleNamespace(status=RunStatus("running", "rtclm1", 0, 150), touch=lambda: None)
+    timer = SimpleNamespace(seconds=0.0)
+    pushed: list[object] = []
+    runner = Runner(threading.RLock(), lambda: study, pushed.append, lambda: None)  # type: ignore[arg-type]
+    first, cancel = threading.Event(), threading.Event()
+    worker = threading.Thread(target=runner._compiling, args=(study, timer, first, cancel))
+    worker.start()
+    time.sleep(0.7)
+    assert study.status.compiled == 0.0 and pushed == []  # nothing compiled: nothing to say
+    timer.seconds = 3.0
+    deadline = time.monotonic() + 10.0
+    while study.status.compiled != 3.0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert study.status.compiled == 3.0 and pushed and pushed[-1] is None
+    first.set()
+    worker.join(5.0)
+    assert not worker.is_alive()
 
 
 def test_a_run_that_compiles_a_kernel_says_how_long_it_compiled() -> None:

@@ -139,6 +139,9 @@ class StagesPanel:
         # Compiling counts once it is a noticeable part (a fresh install's first run of a kind: ~30 s).
         compiled = (f", {seconds(min(st.compiled, st.elapsed))} of it compiling the numeric kernels, kept for later "
                     "runs" if st.compiled >= 0.5 else "")
+        if st.state == "running" and st.generation == 0 and st.compiled >= 0.5:  # before any generation is in
+            return (f"**Running** {st.stage}: compiling the numeric kernels, {seconds(st.compiled)} so far (the first "
+                    "run of this kind only: numba keeps them for later runs; `clm-studio --warm-up` does it ahead)")
         if st.state == "running":
             return (f"**Running** {st.stage}: generation {st.generation}/{st.n_gen} ({seconds(st.elapsed)} compute"
                     f"{compiled})")
