@@ -646,6 +646,11 @@ class Session:
             raise ValueError(f"the studio shows one design at a time, got a population of {design.pop}")
         check_params(design.mechanism, design.params)
         with self.lock:
+            shown = self.view.design.mechanism
+            if not by_hand and other_mode(shown, design.mechanism):
+                # A stage's member of the RTCLM is the same leg: shown in the mode on screen (rehearsal 7 picked an
+                # rtclm2 candidate while showing the auxiliary mode, and the editor flipped to the primary one).
+                design = Design(shown, design.params, design.output)
             target = None
             if design.mechanism.name != self.view.design.mechanism.name:  # a file or a study's design of another
                 target = self._target_for(design.mechanism.name, preset, design, preset or cause or "")

@@ -904,3 +904,19 @@ def test_a_result_smaller_than_its_run_asked_for_says_why() -> None:
     assert note == "55 members, not the 60 asked: CMOEMT keeps one per weight vector"
     assert population_note(result("spea2", 60, 58)) == "58 members, not the 60 asked"
     assert population_note(result("nsga2", 60, 60)) == "" and population_note(SimpleNamespace(settings={}, pop=3)) == ""
+
+
+def test_a_pick_of_the_rtclm_keeps_the_mode_on_screen() -> None:
+    # Rehearsal 7: picking an rtclm2 candidate while the auxiliary mode was shown flipped the editor to the primary
+    # mode mid-demo. A stage's member is the same leg: it is shown in the mode on screen; a design file keeps its own.
+    s = Session.default("rtclm/clm-case1")
+    tiny(s.study, "rtclm1", pop=12, gens=2, seed=1)
+    run(s, "rtclm1", from_pick=False)
+    r = s.study.result("rtclm1")
+    assert r is not None and r.pick(0).mechanism.name == "rtclm_primary"
+    s.select_mechanism("rtclm_auxiliary")
+    view = s.set_design(r.pick(0), cause="rtclm1's pick")
+    assert view.design.mechanism.name == "rtclm_auxiliary"
+    np.testing.assert_array_equal(view.design.params, r.pick(0).params)
+    filed = s.set_design(r.pick(1), by_hand=True, cause="design leg.json")
+    assert filed.design.mechanism.name == "rtclm_primary"
