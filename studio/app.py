@@ -187,6 +187,7 @@ class Studio:
             view, pb, _ = self.session.snapshot()
             optimized_by = self.target_stages()
             changed = view is not self._shown or optimized_by != self._optimized_by
+            previous = self._shown
             if changed:
                 shown = bool(optimized_by)
                 self.scene.show(view, frame_index(pb.angle, view.n_samples), shown)
@@ -201,7 +202,10 @@ class Studio:
             sv = self.study_view()
             study_changed = sv.key != self._study_key
             if changed and not fit_camera:
-                fit_camera = self._outgrown()
+                # Another topology, however it came (a pick, a study's design): framed as the Topology dropdown
+                # frames it (rehearsal 7: a pick that changed the RTCLM's mode left the scene in a corner).
+                fit_camera = self._outgrown() or (previous is not None and
+                                                  previous.design.mechanism.name != view.design.mechanism.name)
             if fit_camera:
                 self._inset_box = None  # the camera moves: the inset goes where the new layout puts it
             if changed or study_changed:

@@ -1072,3 +1072,21 @@ def test_a_studys_failed_runs_are_said_with_the_first_ones_message(studio, tmp_p
     panel._on_study(None)
     text = panel.summary.content
     assert "0 runs done, 1 failed. First failure, c/nsga2/1: StageFailed: stage 'subtask1' failed: boom." in text
+
+
+def test_a_design_of_another_topology_is_framed_however_it_came(studio, monkeypatch):
+    # Rehearsal 7: a pick that changed the RTCLM's mode left the scene framed for the other views, in a corner.
+    from core.kinematics.presets import get
+
+    fitted: list[int] = []
+    monkeypatch.setattr(studio.scene, "fit_camera", lambda: fitted.append(1))
+    studio.session.set_design(get("stephenson1/X2").design(), cause="a pick")  # same topology: not refitted
+    studio.refresh()
+    assert fitted == []
+    studio.session.set_design(get("rtclm/case4").design(), by_hand=True, cause="a study's design")
+    studio.refresh()
+    fitted.clear()
+    # The same leg in its other mode, of much the same size (the refit for a size change alone did not come).
+    studio.session.set_design(get("rtclm/case4/auxiliary").design(), by_hand=True, cause="a study's design")
+    studio.refresh()
+    assert fitted == [1]
