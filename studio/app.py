@@ -19,7 +19,7 @@ import viser
 
 from core.formats.drawing import Plates
 from core.formats.files import slug
-from core.optimize.lineage import unmet_by
+from core.optimize.lineage import next_feasible, unmet_by
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
@@ -530,24 +530,28 @@ class Studio:
                 self.notify(client, "Not passed on", str(exc))
         self.refresh()
 
-    def next_unmet(self, stage: str) -> tuple[str, list[str]]:
-        """The stage after ``stage`` and what its shown member misses of that stage's constraints, as that stage
-        would run now (its settings, the editor's target); ("", []) if none or it cannot be built."""
+    def next_unmet(self, stage: str) -> tuple[str, list[str], bool]:
+        """The stage after ``stage``, what its shown member misses of that stage's constraints, as that stage
+        would run now (its settings, the editor's target), and whether another feasible member of ``stage`` meets
+        them (the pick could have: worth asking before it is passed on; else the next stage is there to find
+        them, as rtclm2 finds the auxiliary mode rtclm1 never modelled); ("", [], False) if none or it cannot be
+        built."""
         session = self.session
         with session.lock:
             study, chain = session.study, self.chain()
             k, r, i = study.index(stage), study.result(stage), study.shown_member(stage)
             names = study.stage_names()
             if k is None or r is None or i is None or k + 1 >= len(names):
-                return "", []
+                return "", [], False
             nxt = next((c for c in chain if c.name == names[k + 1]), None)
             if nxt is None:
-                return "", []
+                return "", [], False
             try:
                 spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
             except ValueError:
-                return "", []
-            return nxt.name, unmet_by(r, i, spec.problem.constraints, spec.problem.labels)
+                return "", [], False
+            missed = unmet_by(r, i, spec.problem.constraints, spec.problem.labels)
+            return nxt.name, missed, bool(missed) and bool(next_feasible(r, spec.problem).any())
 
     def view_stage(self, stage: str, client: viser.ClientHandle | None) -> None:
         """Show a stage of the lineage again (its front, candidates, and its shown member animated)."""

@@ -122,11 +122,17 @@ def one_design_html(stage: str) -> str:
             "there is no trade-off to pick from.</div>")
 
 
-def next_verdict_html(i: int, nxt: str, missed: list[str]) -> str:
-    """A warning under the verdict when member i misses the next stage's constraints (``h_s 7.91 > 6.5``): a pick
-    that met its own stage's read fine until "Use for next stage" asked about it; empty when it meets them."""
+def next_verdict_html(i: int, nxt: str, missed: list[str], stage: str = "", avoidable: bool = True) -> str:
+    """A line under the verdict when member i misses the next stage's constraints (``h_s 7.91 > 6.5``): a warning
+    when another feasible member of its stage meets them (a pick that met its own stage's read fine until "Use for
+    next stage" asked about it), else a plain note that the next stage searches for them (rtclm2's auxiliary mode,
+    which rtclm1 does not model); empty when it meets them."""
     if not missed:
         return ""
+    if not avoidable:
+        text = (f"No member of {html.escape(stage or 'this stage')} meets {html.escape(nxt)}'s constraints "
+                f"({html.escape('; '.join(missed))} for #{i}): {html.escape(nxt)} searches for them around the pick.")
+        return f'<div class="clm-next-verdict" style="{VERDICT}color:#4b5563">{text}</div>'
     text = (f"⚠ #{i} misses {html.escape(nxt)}'s constraints: {html.escape('; '.join(missed))} "
             f"(if passed on, {html.escape(nxt)} starts around it all the same)")
     return f'<div class="clm-next-verdict" style="{VERDICT}color:#b45309">{text}</div>'

@@ -546,14 +546,24 @@ def test_passing_on_an_infeasible_member_asks_first_and_a_feasible_one_does_not(
     press(panel.use, Client())
     assert asked == ["Pass on an infeasible member of subtask1?"] and used == []
     studio.session.study.shown["subtask1"] = good
-    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", []))
+    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", [], False))
     press(panel.use, Client())
     assert asked == ["Pass on an infeasible member of subtask1?"] and used == ["subtask1"]
     # Feasible here, but it misses the next stage's constraints: asked too (a rehearsal passed subtask 2's K3 with
     # I = 30.2 on to subtask 3, I <= 20, and its run began with no feasible member).
-    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", ["mse 7.1 > 6"]))
+    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", ["mse 7.1 > 6"], True))
     press(panel.use, Client())
     assert asked[-1] == "Pass on a member that misses subtask2's constraints?" and used == ["subtask1"]
+    # ... but not when no member of the stage meets them: the next stage is there to (rtclm1 -> rtclm2).
+    monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask2", ["mse 7.1 > 6"], False))
+    press(panel.use, Client())
+    assert len(asked) == 2 and used == ["subtask1", "subtask1"]
+    from studio.tables import next_verdict_html
+
+    note = html.unescape(next_verdict_html(3, "rtclm2", ["Eq. 31 (mm) 2 > 0"], "rtclm1", avoidable=False))
+    warn = html.unescape(next_verdict_html(3, "rtclm2", ["Eq. 31 (mm) 2 > 0"], "rtclm1", avoidable=True))
+    assert "No member of rtclm1 meets rtclm2's constraints (Eq. 31 (mm) 2 > 0 for #3)" in note and "⚠" not in note
+    assert "⚠ #3 misses rtclm2's constraints: Eq. 31 (mm) 2 > 0" in warn
 
 
 def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s_mask(studio):
@@ -569,8 +579,9 @@ def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s
     seen = set()
     for i in np.flatnonzero(r.feasible):
         study.shown["subtask1"] = int(i)
-        name, missed = studio.next_unmet("subtask1")
+        name, missed, avoidable = studio.next_unmet("subtask1")
         assert name == "subtask2" and missed == unmet_by(r, int(i), problem.constraints, problem.labels)
+        assert avoidable == (bool(missed) and bool(ok.any()))
         assert (not missed) == bool(ok[i]), (i, missed)
         seen.add(bool(missed))
         named = {problem.labels.get(m, m): m for m in r.metrics}
@@ -578,7 +589,7 @@ def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s
             label, value, op, bound = text.rsplit(maxsplit=3)
             assert op == ">" and float(value) > float(bound) and named[label] in r.metrics
     assert seen == {True, False}  # both kinds of member were met
-    assert studio.next_unmet("subtask3") == ("", [])  # no result there
+    assert studio.next_unmet("subtask3") == ("", [], False)  # no result there
     # The Pick panel says so before "Use for next stage" asks: the stage's own pick read fine until then.
     for i in np.flatnonzero(r.feasible):
         study.shown["subtask1"] = int(i)

@@ -148,9 +148,10 @@ class PickPanel:
         upper = {c.metric for c in spec.problem.constraints if c.upper is not None} if spec is not None else set()
         lower = {labels.get(n, n) for n in names if n in r.objectives or n in upper or n in LOWER_BETTER}
         one = len(self._cands) == 1 and self._cands[0].kind != "fallback" and self._cands[0].member == sv.shown
-        nxt, missed = self.studio.next_unmet(sv.viewing) if sv.viewing is not None and r.cv[sv.shown] <= 0 else ("", [])
+        nxt, missed, avoidable = (self.studio.next_unmet(sv.viewing) if sv.viewing is not None and r.cv[sv.shown] <= 0
+                                  else ("", [], False))
         return (verdict_html(r, sv.shown, sv.viewing or "", labels=labels) + dead_point_html(r, sv.shown)
-                + next_verdict_html(sv.shown, nxt, missed)
+                + next_verdict_html(sv.shown, nxt, missed, sv.viewing or "", avoidable)
                 + (one_design_html(sv.viewing or "") if one else "")
                 + compare_html(rows, "start", f"#{sv.shown}", lower))
 
@@ -185,8 +186,10 @@ class PickPanel:
             return
         # A member that meets this stage's constraints may miss the next one's (subtask 2's K3 with I = 30.2 passed
         # to subtask 3, I <= 20): its run then starts with no feasible member. The automatic pick avoids that.
-        nxt, missed = self.studio.next_unmet(stage)
-        if missed and client is not None:
+        # Not asked when no member here meets them: then the next stage is there to (rtclm1 -> rtclm2, whose
+        # auxiliary mode rtclm1 never models, asked at every pass in a demo rehearsal).
+        nxt, missed, avoidable = self.studio.next_unmet(stage)
+        if missed and avoidable and client is not None:
             confirm(client, f"Pass on a member that misses {nxt}'s constraints?",
                     f"#{i} meets {stage}'s constraints but not {nxt}'s: **{'; '.join(missed)}**.\n\n{nxt} will "
                     "search around it; its first generations may have no feasible member.", "Pass it on",
