@@ -122,6 +122,14 @@ def one_design_html(stage: str) -> str:
             "there is no trade-off to pick from.</div>")
 
 
+def off_screen_html(i: int) -> str:
+    """A line above the verdict when the editor shows another design than member i (after Undo or an edit): what
+    follows, and "Use for next stage", are about #i, not the design on screen."""
+    return (f'<div class="clm-off-screen" style="{VERDICT}color:#b45309">The editor shows another design (after Undo '
+            f"or an edit): this panel and “Use for next stage” are about #{i}. “Show this member again” brings it "
+            "back.</div>")
+
+
 def next_verdict_html(i: int, nxt: str, missed: list[str], stage: str = "", avoidable: bool = True) -> str:
     """A line under the verdict when member i misses the next stage's constraints (``h_s 7.91 > 6.5``): a warning
     when another feasible member of its stage meets them (a pick that met its own stage's read fine until "Use for

@@ -1101,3 +1101,26 @@ def test_a_design_of_another_topology_is_framed_however_it_came(studio, monkeypa
     studio.session.set_design(get("rtclm/case4/auxiliary").design(), by_hand=True, cause="a study's design")
     studio.refresh()
     assert fitted == [1]
+
+
+def test_after_undo_the_pick_panel_says_the_editor_shows_another_design_and_brings_the_member_back(studio):
+    # Rehearsal 7: after Undo the panel went on describing (and "Use for next stage" passing on) a member no longer
+    # on screen, without a word.
+    stage_runs.run_stage(studio.session, "subtask1", pop=12, gens=2, seed=4)
+    study = studio.session.study
+    r = study.result("subtask1")
+    i = study.shown_member("subtask1")
+    panel = studio.pick_panel
+    studio.pick("subtask1", i, Client())
+    studio.refresh()
+    assert np.array_equal(studio.session.view.design.params[0], r.X[i])
+    assert not panel.reshow.visible and "editor shows another design" not in panel.table.content
+    press(studio.mechanism.undo, Client())  # back to the design before the run's end
+    studio.refresh()
+    assert not np.array_equal(studio.session.view.design.params[0], r.X[i])
+    assert panel.reshow.visible
+    assert f"“Use for next stage” are about #{i}" in html.unescape(panel.table.content)
+    press(panel.reshow, Client())
+    assert np.array_equal(studio.session.view.design.params[0], r.X[i])
+    studio.refresh()
+    assert not panel.reshow.visible and "editor shows another design" not in panel.table.content

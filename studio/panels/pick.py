@@ -26,7 +26,14 @@ from studio.candidates import (
 from studio.panels._confirm import confirm
 from studio.panels._inputs import set_value
 from studio.study_view import StudyView
-from studio.tables import compare_html, dead_point_html, next_verdict_html, one_design_html, verdict_html
+from studio.tables import (
+    compare_html,
+    dead_point_html,
+    next_verdict_html,
+    off_screen_html,
+    one_design_html,
+    verdict_html,
+)
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -63,6 +70,7 @@ class PickPanel:
         self._start_of: object = None  # the result whose start design's metrics are cached (held, not its id)
         self._start: dict[str, float] = {}
         self._key: object = None
+        self._member: int | None = None
         self._drawn: object = None  # the result the panel shows
         self.folder = gui.add_folder("Pick", order=order)
         with self.folder:
@@ -76,15 +84,20 @@ class PickPanel:
                                               "a member's own number is its #")
             self.use = gui.add_button("Use for next stage", icon=viser.Icon.ARROW_RIGHT, disabled=True,
                                       hint="pass this candidate on: the next stage searches around it")
+            # After Undo (or an edit) the editor shows another design while this panel still describes the member
+            # "Use for next stage" would pass on (rehearsal 7): said, with a way back.
+            self.reshow = gui.add_button("Show this member again", icon=viser.Icon.ARROW_BACK_UP, visible=False,
+                                         hint="put the member this panel describes back in the editor")
             self.table = gui.add_html("")
         self.candidate.on_update(self._on_candidate)
+        self.reshow.on_click(self._on_reshow)
         self.slider.on_update(self._on_slider)
         self.use.on_click(self._on_use)
 
     def show(self, sv: StudyView) -> None:
         r = sv.result(sv.viewing)
         running = sv.status.running
-        key = (sv.shown, running, sv.viewing)
+        key = (sv.shown, running, sv.viewing, self._on_screen(r, sv.shown))
         # The result itself, by identity (not its id: a freed live result's id went to a later generation's, whose
         # labels then never replaced the older ones while the Pareto chart showed the later front).
         if r is self._drawn and key == self._key:
@@ -95,8 +108,17 @@ class PickPanel:
         with self.studio.server.atomic():
             self._show(sv, r, running)
 
+    def _on_screen(self, r: Any, i: int | None) -> bool:
+        """Whether the editor shows member i of r (its parameters; either RTCLM mode), or there is none."""
+        if r is None or i is None or not 0 <= i < r.pop:
+            return True
+        p = self.studio.session.view.design.params[0]
+        return p.shape == r.X[i].shape and bool(np.array_equal(p, r.X[i]))
+
     def _show(self, sv: StudyView, r: Any, running: bool) -> None:
-        self._stage = sv.viewing
+        self._stage, self._member = sv.viewing, sv.shown
+        off = not self._on_screen(r, sv.shown)
+        self.reshow.visible = off and not running
         if r is None or r.pop == 0:
             self._cands, self._front = (), ()
             self.candidate.options = (NONE,)
@@ -150,7 +172,8 @@ class PickPanel:
         one = len(self._cands) == 1 and self._cands[0].kind != "fallback" and self._cands[0].member == sv.shown
         nxt, missed, avoidable = (self.studio.next_unmet(sv.viewing) if sv.viewing is not None and r.cv[sv.shown] <= 0
                                   else ("", [], False))
-        return (verdict_html(r, sv.shown, sv.viewing or "", labels=labels) + dead_point_html(r, sv.shown)
+        off = "" if sv.status.running or self._on_screen(r, sv.shown) else off_screen_html(sv.shown)
+        return (off + verdict_html(r, sv.shown, sv.viewing or "", labels=labels) + dead_point_html(r, sv.shown)
                 + next_verdict_html(sv.shown, nxt, missed, sv.viewing or "", avoidable)
                 + (one_design_html(sv.viewing or "") if one else "")
                 + compare_html(rows, "start", f"#{sv.shown}", lower))
@@ -163,6 +186,11 @@ class PickPanel:
         member = next((c.member for c in self._cands if c.label == self.candidate.value), None)
         if member is not None:
             self.studio.pick(self._stage, member, event.client)
+
+    def _on_reshow(self, event: viser.GuiEvent[Any]) -> None:
+        if event.client is None or self._stage is None or self._member is None:
+            return
+        self.studio.pick(self._stage, self._member, event.client)
 
     def _on_slider(self, event: viser.GuiEvent[Any]) -> None:
         if event.client is None or self._stage is None or not self._front:
