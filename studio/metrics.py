@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import html
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +46,8 @@ class Row:
         note: short explanation (definition, or why not feasible); shown as a tooltip.
         warn: what is wrong with the value for a leg that is to be built ("" if nothing): the row is marked.
         severe: the warning is about a dead point (marked red, and said above the table), not a weak value.
+        undefined: why the value is not a property of the leg ("" if it is): a gait number of a path that does not
+            walk (no single landing/take-off pair), shown dimmed with the reason first in its tooltip.
     """
 
     key: str
@@ -56,6 +58,7 @@ class Row:
     note: str = ""
     warn: str = ""
     severe: bool = False
+    undefined: str = ""
 
     def text(self) -> str:
         """The value as shown: ``yes``/``no``, ``-`` for missing, ``none`` for +inf."""
@@ -173,6 +176,10 @@ def other_mode_row(title: str, solution: Solution, ev: Evaluation, clearance: Cl
     return Row("other_mode", title, value, note=note, warn=warn, severe=severe)
 
 
+# The rows read from the stance and the swing: numbers of a gait only when the path walks.
+GAIT_KEYS = frozenset({"h_s", "S", "S_paper", "I", "theta1", "theta2", "l_s", "h_m", "h_bar", "psi2", "psi4"})
+
+
 def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
                 height: tuple[str, float] | None = None, stride: float | None = None,
                 extra: tuple[Row, ...] = ()) -> tuple[Row, ...]:
@@ -195,7 +202,7 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
     # Undefined where a dyad cannot close: it read 0.0 deg, unmarked, for a design that does not assemble.
     mu = deg(min_transmission_angle(solution, i)) if solution.violation[i] == 0 else math.nan
     warns = motion_warnings(mu, crank, dyad, float(ev.width[i])) if solution.violation[i] == 0 else {}
-    return (
+    rows = (
         # Not "Feasible": beside "Gait constraints: 1 unmet" on the paper's X3 it read as a contradiction.
         Row("feasible", "Assembles and walks", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
         Row("why", "Why not", why or "-", note="reason the bench trajectory is not well defined"),
@@ -231,6 +238,12 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
             warn=warns.get("mu_min", ("", False))[0], severe=warns.get("mu_min", ("", False))[1]),
         *extra,
     )
+    if solution.violation[i] == 0 and not ev.feasible[i]:
+        # It assembles but does not walk: the stance these come from is not one (a paper preset read I = 387 mm/s
+        # as a property of the leg; rehearsal 7).
+        why_not = f"not defined: {why or 'the path does not walk'}"
+        rows = tuple(replace(r, undefined=why_not) if r.key in GAIT_KEYS else r for r in rows)
+    return rows
 
 
 def stance_mask(ev: Evaluation, n_samples: int, i: int = 0) -> NDArray[np.bool_] | None:
@@ -280,7 +293,10 @@ def metrics_html(rows: tuple[Row, ...]) -> str:
     for r in rows:
         color = ("#b91c1c" if r.severe else "#b45309") if r.warn else ""
         mark = f' data-warn="{"severe" if r.severe else "weak"}" style="color:{color}"' if r.warn else ""
+        if r.undefined and not r.warn:
+            mark = ' data-undefined="1" style="opacity:0.45"'
         title = f"⚠ {r.warn}. {r.note}" if r.warn else r.note
+        title = f"{r.undefined}. {title}" if r.undefined else title
         cells.append(
             f'<tr data-key="{html.escape(r.key, quote=True)}"{mark} title="{html.escape(title, quote=True)}">'
             f'<td style="padding:1px 8px 1px 0">{"⚠ " if r.warn else ""}{html.escape(r.label)}</td>'

@@ -82,6 +82,25 @@ def test_every_registered_preset_opens_and_reports_whether_it_assembles() -> Non
             assert rows(view)["feasible"].value is False and rows(view)["why"].text() != "-"
 
 
+def test_the_gait_numbers_of_a_path_that_does_not_walk_are_marked_not_defined() -> None:
+    # Rehearsal 7: the paper's RTCLM case 4 assembles but does not walk, and printed I = 387 mm/s as a property of
+    # the leg. Marked (dimmed, the reason first in the tooltip) exactly when it assembles and does not walk.
+    from studio.metrics import GAIT_KEYS
+
+    seen = set()
+    for name in presets.PRESETS:
+        view = Session.default(name).view
+        rs = rows(view)
+        walks = bool(rs["feasible"].value)
+        marked = {k for k, r in rs.items() if r.undefined}
+        expected = set() if walks or not view.assembles else {k for k in GAIT_KEYS if k in rs}
+        assert marked == expected, name
+        table = metrics_html(tuple(rs.values()))
+        assert table.count('data-undefined="1"') == len({k for k in marked if not rs[k].warn})
+        seen.add(bool(marked))
+    assert seen == {True, False}  # both kinds of preset were met
+
+
 # Target --------------------------------------------------------------------------------------
 
 
