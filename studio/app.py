@@ -44,7 +44,7 @@ from studio.panels.walking import WalkingPanel
 from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
 from studio.session_file import read_session_bytes, save_session
-from studio.state import DesignView, Session
+from studio.state import DesignView, Session, same_leg
 from studio.study_view import StudyView, study_view
 
 BRAND = (31, 119, 180)
@@ -498,8 +498,10 @@ class Studio:
                 if not 0 <= member < r.pop:
                     raise ValueError(f"member {member} out of range (population {r.pop})")
                 v = session.view
+                # The same leg in either RTCLM mode: a member is shown in the mode on screen (set_design).
                 if (session.study.viewing == stage and session.study.shown_member(stage) == member
-                        and v.design.mechanism == r.mechanism and np.array_equal(v.design.params[0], r.X[member])):
+                        and same_leg(v.design.mechanism, r.mechanism)
+                        and np.array_equal(v.design.params[0], r.X[member])):
                     return  # already shown (a page echoing the dropdown): no Undo step, and Redo is not cleared
                 session.set_design(r.pick(member))  # first: its Undo step keeps the member shown before
                 session.study.show(stage, member)

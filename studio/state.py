@@ -86,6 +86,11 @@ def other_mode(a: Mechanism, b: Mechanism) -> bool:
     return a.name != b.name and is_rtclm(a.name) and is_rtclm(b.name)
 
 
+def same_leg(a: Mechanism, b: Mechanism) -> bool:
+    """``a`` and ``b`` are one mechanism, or the RTCLM's two modes (a stage's member shown in the mode on screen)."""
+    return a == b or other_mode(a, b)
+
+
 def mode_preset(preset: str | None, mechanism: str) -> str | None:
     """The preset of the same paper row in ``mechanism``'s mode (``rtclm/case4`` <-> ``rtclm/case4/auxiliary``),
     None if there is none."""

@@ -1124,3 +1124,20 @@ def test_after_undo_the_pick_panel_says_the_editor_shows_another_design_and_brin
     assert np.array_equal(studio.session.view.design.params[0], r.X[i])
     studio.refresh()
     assert not panel.reshow.visible and "editor shows another design" not in panel.table.content
+
+
+def test_a_pick_shown_in_the_rtclms_auxiliary_mode_is_the_same_leg_for_undo_and_the_verdict(studio):
+    # Review of session 30: with the auxiliary mode on screen every echo of the same pick added an Undo step (and
+    # cleared Redo), and the stage verdict above the Metrics vanished, because the guards compared mechanisms.
+    studio.session.restore(Session.default("rtclm/clm-case1"))
+    stage_runs.run_stage(studio.session, "rtclm1", pop=12, gens=2, seed=1)
+    studio.session.select_mechanism("rtclm_auxiliary")
+    client = Client()
+    studio.pick("rtclm1", 1, client)
+    assert studio.session.view.design.mechanism.name == "rtclm_auxiliary"
+    steps = len(studio.session.undone)
+    studio.pick("rtclm1", 1, client)  # a page echoing the dropdown
+    studio.pick("rtclm1", 1, client)
+    assert len(studio.session.undone) == steps and not client.notes
+    studio.refresh()
+    assert 'class="clm-verdict"' in studio.metrics.stage.content

@@ -8,7 +8,7 @@ import numpy as np
 
 from core.optimize.rtclm import is_rtclm
 from studio.metrics import metrics_html
-from studio.state import DesignView
+from studio.state import DesignView, same_leg
 from studio.study_view import StudyView
 from studio.tables import verdict_html
 
@@ -34,7 +34,7 @@ class MetricsPanel:
         """Above the table: whether the design in the editor, if it is the shown member of the stage in view,
         meets that stage's constraints ("Assembles and walks" below is about assembly and gait only)."""
         r, i = sv.result(sv.viewing), sv.shown
-        same = (r is not None and i is not None and 0 <= i < r.pop and view.design.mechanism == r.mechanism
+        same = (r is not None and i is not None and 0 <= i < r.pop and same_leg(view.design.mechanism, r.mechanism)
                 and np.allclose(view.design.params[0], r.X[i], rtol=0.0, atol=1e-9))
         ran = sv.run_target
         rtclm = is_rtclm(view.design.mechanism.name)
