@@ -149,6 +149,28 @@ def test_similarity_transform_batch_equals_loop_and_places_the_target() -> None:
     assert rms <= np.sqrt((np.linalg.norm(sol.point[0] - target, axis=1) ** 2).mean())
 
 
+def test_similarity_transform_is_the_best_over_every_shift_by_brute_force() -> None:
+    # Noisy curves (no exact fit): at each cyclic shift the complex Procrustes fit is closed-form; the
+    # FFT search must pick the shift with the smallest residual and report that residual.
+    rng = np.random.default_rng(11)
+    n = 60
+    target = blob(n, 7)
+    src = np.stack([transform(np.roll(blob(n, i), 3 * i, 0), rng.uniform(0.5, 2), rng.uniform(-3, 3), (i, 2 * i))
+                    + rng.normal(0.0, 4.0, (n, 2)) for i in range(5)])
+    sim = similarity_transform(src, target)
+    zq = target[:, 0] + 1j * target[:, 1]
+    cq = zq - zq.mean()
+    for p in range(len(src)):
+        res = []
+        for k in range(n):
+            zs = np.roll(src[p], -k, 0) @ np.array([1.0, 1j])
+            cs = zs - zs.mean()
+            c = np.vdot(cs, cq) / np.vdot(cs, cs).real
+            res.append(np.sqrt(np.mean(np.abs(cq - c * cs) ** 2)))
+        assert sim.shift[p] == int(np.argmin(res))
+        assert sim.rms[p] == pytest.approx(min(res), rel=1e-10)
+
+
 def reference_resample(c: np.ndarray, n: int) -> np.ndarray:
     """Arc-length resampling of one closed polyline by np.interp (the plain formula)."""
     ext = np.vstack([c, c[:1]])
@@ -180,3 +202,14 @@ def test_similarity_of_a_nan_source_or_target_is_nan() -> None:
     tgt = transform(c, 2.0, 0.3, (5.0, 1.0))
     tgt[3, 1] = np.nan
     assert np.isnan(similarity_transform(c, tgt).scale).all()
+
+
+def test_a_path_without_shape_has_nan_descriptors_and_distance() -> None:
+    # A coupler point that does not move (zero length) or a NaN sample: NaN, never an exception (hot path).
+    c = blob(90)
+    pop = np.stack([c, np.full((90, 2), 4.0), c])
+    pop[2, 7, 0] = np.nan
+    d = descriptors(pop)
+    assert np.isfinite(d[0]).all() and np.isnan(d[1:]).all()
+    dist = descriptor_distance(d, descriptors(c))
+    assert dist[0] == pytest.approx(0.0, abs=1e-7) and np.isnan(dist[1:]).all()

@@ -50,7 +50,8 @@ def _resample(c: F64, out: F64) -> None:  # pragma: no cover - compiled
         total = 0.0
         for i in range(m):
             k = i + 1 if i + 1 < m else 0
-            seg[i] = np.hypot(c[p, k, 0] - c[p, i, 0], c[p, k, 1] - c[p, i, 1])
+            dx, dy = c[p, k, 0] - c[p, i, 0], c[p, k, 1] - c[p, i, 1]
+            seg[i] = np.sqrt(dx * dx + dy * dy)  # hypot is ~4x slower; no lengths near under/overflow here
             total += seg[i]
         if not (np.isfinite(total) and total > 0.0):
             out[p] = np.nan
@@ -98,20 +99,44 @@ def descriptors(curve: F64, n_harmonics: int = DEFAULT_HARMONICS, n_resample: in
         n_resample: arc-length samples fed to the FFT.
     """
     Z = coefficients(curve, n_harmonics, n_resample)
-    k = harmonic_numbers(n_harmonics)
-    energy = np.sqrt((np.abs(Z) ** 2).sum(1, keepdims=True))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        Z = Z / energy
-    a1, am1 = np.angle(Z[:, 0]), np.angle(Z[:, n_harmonics])
-    sigma = 0.5 * (a1 - am1)
-    alpha = 0.5 * (a1 + am1)
-    D = Z * np.exp(-1j * (alpha[:, None] + k[None, :] * sigma[:, None]))
-    even = (k % 2) == 0
-    if even.any():
-        idx = np.flatnonzero(even)[np.argmax(np.abs(D[:, even]), 1)]
-        flip = np.take_along_axis(D, idx[:, None], 1)[:, 0].real < 0.0
-        D = np.where(flip[:, None], D * np.where(even, -1.0, 1.0)[None, :], D)
-    return D
+    _normalise(Z, n_harmonics)
+    return Z
+
+
+@numba.njit(cache=True, nogil=True)
+def _normalise(Z: C128, K: int) -> None:  # pragma: no cover - compiled
+    # descriptors' normalisation, in place, row by row (entries k = 1..K, -1..-K); a row with a NaN stays NaN.
+    for p in range(Z.shape[0]):
+        e = 0.0
+        for j in range(2 * K):
+            e += Z[p, j].real * Z[p, j].real + Z[p, j].imag * Z[p, j].imag
+        e = np.sqrt(e)
+        if not e > 0.0:  # NaN, or a path that does not move: no shape
+            Z[p, :] = np.nan
+            continue
+        for j in range(2 * K):
+            Z[p, j] = Z[p, j] / e
+        a1, am1 = np.angle(Z[p, 0]), np.angle(Z[p, K])
+        sigma, alpha = 0.5 * (a1 - am1), 0.5 * (a1 + am1)
+        # exp(-i (alpha + k sigma)) = exp(-i alpha) exp(-i sigma)^k: one exp per row, the powers by products.
+        ea, es, pw = np.exp(-1j * alpha), np.exp(-1j * sigma), 1.0 + 0.0j
+        for j in range(K):
+            pw = pw * es
+            Z[p, j] = Z[p, j] * (ea * pw)
+            Z[p, K + j] = Z[p, K + j] * (ea * np.conj(pw))
+        # The largest even harmonic (first of equals, k = 2, 4, ..., then -2, -4, ...) decides the branch.
+        best, at = -1.0, -1
+        for j in range(2 * K):
+            k = j + 1 if j < K else K - j - 1
+            if k % 2 == 0:
+                m = np.abs(Z[p, j])
+                if m > best:
+                    best, at = m, j
+        if at >= 0 and Z[p, at].real < 0.0:
+            for j in range(2 * K):
+                k = j + 1 if j < K else K - j - 1
+                if k % 2 == 0:
+                    Z[p, j] = -Z[p, j]
 
 
 def descriptor_distance(a: C128, b: C128, n_grid: int = 1024) -> F64:
@@ -135,21 +160,59 @@ def descriptor_distance(a: C128, b: C128, n_grid: int = 1024) -> F64:
     w = np.conj(a) * b
     grid = np.zeros((w.shape[0], n_grid), complex)
     grid[:, kk % n_grid] = w
-    C = np.fft.ifft(grid, axis=1) * n_grid  # C(2 pi j / n_grid)
-    sig = 2.0 * np.pi * np.argmax(np.abs(C), 1) / n_grid
-    for _ in range(3):
-        e = np.exp(1j * kk[None, :] * sig[:, None])
-        c0 = (w * e).sum(1)
-        c1 = (1j * kk * w * e).sum(1)
-        c2 = (-(kk**2) * w * e).sum(1)
-        g1 = 2.0 * np.real(np.conj(c0) * c1)
-        g2 = 2.0 * (np.abs(c1) ** 2 + np.real(np.conj(c0) * c2))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sig = np.where(g2 < 0.0, sig - g1 / g2, sig)
-    best = np.abs((w * np.exp(1j * kk[None, :] * sig[:, None])).sum(1))
-    best = np.maximum(best, np.abs(C).max(1))
-    d2 = (np.abs(a) ** 2).sum(1) + (np.abs(b) ** 2).sum(1) - 2.0 * best
-    return np.sqrt(np.maximum(d2, 0.0))
+    C = np.fft.ifft(grid, axis=1)  # C(2 pi j / n_grid) / n_grid
+    out = np.empty(len(w))
+    _closest(np.ascontiguousarray(a), np.ascontiguousarray(b), w, kk.astype(np.float64), C, out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _powers(sig: float, e: C128) -> None:  # pragma: no cover - compiled
+    # e = exp(i k sig) for the harmonics k = 1..K, -1..-K (harmonic_numbers' order), by products of one exp.
+    K = len(e) // 2
+    z, pw = np.exp(1j * sig), 1.0 + 0.0j
+    for j in range(K):
+        pw = pw * z
+        e[j], e[K + j] = pw, np.conj(pw)
+
+
+@numba.njit(cache=True, nogil=True)
+def _closest(a: C128, b: C128, w: C128, kk: F64, C: C128, out: F64) -> None:  # pragma: no cover - compiled
+    # descriptor_distance per row from C's grid: its largest |C| (first of equals), three Newton steps on
+    # |C(sigma)|^2 from there, the better of the two, then |a|^2 + |b|^2 - 2 |C|.
+    n_grid, m = C.shape[1], w.shape[1]
+    ek = np.empty(m, np.complex128)
+    for p in range(w.shape[0]):
+        big, at = -1.0, 0
+        for j in range(n_grid):
+            v = C[p, j]
+            e = v.real * v.real + v.imag * v.imag
+            if e > big:
+                big, at = e, j
+        sig = 2.0 * np.pi * at / n_grid
+        for _ in range(3):
+            c0 = c1 = c2 = 0.0j
+            _powers(sig, ek)
+            for q in range(m):
+                t = w[p, q] * ek[q]
+                c0 += t
+                c1 += 1j * kk[q] * t
+                c2 += -(kk[q] * kk[q]) * t
+            g1 = 2.0 * (c0.real * c1.real + c0.imag * c1.imag)
+            g2 = 2.0 * (c1.real * c1.real + c1.imag * c1.imag + c0.real * c2.real + c0.imag * c2.imag)
+            if g2 < 0.0:
+                sig = sig - g1 / g2
+        c0 = 0.0j
+        _powers(sig, ek)
+        for q in range(m):
+            c0 += w[p, q] * ek[q]
+        best = max(np.abs(c0), np.sqrt(big) * n_grid)
+        d2 = 0.0
+        for q in range(m):
+            d2 += a[p, q].real * a[p, q].real + a[p, q].imag * a[p, q].imag
+            d2 += b[p, q].real * b[p, q].real + b[p, q].imag * b[p, q].imag
+        d2 -= 2.0 * best
+        out[p] = np.sqrt(d2) if d2 > 0.0 else (0.0 if d2 <= 0.0 else np.nan)
 
 
 @dataclass(frozen=True)
@@ -193,15 +256,16 @@ def similarity_transform(source: F64, target: F64) -> Similarity:
     n = s.shape[1]
     zs, zq = _complex(s), _complex(q)
     ms, mq = zs.mean(1), zq.mean(1)
-    cs, cq = zs - ms[:, None], zq - mq[:, None]
     ok = np.isfinite(ms) & np.isfinite(mq)
-    cs[~np.isfinite(ms)] = 0.0
-    cq[~np.isfinite(mq)] = 0.0
+    cs, cq = _centred(zs, ms), _centred(zq, mq)
     # corr[m] = sum_j conj(s~_j) q~_(j+m); shift k pairs q~_i with s~_(i+k), i.e. m = -k.
-    corr = np.fft.ifft(np.conj(np.fft.fft(cs, axis=1)) * np.fft.fft(cq, axis=1), axis=1)
-    m = np.argmax(corr.real**2 + corr.imag**2, 1)
+    spec = np.fft.fft(cs, axis=1)
+    _conj_times(spec, np.fft.fft(cq, axis=1))
+    corr = np.fft.ifft(spec, axis=1)
+    m = np.empty(len(corr), np.int64)
+    cross = np.empty(len(corr), np.complex128)
+    _peak(corr, m, cross)
     k = (-m) % n
-    cross = corr[np.arange(len(m)), m]
     energy = np.einsum("ij,ij->i", cs.real, cs.real) + np.einsum("ij,ij->i", cs.imag, cs.imag)
     with np.errstate(invalid="ignore", divide="ignore"):
         c = cross / energy
@@ -216,6 +280,40 @@ def similarity_transform(source: F64, target: F64) -> Similarity:
     return Similarity(scale=scale, rotation=rot, translation=trans, shift=k, phase=2.0 * np.pi * k / n, rms=rms)
 
 
+@numba.njit(cache=True, nogil=True)
+def _centred(z: C128, mean: C128) -> C128:  # pragma: no cover - compiled
+    # z - mean per row, in place (z is a fresh array); rows whose mean is not finite become 0.
+    for p in range(z.shape[0]):
+        mu = mean[p]
+        finite = np.isfinite(mu.real) and np.isfinite(mu.imag)
+        for i in range(z.shape[1]):
+            z[p, i] = z[p, i] - mu if finite else 0.0
+    return z
+
+
+@numba.njit(cache=True, nogil=True)
+def _conj_times(a: C128, b: C128) -> None:  # pragma: no cover - compiled
+    # a = conj(a) * b in place; b has one row or as many as a.
+    nb = b.shape[0]
+    for p in range(a.shape[0]):
+        for i in range(a.shape[1]):
+            a[p, i] = np.conj(a[p, i]) * b[p if nb > 1 else 0, i]
+
+
+@numba.njit(cache=True, nogil=True)
+def _peak(corr: C128, arg: NDArray[np.int64], value: C128) -> None:  # pragma: no cover - compiled
+    # Per row the first index of the largest |corr|^2 (np.argmax's tie rule) and the value there.
+    for p in range(corr.shape[0]):
+        best, at = -1.0, 0
+        for i in range(corr.shape[1]):
+            v = corr[p, i]
+            e = v.real * v.real + v.imag * v.imag
+            if e > best:
+                best, at = e, i
+        arg[p] = at
+        value[p] = corr[p, at]
+
+
 def _complex(c: F64) -> C128:
     z = np.empty(c.shape[:-1], np.complex128)
     z.real, z.imag = c[..., 0], c[..., 1]
@@ -227,10 +325,11 @@ def _rms(cs: C128, cq: C128, c: C128, k: NDArray[np.int64], out: F64) -> None:  
     # RMS of q~_i - c s~_(i+k), summed directly (the closed form |q~|^2 - |cross|^2 / |s~|^2 cancels).
     n, nq = cs.shape[1], cq.shape[0]
     for p in range(cs.shape[0]):
-        acc = 0.0
+        acc, q, j = 0.0, p if nq > 1 else 0, k[p] % n
         for i in range(n):
-            r = cq[p if nq > 1 else 0, i] - c[p] * cs[p, (i + k[p]) % n]
+            r = cq[q, i] - c[p] * cs[p, j]
             acc += r.real * r.real + r.imag * r.imag
+            j = j + 1 if j + 1 < n else 0
         out[p] = np.sqrt(acc / n)
 
 
