@@ -37,6 +37,7 @@ from core.optimize.lineage import auto_pick
 from core.optimize.pipeline import Pipeline
 from core.optimize.problem import make_problem, problem_names
 from core.optimize.result import StageResult, dumps
+from core.optimize.rtclm import is_rtclm
 from core.optimize.stage import Progress, StageSpec
 from studio.chains import ChainStage, RunSettings, default_settings, sized_where, stage_spec
 from studio.study_targets import _pipeline_from, _retarget
@@ -212,6 +213,17 @@ def _values(r: StageResult, shown: dict[str, int]) -> str:
     if i is None:
         return ""
     return " · " + ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[i], strict=True))
+
+
+def _against(r: StageResult, target: TargetSpec | None) -> str:
+    """`` · h4=300, mu>=20``: an RTCLM branch's heights and a transmission limit it held (rehearsal 7: three
+    branches run against h4 220, 300, and 300 with mu >= 20 read alike but for the clock); "" for the six-bars,
+    whose objective values already differ with the curve."""
+    if target is None or not is_rtclm(r.mechanism.name):
+        return ""
+    ran = ran_with(r)
+    limit = f", mu>={ran.transmission_min}" if ran is not None and ran.transmission_min else ""
+    return f" · h6={target.h6:g}, h4={target.h4:g}{limit}"
 
 
 def branch_stages(lineage: list[StageResult], shown: dict[str, int]) -> str:
@@ -412,7 +424,8 @@ class Study:
         done = branch_stages(pipe.lineage, self.shown)
         # Past every number in use: after a restore took one out, len + 1 repeated a number still listed.
         used = [int(b.label.split(":", 1)[0]) for b in self.branches if b.label.split(":", 1)[0].isdigit()]
-        text = f"{done}{_values(pipe.lineage[-1], self.shown)} ({why}, {time.strftime('%H:%M:%S')})"
+        text = (f"{done}{_values(pipe.lineage[-1], self.shown)}{_against(pipe.lineage[-1], self.target)} "
+                f"({why}, {time.strftime('%H:%M:%S')})")
         target = None if self.target is None else self.target.to_dict()
         data = pipeline_json(pipe)
         for b in self.branches:

@@ -920,3 +920,18 @@ def test_a_pick_of_the_rtclm_keeps_the_mode_on_screen() -> None:
     np.testing.assert_array_equal(view.design.params, r.pick(0).params)
     filed = s.set_design(r.pick(1), by_hand=True, cause="design leg.json")
     assert filed.design.mechanism.name == "rtclm_primary"
+
+
+def test_an_rtclm_branch_names_the_heights_and_the_transmission_limit_it_ran_against() -> None:
+    # Rehearsal 7: branches run against h4 220, 300, and 300 with mu >= 20 read alike but for the clock.
+    s = Session.default("rtclm/clm-case1")
+    s.set_heights(h6=55.0, h4=300.0)
+    s.study.settings["rtclm1"] = RunSettings("rtclm1", pop_size=8, n_gen=2, seed=2, transmission_min=20)
+    run(s, "rtclm1", from_pick=False)
+    kept = s.study.keep_branch("test")
+    assert kept is not None and " · h6=55, h4=300, mu>=20 (test, " in kept.label
+    six = Session.default()
+    tiny(six.study, "predesign", pop=8, gens=2)
+    run(six, "predesign", from_pick=False)
+    other = six.study.keep_branch("test")
+    assert other is not None and "h4=" not in other.label and "mu>=" not in other.label
