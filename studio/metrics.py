@@ -46,8 +46,9 @@ class Row:
         note: short explanation (definition, or why not feasible); shown as a tooltip.
         warn: what is wrong with the value for a leg that is to be built ("" if nothing): the row is marked.
         severe: the warning is about a dead point (marked red, and said above the table), not a weak value.
-        undefined: why the value is not a property of the leg ("" if it is): a gait number of a path that does not
-            walk (no single landing/take-off pair), shown dimmed with the reason first in its tooltip.
+        undefined: why the value is not a figure of this leg ("" if it is): a gait number of a path that does not
+            walk (no single landing/take-off pair), the RTCLM's shape error against a curve its stages do not use;
+            shown dimmed with the reason first in its tooltip.
     """
 
     key: str
@@ -206,9 +207,11 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
         # Not "Feasible": beside "Gait constraints: 1 unmet" on the paper's X3 it read as a contradiction.
         Row("feasible", "Assembles and walks", bool(ev.feasible[i]), note=why or "assembles; one landing and take-off"),
         Row("why", "Why not", why or "-", note="reason the bench trajectory is not well defined"),
+        # The RTCLM's is dimmed: 196 mm in the auxiliary mode was the largest number on a projector (rehearsal 7).
         Row("mse", "MSE (shape error)", shape_error(ev, i), "mm",
             note="mean distance to the target, sample against sample (design frame)" if height is None else
-            "against the Target panel's curve, which the RTCLM stages do not use (they drive h6 and h4)"),
+            "against the Target panel's curve, which the RTCLM stages do not use (they drive h6 and h4)",
+            undefined="" if height is None else "not one of the RTCLM's figures"),
         Row("h_s", "Body fluctuation hₛ", float(ev.h_s[i]), "mm", note="max - min of y over the stance"),
         Row("S", "Straightness S", float(ev.S[i]), "%", note="h_s / l_s"),
         *((Row("S_paper", "S as in Appendix B", 100.0 * float(ev.h_s[i]) / stride, "%",

@@ -94,6 +94,8 @@ def test_the_gait_numbers_of_a_path_that_does_not_walk_are_marked_not_defined() 
         walks = bool(rs["feasible"].value)
         marked = {k for k, r in rs.items() if r.undefined}
         expected = set() if walks or not view.assembles else {k for k in GAIT_KEYS if k in rs}
+        if name.startswith("rtclm"):  # its shape error is against a curve its stages do not use
+            expected.add("mse")
         assert marked == expected, name
         table = metrics_html(tuple(rs.values()))
         assert table.count('data-undefined="1"') == len({k for k in marked if not rs[k].warn})
