@@ -168,3 +168,32 @@ def test_a_compile_under_way_when_the_timer_starts_counts_its_callees_once() -> 
         time.sleep(0.05)
         t._listener.on_end(None)
         assert 0.33 <= t.seconds <= 0.5
+
+
+def test_a_compile_under_way_is_counted_while_it_runs_not_only_at_its_end() -> None:
+    # Review of session 30: seconds grew only when a compile ended, so the studio's "compiling the numeric kernels,
+    # N s so far" could not appear during the one long compile a first run waits for.
+    import threading
+    import time
+
+    import numba
+    import numpy as np
+
+    from core.kinematics.kernel_cache import CompileTimer
+
+    src = "def g(x):\n    s = 0.0\n" + "".join(f"    s += np.sin(x * {i}) * np.cos(x - {i})\n" for i in range(90))
+    ns = {"np": np}
+    exec(src + "    return s\n", ns)
+    slow = numba.njit(cache=False)(ns["g"])
+    with CompileTimer() as t:
+        th = threading.Thread(target=lambda: slow(0.5))
+        th.start()
+        polls = []
+        while th.is_alive():
+            polls.append(t.seconds)
+            time.sleep(0.02)
+        th.join()
+        final = t.seconds
+    during = [p for p in polls[:-1] if p > 0.0]
+    assert len(polls) > 5 and during, polls  # counted before the compile ended
+    assert all(b >= a for a, b in zip(polls, polls[1:], strict=False)) and final >= max(polls)
