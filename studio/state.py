@@ -158,7 +158,7 @@ def fitted_target(design: Design, name: str, period: float = 2.0, h4: float = H4
     sol = solve(design.mechanism, design.params[:1], n, output=design.output, backend=BACKEND)
     path = sol.point[0]
     if not np.isfinite(path).all():
-        return TargetSpec(period=period, origin="the paper's (the preset's path does not close)", h4=h4)
+        return TargetSpec(period=period, origin=f"the paper's ({name}'s path does not close)", h4=h4)
     span = path.max(axis=0) - path.min(axis=0)
     length, height = max(round(float(span[0])), 1.0), max(round(float(span[1])), 1.0)
     placed = place_cycloid(path, length, height)
@@ -661,7 +661,10 @@ class Session:
                 target = self._target_for(design.mechanism.name, preset, design, preset or cause or "")
             elif refit and self.view.target.origin.startswith(FITTED):  # not the paper's, uploaded or typed
                 t = fitted_target(design, cause or "loaded design", self.view.target.period)
-                target = replace(t, h6=self.view.target.h6, h4=self.view.target.h4)
+                # A path that does not close has nothing to fit: the target stays (the paper's cycloid in its place
+                # stopped every later file from being refitted; review of session 30).
+                if t.origin.startswith(FITTED):
+                    target = replace(t, h6=self.view.target.h6, h4=self.view.target.h4)
             view = self._commit(self._rebuild(design, preset, target), cause=cause)
             if by_hand:
                 self._from_editor()

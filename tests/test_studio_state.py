@@ -592,6 +592,20 @@ def test_a_design_file_gets_a_target_of_its_own_whatever_the_editor_showed_befor
     assert x3.set_design(presets.get("stephenson1/X3").design().scaled(0.5), refit=True).target == paper
 
 
+def test_a_design_file_whose_path_does_not_close_keeps_the_target_and_later_files_are_refitted() -> None:
+    # Review of session 30: such a file put the paper's cycloid in place of the fitted target ("the preset's path
+    # does not close"), and every later file of that mechanism was measured against it (MSE 171.68 mm, not 0.99).
+    s = Session.default()
+    s.load_preset("jansen")
+    before = s.view.target
+    broken = presets.get("jansen").design().replace(j=5.0)
+    bad = s.set_design(broken, by_hand=True, cause="design broken.json", refit=True)
+    assert not bad.assembles and bad.target == before
+    small = presets.get("jansen").design().scaled(0.4)
+    good = s.set_design(small, by_hand=True, cause="design j04.json", refit=True)
+    assert good.target.origin.startswith("scaled to the design j04.json path") and shape_error(good.evaluation) < 2.0
+
+
 def test_the_pin_holes_travel_with_the_session_and_a_bad_one_is_refused() -> None:
     # Review of session 29: the Pin hole Ø lived on the panel; a reload put 5 mm holes back in the DXF unsaid.
     from core.formats.drawing import Plates
