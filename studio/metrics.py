@@ -139,7 +139,7 @@ def clearance_rows(c: Clearance | None, i: int = 0) -> tuple[Row, ...]:
     value = float(c.height[i, j]) if j >= 0 else None
     note = (f"how far the lowest point after the foot ({c.names[j]}) stays above the ground the foot stands on"
             if j >= 0 else "not defined: the design does not assemble")
-    warn = c.warning(i)
+    warn = c.text(i) if c.warning(i) else ""  # the lowest joint named first: the value is its own
     return (Row("clearance", "Ground clearance", value, "mm", 1, note=note, warn=warn, severe=bool(warn)),)
 
 

@@ -28,7 +28,9 @@ def test_an_upside_down_leg_is_said_in_red_above_the_metrics() -> None:
     r = rows("rtclm/case1-CMOES")["clearance"]
     ev = evaluate(get("rtclm/case1-CMOES").design())
     assert r.value == pytest.approx(float(ev.clearance[0]), abs=1e-9) and r.severe
-    assert r.warn.startswith("A (fixed) sits 108.9 mm below the ground the foot stands on")
+    # B (the crank tip) is the lowest, at the value shown; the frame pivot A below the ground is said too.
+    assert r.warn.startswith(f"B is lowest, {-r.value:.1f} mm below the ground the foot stands on; A (fixed) sits "
+                             "108.9 mm below the ground the foot stands on")
     view = build_view(get("rtclm/case1-CMOES").design(), "rtclm/case1-CMOES", TargetSpec())
     banner = metrics_html(view.rows).split("<table")[0]
     assert "Ground clearance" in banner and "A (fixed) sits 108.9 mm" in banner
@@ -76,7 +78,7 @@ def test_clm_evaluate_prints_and_writes_the_clearance(tmp_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     line = next(ln for ln in out.stdout.splitlines() if ln.strip().startswith("ground clearance"))
     value = float(evaluate(get("rtclm/case1-CMOES").design()).clearance[0])
-    assert f"{value:.1f}" in line and "A (fixed) sits 108.9 mm below the ground" in line
+    assert f"{value:.1f}  mm: B is lowest, {-value:.1f} mm below" in line and "A (fixed) sits 108.9 mm below" in line
     data = json.loads(clm("evaluate", "--preset", "jansen", "--json").stdout)
     assert data["clearance"] == pytest.approx(float(evaluate(get("jansen").design()).clearance[0]), abs=1e-9)
     assert data["clearance_note"].endswith("(lowest point after the foot: T)")

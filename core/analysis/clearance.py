@@ -59,12 +59,19 @@ class Clearance:
 
     def text(self, i: int = 0) -> str:
         """Member i in words: ``12.3 mm (lowest point after the foot: B)``, what goes below the ground and by how
-        much, or ``n/a``."""
+        much (the lowest joint first: the value beside it is that joint's), or ``n/a``."""
         j = self.lowest(i)
         if j < 0:
             return "n/a"
         v = float(self.height[i, j])
-        return f"{v:.1f} mm (lowest point after the foot: {self.names[j]})" if v >= 0.0 else self.warning(i)
+        if v >= 0.0:
+            return f"{v:.1f} mm (lowest point after the foot: {self.names[j]})"
+        warn = self.warning(i)
+        if warn.startswith(f"{self.names[j]} "):
+            return warn
+        # A fixed point below the ground is said first, but the value is the lowest joint's: "-164.2 mm: A (fixed)
+        # sits 108.9 mm below" read as A's (review of session 30).
+        return f"{self.names[j]} is lowest, {-v:.1f} mm below the ground the foot stands on; {warn}"
 
     def warning(self, i: int = 0) -> str:
         """What is wrong with member i's leg ("" when nothing is): a fixed point below the ground the foot stands
