@@ -10,10 +10,12 @@ from pathlib import Path
 
 import pytest
 
+from core.analysis.clearance import ground_clearance
 from core.analysis.evaluate import evaluate
 from core.kinematics.design import Design
 from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY
 from core.kinematics.presets import get
+from core.optimize.rtclm import mode_clearance
 from studio.metrics import Row, metrics_html
 from studio.state import build_view
 from studio.target import TargetSpec
@@ -52,7 +54,10 @@ def test_the_rtclm_shows_its_other_mode_in_one_row() -> None:
     mu = float(there.transmission[0])
     assert r.label == "Auxiliary mode"
     # Its crossing height first: the h4 an RTCLM case is judged on (rehearsal 6 loaded a study's design and saw h6).
-    assert r.value == (f"h4 {float(there.h_m[0]):.1f} mm, μ {mu:.1f}°, clearance {float(there.clearance[0]):.0f} mm, "
+    # Both legs' clearance (review of session 30: the right leg's alone passed only because case 4's left B and C
+    # are not its lowest joints).
+    both = mode_clearance(ground_clearance(aux.solve(360), aux.mechanism, aux.output), aux.mechanism, aux.params)
+    assert r.value == (f"h4 {float(there.h_m[0]):.1f} mm, μ {mu:.1f}°, clearance {float(both.value[0]):.0f} mm, "
                        f"stance {abs(shift):.0f} mm {'lower' if shift > 0 else 'higher'}")
     assert (r.warn != "") == (mu < 40.0)
     # The other way round: the auxiliary preset names the primary mode, with the opposite shift.
