@@ -343,7 +343,12 @@ def bounds_text(param: Param, k: float = 1.0, paper: bool = True) -> str:
     step = 0.01 if param.unit == "mm" else 1e-4
     inner_lo = lo if lo == round(lo / step) * step else math.ceil(lo / step - 1e-9) * step
     inner_hi = hi if hi == round(hi / step) * step else math.floor(hi / step + 1e-9) * step
-    text = f"[{inner_lo:.6g}, {inner_hi:.6g}] {param.unit}"
+    digits = 2 if param.unit == "mm" else 4  # fixed decimals: ":.6g" rounded 10000.87 out to 10000.9 (review, s30)
+
+    def fixed(v: float) -> str:
+        return f"{v:.{digits}f}".rstrip("0").rstrip(".") if math.isfinite(v) else f"{v:g}"
+
+    text = f"[{fixed(inner_lo)}, {fixed(inner_hi)}] {param.unit}"
     if (lo, hi) != (param.lo, param.hi):
         whose = "the paper's" if paper else "the global"
         text += (f" ({whose} {param.lo:g}-{param.hi:g} {param.unit} for a 300 mm stride, sized to this target's "

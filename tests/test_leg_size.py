@@ -189,6 +189,15 @@ def test_the_studio_takes_a_half_size_legs_crank_once_the_target_is_half_size() 
     session.load_preset("jansen")
     with pytest.raises(ValueError, match=r"outside its bounds \[1.14, 500\] mm \(the global 5-500 mm for a 300 mm "):
         session.set_param("b", 1.13)
+    # And for a leg of metres (review of session 30: ":.6g" printed [-10000.9, 10000.9] and refused 10000.9).
+    from core.kinematics.params import Param
+    from studio.state import bounds_text, check_value
+
+    x = Param("x_a", "position", -500.0, 500.0)
+    k = 10000.87 / 500.0
+    text = bounds_text(x, k)
+    assert text.startswith("[-10000.87, 10000.87] mm")
+    assert check_value(x, 10000.87, k) == 10000.87
 
 
 def test_the_studio_sizes_its_chains_steps_and_pick_limits_to_the_target() -> None:
