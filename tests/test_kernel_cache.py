@@ -31,12 +31,50 @@ def test_the_cache_is_a_subdirectory_per_fingerprint_and_child_processes_keep_th
 
 
 def test_this_process_compiles_into_this_versions_cache() -> None:
-    from numba.core import config
+    from core.analysis import fourier
 
     where = cache_dir(kernel_fingerprint())
     if where is None:
         pytest.skip("neither NUMBA_CACHE_DIR nor a writable virtual environment: numba's default cache")
-    assert config.CACHE_DIR == where and Path(where).name == kernel_fingerprint()
+    fourier._peak.enable_caching()  # what cache=True did: its locator says where the kernel goes
+    path = fourier._peak._cache._cache_path
+    assert Path(path).parent == Path(where) and Path(where).name == kernel_fingerprint()
+
+
+@pytest.mark.parametrize("first", ["numba", "core"])
+def test_importing_core_leaves_a_host_processs_own_kernels_and_settings_alone(tmp_path: Path, first: str) -> None:
+    # Rehearsal 8: import core rewrote NUMBA_CACHE_DIR and numba's CACHE_DIR for the whole process, so an integrator's
+    # kernels went into CLM's version directory (which the next CLM version prunes) and so did their children's.
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    (tmp_path / "hostmod.py").write_text("import numba\n\n\n@numba.njit(cache=True)\ndef hf(x):\n    return x + 1\n")
+    base = tmp_path / "cache"
+    second = "core" if first == "numba" else "numba"
+    code = textwrap.dedent(f"""
+        import os, sys
+        sys.path.insert(0, {str(tmp_path)!r})
+        import {first}
+        import {second}
+        from numba.core import config
+        assert os.environ["NUMBA_CACHE_DIR"] == config.CACHE_DIR == {str(base)!r}, (os.environ["NUMBA_CACHE_DIR"],
+                                                                                   config.CACHE_DIR)
+        import numpy as np
+        import hostmod
+        from core.analysis import fourier
+        assert hostmod.hf(1) == 2
+        fourier.descriptors(np.random.default_rng(0).random((2, 40, 2)))
+    """)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(base), PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    index = [p.relative_to(base) for p in base.rglob("*.nbi")]
+    host = [p for p in index if p.name.startswith("hostmod.")]
+    ours = [p for p in index if p.name.startswith("fourier.")]
+    assert host and all(p.parts[0] != kernel_fingerprint() for p in host)  # numba's own layout under the base
+    assert ours and all(p.parts[0] == kernel_fingerprint() for p in ours)
 
 
 def test_a_start_keeps_its_own_and_the_most_recent_versions_and_removes_idle_old_ones(tmp_path: Path) -> None:

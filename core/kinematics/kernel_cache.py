@@ -16,6 +16,8 @@ again: numba loads nothing from a missing directory and makes it anew when it sa
 from __future__ import annotations
 
 import hashlib
+import importlib.abc
+import importlib.util
 import os
 import re
 import shutil
@@ -79,16 +81,78 @@ def prune(where: str, keep: int = KEEP, idle_s: float = IDLE_S) -> list[str]:
 
 
 def configure() -> None:
-    """Point numba at this version's cache before any kernel is defined (and tell child processes)."""
+    """Point numba's cache for ``core``'s own kernels at this version's directory (before any is compiled).
+
+    Only functions defined under ``core`` are affected: a locator for them goes first in numba's list, so a process
+    that imports ``core`` keeps its own ``NUMBA_CACHE_DIR`` and numba configuration for its kernels (rehearsal 8: an
+    integrator's kernels moved into CLM's version directory, which the next CLM version prunes). numba is not
+    imported for it: the locator is installed when ``numba.core.caching`` is (at once if it already is)."""
     where = cache_dir(kernel_fingerprint())
     if where is None:
         return
-    os.environ["NUMBA_CACHE_DIR"] = where
     prune(where)
-    if "numba" in sys.modules:  # imported before core: its configuration was read already
-        from numba.core import config
+    caching = sys.modules.get("numba.core.caching")
+    if caching is not None:
+        _install(caching, where)
+    else:
+        sys.meta_path.insert(0, _AfterImport("numba.core.caching", lambda module: _install(module, where)))
 
-        config.CACHE_DIR = where
+
+def _install(caching: Any, where: str) -> None:
+    """Put a locator for the functions under ``core`` first in numba's list (once)."""
+    classes = caching.CacheImpl._locator_classes
+    if any(getattr(c, "_clm_root", None) == str(ROOT) for c in classes):
+        return
+
+    class CoreLocator(caching.UserProvidedCacheLocator):
+        _clm_root = str(ROOT)
+
+        def __init__(self, py_func: Any, py_file: str) -> None:
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._cache_path = os.path.join(where, self.get_suitable_cache_subpath(py_file))
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Any:
+            try:
+                inside = Path(py_file).resolve().is_relative_to(ROOT)
+            except (OSError, ValueError):
+                return None
+            if not inside or not os.path.exists(py_file):
+                return None
+            self = cls(py_func, py_file)
+            try:
+                self.ensure_cache_path()
+            except OSError:
+                return None
+            return self
+
+    classes.insert(0, CoreLocator)
+
+
+class _AfterImport(importlib.abc.MetaPathFinder):
+    """Runs ``then(module)`` right after the module ``name`` is first imported, then leaves ``sys.meta_path``."""
+
+    def __init__(self, name: str, then: Any) -> None:
+        self.name, self.then = name, then
+
+    def find_spec(self, fullname: str, path: Any, target: Any = None) -> Any:
+        if fullname != self.name:
+            return None
+        if self in sys.meta_path:
+            sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(fullname)
+        loader = getattr(spec, "loader", None)
+        if loader is None or not hasattr(loader, "exec_module"):
+            return spec
+        run, then = loader.exec_module, self.then
+
+        def exec_module(module: Any) -> None:
+            run(module)
+            then(module)
+
+        loader.exec_module = exec_module
+        return spec
 
 
 class CompileTimer:
