@@ -85,6 +85,7 @@ def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
         ("0,0\n1,0\n1,abc\n0,1\n", "'abc' is not a number"),
         ("abc,0\n1,0\n1,1\n0,1\n0,0.5\n", "data row 1: 'abc' is not a number"),  # not taken for a header
         ("0,0\n1,0\n1,nan\n0,1\n", "NaN or infinite"),
+        ("0,0\n1,0\n1e300,1\n0,1\n", "data row 3 has a coordinate beyond \\+-1e\\+06 mm"),  # rehearsal 8: overflowed
         ("0,0\n1,0\n2,0\n3,0\n4,0\n50,0\n", "open curve"),
         ("0,0,0\n1,0,1\n1,1,1\n0,1,3\n", "strictly increasing"),
         ("0,0,0,0\n1,0,1,1\n", "2 columns"),

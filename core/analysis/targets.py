@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 F64 = NDArray[np.float64]
 
+MAX_COORD = 1e6  # mm: a target curve's coordinates, as a design file's values
 MIN_POINTS = 4
 CLOSE_TOL = 3.0  # a curve is closed when its last-to-first gap is at most this many median steps
 
@@ -160,6 +161,11 @@ def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
     bad = ~np.isfinite(data).all(1)
     if bad.any():
         raise ValueError(f"{name}: data row {int(np.argmax(bad)) + 1} has a NaN or infinite value")
+    # The design files' domain (core.formats.design): past it the geometry is floating-point noise, and 1e300 mm
+    # overflowed into numpy warnings (rehearsal 8).
+    huge = (np.abs(data[:, :2]) > MAX_COORD).any(1)
+    if huge.any():
+        raise ValueError(f"{name}: data row {int(np.argmax(huge)) + 1} has a coordinate beyond +-{MAX_COORD:g} mm")
     pts = data[:, :2]
     times = data[:, 2] if ncol == 3 else None
     if times is not None and np.any(np.diff(times) <= 0.0):
@@ -237,7 +243,7 @@ def scale_note(points: Any) -> str:
     span = float(np.ptp(pts, axis=0).max()) if len(pts) else 0.0
     if SPAN_MM[0] <= span <= SPAN_MM[1]:
         return ""
-    size = f"{span:,.0f}" if span >= 1.0 else f"{span:.2g}"
+    size = f"{span:,.0f}" if 1.0 <= span < 1e9 else f"{span:.2g}"
     return (f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
             "mm (a file in m or um needs scaling)")
 
