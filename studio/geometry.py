@@ -38,7 +38,9 @@ class LinkEdges:
 def link_edges(mechanism: Mechanism) -> LinkEdges:
     """Edges to draw: every pair of points of every moving body (a binary link's bar, a ternary
     link's triangle), and for the ground only each ground point's tie to the ground point it is
-    placed from (pivots placed from the world origin stand alone, as in a kinematic diagram)."""
+    placed from (pivots placed from the world origin stand alone, as in a kinematic diagram) and the
+    links it holds still (``Mechanism.locked``: the RTCLM's auxiliary mode drew the four-bar alone, and a
+    switch of mode looked like another mechanism; rehearsal 7)."""
     index = {name: j for j, name in enumerate(mechanism.joint_names)}
     grounds = {s.name for s in mechanism.steps if isinstance(s, Ground)}
     # The crank is the body turning about a ground pivot: it holds a crank point and its pivot.
@@ -46,6 +48,10 @@ def link_edges(mechanism: Mechanism) -> LinkEdges:
     pairs: list[tuple[int, int]] = [
         (index[s.origin], index[s.name]) for s in mechanism.steps if isinstance(s, Ground) and s.origin is not None
     ]
+    for group in mechanism.locked:
+        for a in range(len(group)):
+            for b in range(a + 1, len(group)):
+                pairs.append((index[group[a]], index[group[b]]))
     kinds: list[int] = [EDGE_GROUND] * len(pairs)
     for body in mechanism.bodies():
         members = set(body)

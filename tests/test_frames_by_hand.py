@@ -266,3 +266,26 @@ def test_a_segment_crosses_a_box_by_hand():
     # through; above it; inside; stops short; stops short of the left side; cuts the corner at (2, 1)... outside;
     # a point inside
     assert _crosses_box(a, d, box).tolist() == [True, False, True, False, False, False, True]
+
+
+def test_the_auxiliary_mode_draws_the_links_it_holds_still_in_the_frames_colour():
+    # Rehearsal 7: the auxiliary mode drew the four-bar E-H-F-G alone, at another scale: a switch of mode looked like
+    # another mechanism. The primary mode's crank, coupler and rocker are drawn where the switching state locks them.
+    aux = Session.default("rtclm/case2/auxiliary").view
+    mech = aux.design.mechanism
+    edges = link_edges(mech)
+    names = mech.joint_names
+    drawn = {frozenset((names[a], names[b])) for (a, b), k in zip(edges.pairs, edges.kinds, strict=True)
+             if k == EDGE_GROUND}
+    assert drawn == {frozenset(p) for p in (("A", "B"), ("B", "C"), ("B", "E"), ("C", "E"), ("D", "C"), ("D", "H"),
+                                            ("C", "H"))}
+    f = build_frames(aux)
+    assert f.pivot_names == ("E", "H")  # still no loose diamonds
+    # Inside the mechanism view the camera frames (mm): case 1's CMOES row locks C outside E-H-F-G's sweep.
+    for preset in ("rtclm/case2/auxiliary", "rtclm/case1-CMOES/auxiliary"):
+        v = Session.default(preset).view
+        box, j = build_frames(v).layout.design, v.solution.joints[0][0]
+        for n in ("A", "B", "C", "D"):
+            x, y = j[names.index(n)]
+            assert box[0] <= x <= box[2] and box[1] <= y <= box[3], (preset, n)
+    assert Session.default("rtclm/case2").view.design.mechanism.locked == ()  # the primary mode moves them

@@ -199,6 +199,9 @@ class Mechanism:
         derive: vectorized map ``params -> (derived, violation)``; None if not needed.
         derive_failure: what a positive derive violation means, for messages (``clm simulate``).
         doc: a paragraph on the construction.
+        locked: groups of ground points that are moving links held still in this mechanism (the RTCLM's auxiliary
+            mode locks the primary mode's crank, coupler and rocker in the switching state): drawn as the links
+            they are, in the frame's colour.
     """
 
     name: str
@@ -210,6 +213,7 @@ class Mechanism:
     derive: Derive | None = field(default=None, compare=False)
     derive_failure: str = "its derived values have no solution"
     doc: str = ""
+    locked: tuple[tuple[str, ...], ...] = ()
 
     @property
     def n_params(self) -> int:

@@ -339,4 +339,6 @@ RTCLM_AUXILIARY = Mechanism(
         "drives the four-bar E-H-F-G; sample 0 is the switching state. The left leg's four-bar "
         "is congruent, shifted along x by E^l - E^r."
     ),
+    # The primary mode's crank AB, coupler B-C-E and rocker D-C-H, held still: the same leg, locked another way.
+    locked=(("A", "B"), ("B", "C", "E"), ("D", "C", "H")),
 )
