@@ -101,6 +101,24 @@ def test_a_scheduler_a_config_without_a_multi_start_does_not_use_is_said(tmp_pat
                                        "block (only a block's chains run on Dask)\n")
 
 
+def test_a_scheduler_that_does_not_answer_is_one_line_exit_2_before_anything_runs(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    # Rehearsal 8: the address was first tried inside the multi-start stage, so clm design exited 1 and left a
+    # failed result.json in --out (a retry then needed --overwrite); clm study and the docs say exit 2.
+    import core.optimize.workers as workers
+
+    patient = workers.connect
+    monkeypatch.setattr(workers, "connect", lambda address: patient(address, timeout="1s"))  # not 20 s in a test
+    starts = 'pick = "best:f1"\nstarts = {n = 2, until = "subtask1", select = "best:f1"}'
+    (tmp_path / "m.toml").write_text(TINY.replace('pick = "best:f1"', starts, 1))
+    out = tmp_path / "o"
+    assert main(["design", str(tmp_path / "m.toml"), "--out", str(out), "--quiet", "--scheduler",
+                 "tcp://127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("clm: error: no Dask scheduler answers at tcp://127.0.0.1:1 ")
+    assert not (out / "result.json").exists()
+
+
 def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], capsys: pytest.CaptureFixture[str]) -> None:
     h, b, _ = outputs
     assert main(["compare", str(h), str(b / "result.json"), "--paper"]) == 0

@@ -294,6 +294,13 @@ def run(args: argparse.Namespace) -> int:
         if not any(st.starts for st in config.stages):  # not contacted at all: say so rather than seem to use it
             print(f"clm: note: --scheduler is not used: {args.config} has no multi-start block "
                   "(only a block's chains run on Dask)", file=sys.stderr)
+        else:  # asked now, as clm study does: exit 2 and nothing written, not a failed run in --out (rehearsal 8)
+            from core.optimize.workers import connect
+
+            try:
+                connect(args.scheduler).close()
+            except ValueError as exc:
+                raise CLIError(str(exc)) from None
     if config.start.mechanism.derive is None:  # the RTCLM's targets are heights, not a curve
         _warn_target(config.baseline.target, config.start.output)
     check_out_dir(args.out_text, output_names(config))
