@@ -66,7 +66,7 @@ class Curve:
     def scale_note(self) -> str:
         """A word on the curve's size if it is far from a leg's (a file written in m or um is read as mm: 300 m
         across drew nothing at all, 0.3 mm a dot), else "" (``core.analysis.targets.scale_note``)."""
-        return scale_note(self.points)
+        return scale_note(self.points, self.period if self.times is not None else None)
 
     def path_note(self, output: OutputStage) -> str:
         """A word on the curve if, mapped to the leg frame by ``output``, it would make a leg walk wrongly (drawn

@@ -180,6 +180,25 @@ def test_a_target_curve_in_metres_is_evaluated_with_a_warning(tmp_path, capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_a_target_with_times_in_ms_is_evaluated_with_a_warning_and_one_beyond_any_crank_is_refused(tmp_path, capsys):
+    # Rehearsal 8: times in ms made T = 2000 s and I a thousandth of itself, without a word; times in us failed
+    # clm design's first stage (exit 1) where clm evaluate refused them.
+    from core.analysis.targets import compound_cycloid
+    from core.cli import main
+
+    pts = compound_cycloid(120)[0]
+    for unit, factor in (("ms", 1e3), ("us", 1e6)):
+        t = np.arange(120) * (2.0 / 120) * factor
+        (tmp_path / f"c_{unit}.csv").write_text("x,y,t\n" + "".join(f"{x},{y},{ti}\n" for (x, y), ti in zip(pts, t,
+                                                                                                    strict=True)))
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(tmp_path / "c_ms.csv")]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("clm: warning: target c_ms.csv: its times make one cycle 2000 s long") and "in ms" in err
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", str(tmp_path / "c_us.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "its times span 2e+06 s, where a crank period must be 1e-06 to 1e+06 s" in err
+
+
 def test_a_target_that_would_walk_wrongly_in_the_leg_frame_gets_a_warning(tmp_path, capsys):
     # A path drawn clockwise, or a cycloid without the pantograph that puts its flat part at the bottom, was
     # optimized as given: the leg then pushes backward on the ground, or stands on its swing.

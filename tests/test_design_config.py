@@ -137,6 +137,12 @@ BAD = [
     ("seed", 10**30, "seed: must be <= 4294967295"),
     ("n_samples", 100_000_000, "n_samples: must be <= 100000"),
     ("target.L", float("inf"), "target.L: must be finite"),
+    # Past the analysis' domain the first stage failed (exit 1, a failed result written) or "completed" on overflowed
+    # numbers (rehearsal 8).
+    ("target.T", 1e-300, "target.T: must be >= 1e-06"),
+    ("target.T", 1e7, "target.T: must be <= 1e+06, got 10000000.0"),
+    ("target.L", 1e300, "target.L: must be <= 1e+06"),
+    ("bounds.r1", [1e-300, 1e300], "bounds.r1: bounds must lie within +-1e+06 (mm or rad), got [1e-300, 1e+300]"),
     ("stages.0.n_gen", 0, "stages[0].n_gen: must be >= 1, got 0"),
     ("stages.0.box", 5, "stages[0].box: expected a string or a table, got an integer"),
     ("workers", "many", "workers: 'many' is not one of auto"),

@@ -188,6 +188,9 @@ def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
                 "close it by repeating the first point or sampling the whole cycle"
             )
         period = float(times[-1] - times[0] + np.median(np.diff(times))) if times is not None else 2.0
+    if times is not None and not 1.0 / MAX_COORD <= period <= MAX_COORD:  # evaluate()'s range of crank periods
+        raise ValueError(f"{name}: its times span {period:g} s, where a crank period must be 1e-06 to 1e+06 s "
+                         "(the third column is read in s)")
     if times is not None:
         times = times - times[0]
     return Target(name, pts, times, period)
@@ -234,18 +237,24 @@ def read_user_file(path: str | Path, max_bytes: int = MAX_CURVE_FILE_BYTES, what
 
 
 SPAN_MM = (5.0, 5000.0)  # a target curve's width or height outside this is probably not in mm
+PERIOD_S = (0.05, 60.0)  # a target's cycle (s) outside this is probably not in s
 
 
-def scale_note(points: Any) -> str:
+def scale_note(points: Any, period: float | None = None) -> str:
     """A word on a curve's size if it is far from a leg's (a file written in m or um is read as mm: 0.18 m became a
-    0.18 mm target, optimized to a confident nonsense), else ""."""
+    0.18 mm target, optimized to a confident nonsense), and on its period (``period``: a curve with times) if it is
+    far from a crank's (times in ms made T = 2000 s and I a thousandth of itself; rehearsal 8), else ""."""
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     span = float(np.ptp(pts, axis=0).max()) if len(pts) else 0.0
-    if SPAN_MM[0] <= span <= SPAN_MM[1]:
-        return ""
-    size = f"{span:,.0f}" if 1.0 <= span < 1e9 else f"{span:.2g}"
-    return (f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
-            "mm (a file in m or um needs scaling)")
+    notes = []
+    if not SPAN_MM[0] <= span <= SPAN_MM[1]:
+        size = f"{span:,.0f}" if 1.0 <= span < 1e9 else f"{span:.2g}"
+        notes.append(f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
+                     "mm (a file in m or um needs scaling)")
+    if period is not None and not PERIOD_S[0] <= period <= PERIOD_S[1]:
+        notes.append(f"its times make one cycle {period:g} s long, where a leg's crank turns once in "
+                     f"{PERIOD_S[0]:g} to {PERIOD_S[1]:g} s: its times are read in s (a file in ms needs scaling)")
+    return "; ".join(notes)
 
 
 def path_note(points: Any, remedy: bool = True) -> str:

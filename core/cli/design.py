@@ -374,7 +374,7 @@ def _warn_target(target: str, output: OutputStage) -> None:
 
     cycloid = target.split(":", 1)[0] == "cycloid"
     curve = load_target(target)  # read once: a CSV was read for each note
-    note = "" if cycloid else scale_note(curve.points)
+    note = "" if cycloid else scale_note(curve.points, curve.period if curve.has_time else None)
     if note:
         print(f"clm: warning: target {Path(target).name}: {note}", file=sys.stderr)
     note = path_note(output.apply(curve.sample(360)), remedy=not cycloid)

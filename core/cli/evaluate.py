@@ -90,7 +90,7 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     if args.leg_frame and args.curve is None and not csv_target:
         raise CLIError("--leg-frame applies to a --curve or a --target CSV; the cycloid is a design-frame target")
     note = "" if target is None or args.target is None or args.target.split(":", 1)[0] == "cycloid" \
-        else scale_note(target.points)
+        else scale_note(target.points, target.period if target.has_time else None)
     if note:  # a CSV in m or um is read as mm
         print(f"clm: warning: target {Path(args.target).name}: {note}", file=sys.stderr)
     curve = load_curve(args.curve) if args.curve is not None else None

@@ -31,6 +31,7 @@ from core.formats.config_file import (
 )
 from core.formats.typed import decode, kind
 from core.kinematics import presets
+from core.kinematics.checks import MAX_ABS
 from core.kinematics.design import Design
 from core.kinematics.mechanisms import MECHANISMS
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
@@ -108,6 +109,8 @@ def _bounds(mech: Mechanism, table: dict[str, Any]) -> Mechanism:
         if not isinstance(v, list) or len(v) != 2:
             raise _fail(key, f"expected [lower, upper], got {kind(v)}")
         lo, hi = decode(v, tuple[float, float], key)
+        if not max(abs(lo), abs(hi)) <= MAX_ABS:  # a design file's domain: past it the geometry is noise
+            raise _fail(key, f"bounds must lie within +-{MAX_ABS:g} (mm or rad), got [{lo:g}, {hi:g}]")
         if not lo < hi:
             raise _fail(key, f"impossible bounds: lower {lo:g} is not below upper {hi:g}")
         if p.kind == "length" and lo <= 0.0:

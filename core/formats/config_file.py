@@ -26,11 +26,17 @@ class Output(Struct, forbid_unknown_fields=True, frozen=True):
     mirror: Any = False  # checked by hand: "must be true or false, got 'yes'" reads better for a flag
 
 
+# The analysis' domain (core.kinematics.checks.MAX_ABS): past it the run failed at its first stage, exit 1 after
+# writing a failed result (rehearsal 8), or "completed" on overflowed numbers.
+Size = Annotated[float, Meta(gt=0, le=1e6)]
+Period = Annotated[float, Meta(ge=1e-6, le=1e6)]
+
+
 class Target(Struct, forbid_unknown_fields=True, frozen=True):
     curve: str = "cycloid"
-    L: Pos | None = None
-    H: Pos | None = None
-    T: Pos | None = None
+    L: Size | None = None
+    H: Size | None = None
+    T: Period | None = None
 
 
 class Rtclm(Struct, forbid_unknown_fields=True, frozen=True):
