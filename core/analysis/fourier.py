@@ -162,7 +162,10 @@ def descriptor_distance(a: C128, b: C128, n_grid: int = 1024) -> F64:
     grid[:, kk % n_grid] = w
     C = np.fft.ifft(grid, axis=1)  # C(2 pi j / n_grid) / n_grid
     out = np.empty(len(w))
-    _closest(np.ascontiguousarray(a), np.ascontiguousarray(b), w, kk.astype(np.float64), C, out)
+    # Writeable C arrays whatever came in: broadcast views are read-only, another kernel signature (the studio's
+    # warm-up compiles one; a one-design evaluation then compiled a second).
+    a, b = (np.require(v, np.complex128, ("C", "W")) for v in (a, b))
+    _closest(a, b, np.require(w, np.complex128, ("C", "W")), kk.astype(np.float64), C, out)
     return out
 
 
