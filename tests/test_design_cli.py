@@ -119,6 +119,20 @@ def test_a_scheduler_that_does_not_answer_is_one_line_exit_2_before_anything_run
     assert not (out / "result.json").exists()
 
 
+def test_the_seed_given_on_the_command_line_is_the_one_recorded_and_compared(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Rehearsal 8: --seed 2 ran seed 2 but result.json kept the file's seed 1, and clm compare labelled it "seed 1".
+    (tmp_path / "t.toml").write_text(TINY.replace("n_gen = 3", "n_gen = 1").replace("n_gen = 2", "n_gen = 1"))
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(tmp_path / "s2"), "--seed", "2", "--quiet"]) == 0
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(tmp_path / "s3"), "--seed", "3", "--quiet"]) == 0
+    data = json.loads((tmp_path / "s2" / "result.json").read_text())
+    assert data["config"]["seed"] == 2
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "s2"), str(tmp_path / "s3")]) == 0
+    out = capsys.readouterr().out
+    assert "(nsga2, seed 2)" in out and "(nsga2, seed 3)" in out and "seed 4" not in out
+
+
 def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], capsys: pytest.CaptureFixture[str]) -> None:
     h, b, _ = outputs
     assert main(["compare", str(h), str(b / "result.json"), "--paper"]) == 0

@@ -108,7 +108,9 @@ class DesignRun:
             "format_version": 1,
             "name": self.config.name,
             "method": self.config.method,
-            "config": dict(self.config.source),
+            # The seed that ran: `clm design --seed 2` recorded the file's seed 1, and clm compare labelled it so
+            # (rehearsal 8); rerunning this config gives this result.
+            "config": {**dict(self.config.source), "seed": self.config.seed},
             "config_path": self.config.path,
             "status": self.status,
             "wall_time": self.wall_time,
