@@ -317,3 +317,20 @@ def test_a_target_csv_in_the_leg_frame_is_mapped_back_by_the_designs_output_stag
     assert got["leg"] == pytest.approx(got["design"], abs=1e-6) and abs(got["raw"] - got["design"]) > 1.0
     assert main(["evaluate", "--preset", "stephenson1/X3", "--leg-frame"]) == 2  # the cycloid has no frame to map
     assert "--leg-frame applies to a --curve or a --target CSV" in capsys.readouterr().err
+
+
+def test_a_design_whose_foot_stands_on_its_swing_is_evaluated_with_a_warning(tmp_path, capsys):
+    # Rehearsal 8: the paper's X3 in a design file without "output" is read with the identity (k = 1): clm evaluate
+    # printed h_s 101 mm, S 35 % and "feasible" without a word, where clm design warns of the same upside-down leg.
+    from core.cli import main
+
+    assert main(["presets", "show", "stephenson1/X3"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    del data["output"]
+    (tmp_path / "noout.json").write_text(json.dumps(data))
+    assert main(["evaluate", "--design", str(tmp_path / "noout.json")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "noout.json: its foot path: its flat part is at the top in the leg frame" in err
+    assert "without \"output\" is read with the identity" in err
+    assert main(["evaluate", "--preset", "stephenson1/X3"]) == 0  # with its pantograph: nothing to say
+    assert capsys.readouterr().err == ""
