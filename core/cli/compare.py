@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from core.cli import CLIError
-from core.cli.design import table
+from core.cli.design import COMPILE_NOTE, table
 from core.formats.files import read_design_result
 from core.optimize.result import decode_float
 
@@ -76,6 +76,9 @@ def load_rows(path: Path) -> list[dict[str, Any]]:
         raise CLIError(f"{f}: 'rows' must be a list of objects with a label")
     if not rows:
         return [{"label": f"{data.get('name', f.parent.name)}: no result ({data.get('status')})", "time": float("nan")}]
+    compiled = data.get("compile_time")
+    if isinstance(compiled, int | float) and compiled >= COMPILE_NOTE:  # a first run: its time is mostly compiling
+        rows = [{**r, "compiled": float(compiled)} for r in rows]
     numeric = {"time", "mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4", "violation", "dp"}
     config: dict[str, Any] = data["config"] if isinstance(data.get("config"), dict) else {}
     try:
@@ -134,6 +137,10 @@ def run(args: argparse.Namespace) -> int:
     if any(infeasible(r) for r in rows):
         print("* infeasible: the pick misses its stage's constraints, or the baseline's path is no valid walking path "
               "(its violation > 0)")
+    first = sorted({(r["source"], r["compiled"]) for r in rows if r.get("compiled")})
+    if first:
+        print("The time includes compiling numba kernels (a first run on a machine; later runs load them) in "
+              + ", ".join(f"{src} ({t:.1f} s of it)" for src, t in first) + ".")
     if args.paper and rtclm:
         print("The paper's times are MATLAB minutes on one core (Appendix C-1), here in s.")
     elif args.paper:

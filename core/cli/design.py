@@ -28,6 +28,7 @@ from core.cli import CLIError
 from core.formats.config import load_config
 from core.formats.files import atomic_write, chart_file, check_out_dir, read_design_result, stage_file
 from core.formats.typed import MAX_SEED
+from core.kinematics.kernel_cache import CompileTimer
 from core.kinematics.model import OutputStage
 from core.optimize.baselines import DP_METHODS
 from core.optimize.design_config import DesignConfig
@@ -39,6 +40,7 @@ from core.optimize.scale import PAPER_STRIDE
 from core.optimize.stage import Progress
 
 BAR = 24
+COMPILE_NOTE = 0.5  # s of compiling a run's summary and clm compare mention
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -206,8 +208,10 @@ def summary(run_: DesignRun) -> str:
     """The end-of-run table: one line per stage (or the baseline) with its pick's metrics."""
     c = run_.config
     workers = f", {run_.workers} worker process{'es' if run_.workers != 1 else ''}" if run_.multistart else ""
+    compiled = (f" ({run_.compile_time:.1f} s of it compiling numba kernels: a first run on this machine; the stage "
+                "times below include it)" if run_.compile_time >= COMPILE_NOTE else "")
     lines = [f"{c.name}: {c.method}, {c.mechanism.name}, seed {c.seed}, {run_.status}, wall {run_.wall_time:.1f} s"
-             + workers]
+             + compiled + workers]
     if run_.baseline is not None:
         b = run_.baseline
         m = b.metrics
@@ -336,8 +340,10 @@ def run(args: argparse.Namespace) -> int:
         old = {signal.SIGINT: signal.signal(signal.SIGINT, on_sigint),
                signal.SIGTERM: signal.signal(signal.SIGTERM, on_sigterm)}
     failure: StageFailed | None = None
+    timer = CompileTimer()
     try:
-        result = run_design(config, bar, cancel)
+        with timer:
+            result = run_design(config, bar, cancel)
     except StageFailed as e:  # keep the stages that finished before it
         result, failure = e.run, e
     finally:
@@ -345,6 +351,7 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(signum, handler)
         if bar is not None:
             bar.close()
+    result.compile_time = timer.seconds
     written = write_outputs(args.out, result)
     kept = {p.name for p in written}
     # Plain names in --out only: a result.json is a file anyone could have edited ("0_../x.csv").
