@@ -374,3 +374,27 @@ def test_simulate_says_a_dyad_that_never_closes_has_no_transmission_angle(tmp_pa
     assert line.endswith("never closes (no transmission angle)") and "deg" not in line
     assert main(["simulate", "--preset", "stephenson1/X3"]) == 0
     assert "dyad C: margin 3.24 mm, transmission angle 44.7..158.6 deg" in capsys.readouterr().out
+
+
+def test_version_names_the_package_and_the_code_digest(capsys):
+    # Rehearsal 8: a CI log could not say which CLM had run (clm --version: "the following arguments are required").
+    from core import CODE_DIGEST
+
+    assert main(["--version"]) == 0
+    out = capsys.readouterr().out.strip()
+    assert out.startswith("clm ") and out.endswith(f"(code {CODE_DIGEST})")
+
+
+def test_a_design_file_with_a_null_output_reads_as_one_without(tmp_path, capsys):
+    # Rehearsal 8: the published schema allows "output": null, which the loader refused.
+    assert main(["presets", "show", "jansen"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    data["output"] = None
+    (tmp_path / "null.json").write_text(json.dumps(data))
+    del data["output"]
+    (tmp_path / "none.json").write_text(json.dumps(data))
+    outs = []
+    for name in ("null.json", "none.json"):
+        assert main(["evaluate", "--design", str(tmp_path / name), "--json"]) == 0
+        outs.append({k: v for k, v in json.loads(capsys.readouterr().out).items() if k != "params"})
+    assert outs[0] == outs[1] and outs[0]["output"]["k"] == 1.0

@@ -263,3 +263,11 @@ def test_a_missing_config_and_a_folder_are_told_apart(tmp_path: Path) -> None:
         load_config(tmp_path / "nope.toml")
     with pytest.raises(ValueError, match=r"cannot read config '.*': not a regular file$"):
         load_config(tmp_path)
+
+
+def test_a_config_saved_with_a_byte_order_mark_loads(tmp_path: Path) -> None:
+    # Rehearsal 8: a BOM (Windows editors) read as "not valid TOML: Invalid statement (at line 1, column 1)".
+    text = (ASSETS / "stephenson1_cycloid.toml").read_text(encoding="utf-8")
+    (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    bom, plain = load_config(tmp_path / "bom.toml"), load_config(ASSETS / "stephenson1_cycloid.toml")
+    assert bom.name == plain.name and bom.source == plain.source and bom.stages == plain.stages

@@ -34,6 +34,16 @@ Backend = Literal["auto", "numpy", "numba"]
 
 CONSTRAINT_NAMES = ("order", "theta1", "theta2", "h_bar", "psi2")
 CONSTRAINT_UNITS = ("rad", "rad", "rad", "mm", "1")
+# The unit of each value of ``Evaluation.record`` ("1": a fraction, "-": a yes/no fact): one gate written as psi2 > 20
+# or theta1 >= 15 would be off by 100x or 57x without it (rehearsal 8). The human table prints deg and %.
+RECORD_UNITS = {
+    "feasible": "-", "violation": "mm", "kinematic_violation": "mm", "path_violation": "mm", "l_s": "mm",
+    "h_s": "mm", "S": "%", "I": "mm/s", "theta1": "rad", "theta2": "rad", "landing_speed": "mm/s", "width": "mm",
+    "y_min": "mm", "step_length": "mm", "h_m": "mm", "h_bar": "mm", "psi2": "1", "psi4": "1", "mse": "mm",
+    "mse_phase": "mm", "crank_margin": "mm", "transmission": "deg", "clearance": "mm", "obstacle": "mm",
+    "trunk": "mm", "period": "s", "n_samples": "-", "feature_points": "t: s, x and y: mm (leg frame)",
+    "constraints": dict(zip(CONSTRAINT_NAMES, CONSTRAINT_UNITS, strict=True)),
+}
 CONSTRAINT_TEXT = {  # each constraint as a designer says it met
     "order": "order t1 -> t2 -> t5 -> t4 (Eq. 30)",
     "theta1": "landing angle theta1 >= 15 deg",

@@ -34,10 +34,26 @@ class _Parser(argparse.ArgumentParser):
         raise CLIError(f"{message} (see '{self.prog} --help')")
 
 
+def version_text() -> str:
+    """``clm 0.1.0 (code 809c5bd51018)``: the installed package's version and ``core.CODE_DIGEST``, which study cells
+    and ``clm evaluate --json`` record (rehearsal 8: a CI log could not say which CLM had run)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from core import CODE_DIGEST
+
+    try:
+        v = version("clm-studio")
+    except PackageNotFoundError:
+        v = "(not installed)"
+    return f"clm {v} (code {CODE_DIGEST})"
+
+
 def build_parser() -> argparse.ArgumentParser:
     import importlib
 
     parser = _Parser(prog="clm", description="CLM Studio headless tools: presets, kinematics, optimization.")
+    parser.add_argument("--version", action="version", version=version_text(),
+                        help="print the package version and the code digest results record, and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
         importlib.import_module(f"core.cli.{name}").register(sub)

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from core import CODE_DIGEST
 from core.analysis.clearance import ground_clearance, rigid
 from core.analysis.evaluate import (
     CONSTRAINT_NAMES,
@@ -18,6 +19,7 @@ from core.analysis.evaluate import (
     CONSTRAINT_UNITS,
     DEFAULT_OBSTACLE,
     MIN_SAMPLES,
+    RECORD_UNITS,
     Evaluation,
     evaluate,
     evaluate_paths,
@@ -127,7 +129,7 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
     ev = evaluate(design, args.samples, backend=args.backend, **kw)
     upside_down(design, design_label(args, preset), args.samples, args.backend)
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
-            "output": design.output.to_dict()}
+            "output": design.output.to_dict(), "clearance_note": None}  # a key of every design's record
     if rigid(design.output):  # which joint is lowest, in words (a pantograph's bars are not modelled)
         from core.optimize.rtclm import mode_clearance
 
@@ -269,7 +271,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         rec = ev.record(0)
         rec["constraint_names"] = list(CONSTRAINT_NAMES)
-        print(dumps({**rec, **info}))
+        units = {k: v for k, v in RECORD_UNITS.items() if k in rec}
+        print(dumps({**rec, **info, "units": units, "code": CODE_DIGEST}))
     else:
         from core.cli.simulate import run_h4
 

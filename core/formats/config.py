@@ -66,7 +66,7 @@ def load_config(path: str | Path) -> DesignConfig:
             raise ValueError(f"cannot read config {str(p)!r}: {why}")
         if p.stat().st_size > 1_000_000:
             raise ValueError(f"{p}: a config file is at most 1 MB")
-        text = p.read_text(encoding="utf-8")
+        text = p.read_text(encoding="utf-8-sig")  # a BOM (Windows editors) read as "Invalid statement" (rehearsal 8)
     except OSError as e:
         raise ValueError(f"cannot read config {str(p)!r}: {e.strerror}") from None
     except UnicodeDecodeError:

@@ -208,7 +208,7 @@ def design_from_dict(data: object) -> Design:
             if u != expected[k]:
                 raise ValueError(f"{k} is given in {u!r} but {mech.name} takes it in {expected[k]}")
     params = params_from(mech, data["params"])
-    output = output_from(data["output"]) if "output" in data else IDENTITY
+    output = output_from(data["output"]) if data.get("output") is not None else IDENTITY  # null: as the schema allows
     decode(dict(data), DesignFile)  # what the checks above, which name parameters with units, leave out
     return Design(mech, params, output)
 

@@ -90,7 +90,7 @@ class Study(msgspec.Struct, frozen=True):
         ``settings`` its result depends on (see :func:`cell_settings`)."""
         out = []
         for c in self.cases:
-            config = tomllib.loads(Path(c.config).read_text())
+            config = tomllib.loads(Path(c.config).read_text(encoding="utf-8-sig"))
             for a in self.algorithms:
                 settings = cell_settings(a, c, config)
                 out += [{"key": cell_key(a.name, c.name, s), "algorithm": msgspec.to_builtins(a),
@@ -205,7 +205,7 @@ def _unique(names: list[str], key: str) -> None:
 def _check_case(i: int, case: CaseEntry, config: Path) -> None:
     """The case's stages exist in its config and its start preset exists (read before any work is sent out)."""
     try:
-        data = tomllib.loads(config.read_text())
+        data = tomllib.loads(config.read_text(encoding="utf-8-sig"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as e:
         raise ValueError(f"cases[{i}].config: {config} is not a valid TOML file ({str(e).splitlines()[0]})") from None
     names = [str(s.get("name", "")) for s in data.get("stages", []) if isinstance(s, dict)]
@@ -255,7 +255,7 @@ def load_study(path: str | Path) -> Study:
     if p.stat().st_size > 1_000_000:
         raise ValueError(f"{p}: a study file is at most 1 MB")
     try:
-        data = tomllib.loads(p.read_text())
+        data = tomllib.loads(p.read_text(encoding="utf-8-sig"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as e:
         raise ValueError(f"{p}: not a valid TOML file ({str(e).splitlines()[0]})") from None
     return parse_study(data, p.parent, str(p.resolve()))

@@ -146,6 +146,7 @@ def populations(rows: list[dict[str, Any]], algorithms: list[str], labels: dict[
                 pops[r["algorithm"]] = json.loads(r["settings"])["algorithm"].get("pop_size")
             except (ValueError, KeyError, TypeError, AttributeError):
                 pass
+    pops = {a: p for a, p in pops.items() if p is not None}  # None: the config's population (case_line says "?")
     if len(set(map(str, pops.values()))) == 1:
         return str(next(iter(pops.values())))
     return ", ".join(f"{labels.get(a, a)} {pops[a]}" for a in algorithms if a in pops)
@@ -162,7 +163,8 @@ def case_line(settings: str | None, population: str = "") -> str:
     stages = ", ".join(case.get("stages") or []) or "every stage of its config"
     budget = case.get("budget")
     spent = f"a budget of {budget} function evaluations a stage" if budget else "its config's generations"
-    return f"Each run: {stages}, from {start}; population {population or alg.get('pop_size', '?')}; {spent}."
+    pop = population or alg.get("pop_size") or "as its config sets it"  # "population None" (rehearsal 8)
+    return f"Each run: {stages}, from {start}; population {pop}; {spent}."
 
 
 def budget_of(settings: str | None) -> float | None:

@@ -74,8 +74,8 @@ def get(name: str) -> Preset:
     noise: 'clm presets' lists them)."""
     if name not in PRESETS:
         near = difflib.get_close_matches(name, PRESETS, n=3, cutoff=0.6)
-        hint = f"did you mean {', '.join(near)}? " if near else ""
-        raise ValueError(f"unknown preset {name!r}; {hint}('clm presets' lists all {len(PRESETS)})")
+        hint = f"; did you mean {', '.join(near)}?" if near else ""
+        raise ValueError(f"unknown preset {name!r}{hint} ('clm presets' lists all {len(PRESETS)})")
     return PRESETS[name]
 
 
