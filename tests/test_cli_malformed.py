@@ -44,6 +44,7 @@ def files(tmp: Path) -> dict[str, str]:
         "other.json": json.dumps({"format": "something"}),
         "curve_bad.csv": "x,y\n1,2\n",
         "curve_text.csv": "hello world\n",
+        "curve_good.csv": "x,y\n0,0\n100,0\n100,50\n0,50\n",
         "study_bad.toml": "seeds = '1..0'\n",
     }
     out = {}
@@ -86,6 +87,7 @@ CASES: list[list[str]] = [
     ["evaluate", "--curve", "{fifo}"], ["evaluate", "--curve", "{dir}"], ["evaluate", "--curve", "{curve_bad.csv}"],
     ["evaluate", "--curve", "{curve_text.csv}"], ["evaluate", "--design", "{deep.json}"],
     ["evaluate", "--preset", S1, "--trunk", "-5"],
+    ["evaluate", "--curve", "{curve_good.csv}", "--mode", "auxiliary"],  # rehearsal 8: the mode was ignored unsaid
     # presets
     ["presets", "show", "nope"], ["presets", "frobnicate"],
     # design
@@ -108,6 +110,7 @@ CASES: list[list[str]] = [
     ["export", "--preset", "stephenson1/X3", "--dxf", "{tmp}/no/such/x.dxf"],
     ["export", "--preset", "stephenson1/X3", "--svg", "/proc/x.svg"],
     ["export", "--preset", "stephenson1/X3", "--dxf", "/proc/x.dxf"],
+    ["export", "--preset", "stephenson1/X3", "--dxf", "{tmp}/x.dxf", "--hole", "1e300"],  # rehearsal 8: it wrote one
     # scale: a bad design file, no size, nowhere to write
     ["scale", "--design", "{missing}", "--factor", "2"], ["scale", "--design", "{list.json}", "--factor", "2"],
     ["scale", "--preset", "stephenson1/X3", "--factor", "inf"],

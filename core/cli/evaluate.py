@@ -89,6 +89,8 @@ def _check(args: argparse.Namespace) -> None:
 def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:
     target = parse_target(args.target)
     csv_target = args.target is not None and args.target.split(":", 1)[0] != "cycloid"
+    if args.curve is not None and getattr(args, "mode", None) is not None:  # ignored without a word (rehearsal 8)
+        raise CLIError(f"--mode {args.mode} applies to an RTCLM design (--preset or --design); a --curve has no mode")
     if args.leg_frame and args.curve is None and not csv_target:
         raise CLIError("--leg-frame applies to a --curve or a --target CSV; the cycloid is a design-frame target")
     note = "" if target is None or args.target is None or args.target.split(":", 1)[0] == "cycloid" \

@@ -64,6 +64,9 @@ class Drawing:
         return [(a, b, float(np.linalg.norm(self.point(a) - self.point(b)))) for a, b in combinations(self.ground, 2)]
 
 
+MAX_PLATE = 1e4  # mm: a hole or plate width past 10 m is a unit mistake
+
+
 @dataclass(frozen=True)
 class Plates:
     """How the links are made: pivot holes of diameter ``hole`` (mm) in plates ``width`` mm wide (3 holes by
@@ -73,10 +76,10 @@ class Plates:
     width: float | None = None
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.hole) and self.hole > 0):
-            raise ValueError(f"the hole diameter must be a positive number of mm, got {self.hole}")
+        if not (math.isfinite(self.hole) and 0 < self.hole <= MAX_PLATE):  # 1e300 mm wrote a DXF (rehearsal 8)
+            raise ValueError(f"the hole diameter must be a positive number of mm up to {MAX_PLATE:g}, got {self.hole}")
         w = self.width
-        if w is not None and not (math.isfinite(w) and w > self.hole):
+        if w is not None and not (math.isfinite(w) and self.hole < w <= MAX_PLATE):
             raise ValueError(f"the plate width must be more than the hole diameter ({self.hole:g} mm) for a plate to "
                              f"hold its holes, got {w}")
 
