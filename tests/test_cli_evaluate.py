@@ -334,3 +334,24 @@ def test_a_design_whose_foot_stands_on_its_swing_is_evaluated_with_a_warning(tmp
     assert "without \"output\" is read with the identity" in err
     assert main(["evaluate", "--preset", "stephenson1/X3"]) == 0  # with its pantograph: nothing to say
     assert capsys.readouterr().err == ""
+
+
+def test_a_design_can_be_piped_in():
+    # Rehearsal 8: jq ... | clm evaluate --design - was refused ("design file '-' not found").
+    import subprocess
+    import sys
+
+    def clm(*args, stdin=None):
+        return subprocess.run([sys.executable, "-m", "core.cli", *args], input=stdin, capture_output=True, text=True,
+                              timeout=300)
+
+    design = clm("presets", "show", "stephenson1/X3").stdout
+    piped = clm("evaluate", "--design", "-", "--json", stdin=design)
+    named = clm("evaluate", "--preset", "stephenson1/X3", "--json")
+    assert piped.returncode == 0, piped.stderr
+    a, b = json.loads(piped.stdout), json.loads(named.stdout)
+    assert a["h_s"] == b["h_s"] and a["params"] == b["params"]
+    empty = clm("evaluate", "--design", "-", stdin="")  # nothing piped: one line, exit 2
+    assert empty.returncode == 2 and empty.stderr.count("\n") == 1 and empty.stderr.startswith("clm: error: <stdin>")
+    bad = clm("evaluate", "--design", "-", stdin="{nope")
+    assert bad.returncode == 2 and bad.stderr.startswith("clm: error: <stdin>: not valid JSON")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -84,6 +85,7 @@ def design_label(args: argparse.Namespace, preset: str | None) -> str:
     if preset is not None:
         return preset
     source = args.preset if args.preset is not None else str(args.design)
+    source = "<stdin>" if source == "-" else source
     mode = getattr(args, "mode", None)
     return f"{source} ({mode} mode)" if mode is not None else source
 
@@ -92,14 +94,18 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
     if args.preset is not None:
         return check_design(presets.get(args.preset).design()), args.preset
     path: Path = args.design
-    if not path.exists():
+    if str(path) == "-":  # piped in (rehearsal 8: jq ... | clm evaluate --design - was refused)
+        text = _stdin(MAX_DESIGN_BYTES)
+        path = Path("<stdin>")
+    elif not path.exists():
         raise CLIError(f"design file {str(path)!r} not found")
-    if path.is_dir() and not (path / "result.json").is_file():
+    elif path.is_dir() and not (path / "result.json").is_file():
         raise CLIError(f"{path} is a folder without a result.json: not a 'clm design --out' run; give a design JSON "
                        "or a run's folder")
-    if path.is_dir() or _is_run(path):  # a `clm design` run (its folder or result.json): its final pick
+    elif path.is_dir() or _is_run(path):  # a `clm design` run (its folder or result.json): its final pick
         return run_pick(path / "result.json" if path.is_dir() else path), None
-    text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
+    else:
+        text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
     try:
         data = json.loads(text, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as e:
@@ -112,6 +118,19 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
         return design_from_dict(data), None
     except ValueError as e:
         raise CLIError(f"{path}: {e}") from None
+
+
+def _stdin(max_bytes: int) -> str:
+    """A design JSON piped in, at most ``max_bytes`` as a file may have; CLIError otherwise."""
+    if sys.stdin is None or sys.stdin.isatty():
+        raise CLIError("--design -: nothing is piped in (give a design JSON on standard input, or a file)")
+    data = sys.stdin.buffer.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise CLIError(f"--design -: more than the {max_bytes / 2**20:.0f} MB a design file may have")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise CLIError("--design -: not UTF-8 text") from None
 
 
 def _is_run(path: Path) -> bool:
