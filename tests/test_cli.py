@@ -398,3 +398,10 @@ def test_a_design_file_with_a_null_output_reads_as_one_without(tmp_path, capsys)
         assert main(["evaluate", "--design", str(tmp_path / name), "--json"]) == 0
         outs.append({k: v for k, v in json.loads(capsys.readouterr().out).items() if k != "params"})
     assert outs[0] == outs[1] and outs[0]["output"]["k"] == 1.0
+
+
+def test_presets_show_takes_json_after_its_name_as_the_other_commands_do(capsys):
+    assert main(["presets", "show", "stephenson1/X3", "--json"]) == 0
+    after = json.loads(capsys.readouterr().out)
+    assert main(["presets", "show", "stephenson1/X3"]) == 0
+    assert after == json.loads(capsys.readouterr().out)

@@ -35,6 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     show = actions.add_parser("show", help="print one preset as a design JSON")
     show.add_argument("name", help="preset name, e.g. stephenson1/X3")
+    # Taken, as every other command takes --json after its arguments (rehearsal 8): show prints JSON anyway.
+    show.add_argument("--json", dest="show_json", action="store_true", help="print it as JSON (always does)")
     p.set_defaults(func=run)
 
 
