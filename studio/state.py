@@ -592,6 +592,10 @@ class Session:
             t = v.target
         elif design is not None:
             t = fitted_target(design, label or "loaded design", v.target.period)
+            if not t.origin.startswith(FITTED) and mechanism not in PAPER_TARGET:
+                # A path that does not close has nothing to fit: its mechanism's opening preset's target, which a
+                # later file refits (the paper's cycloid in its place stopped that; review of session 31).
+                t = preset_target(opening_preset(mechanism), v.target.period)
         else:
             assert preset is not None
             t = preset_target(preset, v.target.period)

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.analysis.targets import (
+    MAX_COORD,
     Target,
     compound_cycloid,
     curve_from_rows,
@@ -151,6 +152,11 @@ class TargetSpec:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0.0:
                 raise ValueError(f"target {name} must be a positive number ({unit}), got {v!r}")
+            # The analysis' domain, as a config's target and a CSV curve (review of session 31: 1e300 mm was taken).
+            low = 1.0 / MAX_COORD if name == "period" else 0.0
+            if not low <= v <= MAX_COORD:
+                raise ValueError(f"target {name} must be {'between 1e-06 and' if low else 'at most'} {MAX_COORD:g} "
+                                 f"{unit}, got {v!r}")
 
     @property
     def is_curve(self) -> bool:

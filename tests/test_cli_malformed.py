@@ -111,6 +111,8 @@ CASES: list[list[str]] = [
     ["export", "--preset", "stephenson1/X3", "--svg", "/proc/x.svg"],
     ["export", "--preset", "stephenson1/X3", "--dxf", "/proc/x.dxf"],
     ["export", "--preset", "stephenson1/X3", "--dxf", "{tmp}/x.dxf", "--hole", "1e300"],  # rehearsal 8: it wrote one
+    ["export", "--preset", "stephenson1/X3", "--dxf", "{tmp}/x.dxf", "--width", "2e4"],
+    ["evaluate", "--preset", S1, "--target", "cycloid:L=1e300"],  # review of session 31: MSE 5e+299 mm, exit 0
     # scale: a bad design file, no size, nowhere to write
     ["scale", "--design", "{missing}", "--factor", "2"], ["scale", "--design", "{list.json}", "--factor", "2"],
     ["scale", "--preset", "stephenson1/X3", "--factor", "inf"],

@@ -271,3 +271,6 @@ def test_a_config_saved_with_a_byte_order_mark_loads(tmp_path: Path) -> None:
     (tmp_path / "bom.toml").write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
     bom, plain = load_config(tmp_path / "bom.toml"), load_config(ASSETS / "stephenson1_cycloid.toml")
     assert bom.name == plain.name and bom.source == plain.source and bom.stages == plain.stages
+    from core.study.cell import read_config  # a study's cells read their case's config themselves
+
+    assert read_config(str(tmp_path / "bom.toml")) == read_config(str(ASSETS / "stephenson1_cycloid.toml"))

@@ -604,6 +604,12 @@ def test_a_design_file_whose_path_does_not_close_keeps_the_target_and_later_file
     small = presets.get("jansen").design().scaled(0.4)
     good = s.set_design(small, by_hand=True, cause="design j04.json", refit=True)
     assert good.target.origin.startswith("scaled to the design j04.json path") and shape_error(good.evaluation) < 2.0
+    # The same with the broken file of another mechanism than the editor's (review of session 31).
+    other = Session.default()  # Stephenson-I X3
+    bad = other.set_design(broken, by_hand=True, cause="design broken.json", refit=True)
+    assert not bad.assembles and bad.target.origin.startswith("scaled to the")  # the Jansen preset's, refittable
+    good = other.set_design(small, by_hand=True, cause="design j04.json", refit=True)
+    assert good.target.origin.startswith("scaled to the design j04.json path") and shape_error(good.evaluation) < 2.0
 
 
 def test_the_pin_holes_travel_with_the_session_and_a_bad_one_is_refused() -> None:

@@ -312,6 +312,9 @@ def cycloid_params(spec: str) -> dict[str, float]:
             kw[key.strip()] = float(val)
     if not all(math.isfinite(v) and v > 0 for v in kw.values()):
         raise ValueError("cycloid parameters L, H, T must be positive")
+    if max(kw["L"], kw["H"]) > MAX_COORD or not 1.0 / MAX_COORD <= kw["T"] <= MAX_COORD:  # as a config's target
+        raise ValueError(f"cycloid parameters L and H must be at most {MAX_COORD:g} mm and T between 1e-06 and "
+                         f"{MAX_COORD:g} s")
     return kw
 
 

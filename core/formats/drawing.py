@@ -79,7 +79,10 @@ class Plates:
         if not (math.isfinite(self.hole) and 0 < self.hole <= MAX_PLATE):  # 1e300 mm wrote a DXF (rehearsal 8)
             raise ValueError(f"the hole diameter must be a positive number of mm up to {MAX_PLATE:g}, got {self.hole}")
         w = self.width
-        if w is not None and not (math.isfinite(w) and self.hole < w <= MAX_PLATE):
+        if w is not None and math.isfinite(w) and w > MAX_PLATE:
+            raise ValueError(f"the plate width must be at most {MAX_PLATE:g} mm (a plate past 10 m is a unit mistake), "
+                             f"got {w}")
+        if w is not None and not (math.isfinite(w) and w > self.hole):
             raise ValueError(f"the plate width must be more than the hole diameter ({self.hole:g} mm) for a plate to "
                              f"hold its holes, got {w}")
 

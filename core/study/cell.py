@@ -26,8 +26,8 @@ from core.study.provenance import code_digest
 
 PICK_METRICS = ("mse", "S", "I", "h_s", "h6", "h4", "dh6", "dh4")
 def read_config(path: str) -> dict[str, Any]:
-    with open(path, "rb") as f:
-        return tomllib.load(f)
+    # utf-8-sig: a BOM, which load_config and load_study take, failed here when the study ran (review of session 31)
+    return tomllib.loads(Path(path).read_text(encoding="utf-8-sig"))
 
 
 def stage_names(data: dict[str, Any]) -> list[str]:
