@@ -178,7 +178,7 @@ def other_mode_row(title: str, solution: Solution, ev: Evaluation, clearance: Cl
 
 
 # The rows read from the stance and the swing: numbers of a gait only when the path walks.
-GAIT_KEYS = frozenset({"h_s", "S", "S_paper", "I", "theta1", "theta2", "l_s", "h_m", "h_bar", "psi2", "psi4"})
+GAIT_KEYS = frozenset({"h_s", "S", "S_paper", "I", "theta1", "theta2", "l_s", "h_m", "h_bar", "psi2", "psi4", "gait"})
 
 
 def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,

@@ -235,3 +235,33 @@ def test_a_compile_under_way_is_counted_while_it_runs_not_only_at_its_end() -> N
     during = [p for p in polls[:-1] if p > 0.0]
     assert len(polls) > 5 and during, polls  # counted before the compile ended
     assert all(b >= a for a, b in zip(polls, polls[1:], strict=False)) and final >= max(polls)
+
+
+def test_a_locator_that_cannot_be_installed_falls_back_to_the_version_directory_without_breaking_numba(
+        tmp_path: Path) -> None:
+    # Review of session 31: _install runs inside `import numba`; if numba's internals moved (or
+    # NUMBA_CACHE_LOCATOR_CLASSES replaces the locator list) it must neither fail the import nor leave core's kernels
+    # in the unversioned cache.
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import core.kinematics.kernel_cache as kc
+        kc._add_locator = lambda caching, where: (_ for _ in ()).throw(AttributeError("moved"))
+        import numba
+        from numba.core import config
+        from core.kinematics.kernel_cache import cache_dir, kernel_fingerprint
+        assert config.CACHE_DIR == cache_dir(kernel_fingerprint()), config.CACHE_DIR
+        print("ok")
+    """)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    env.pop("NUMBA_CACHE_LOCATOR_CLASSES", None)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+    code2 = "import core, numba\nfrom numba.core import config\nprint(config.CACHE_DIR)\n"
+    env2 = dict(env, NUMBA_CACHE_LOCATOR_CLASSES="UserProvidedCacheLocator")
+    out = subprocess.run([sys.executable, "-c", code2], env=env2, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert Path(out.stdout.strip()).parent == tmp_path and Path(out.stdout.strip()).name == kernel_fingerprint()

@@ -99,7 +99,27 @@ def configure() -> None:
 
 
 def _install(caching: Any, where: str) -> None:
-    """Put a locator for the functions under ``core`` first in numba's list (once)."""
+    """Put a locator for the functions under ``core`` first in numba's list (once). Where that cannot be done (a
+    numba without these internals, or ``NUMBA_CACHE_LOCATOR_CLASSES`` set, which replaces the list), numba's
+    ``CACHE_DIR`` is pointed at this version's directory for the whole process, as before session 31: a stale
+    kernel is worse than a host's kernels cached beside ours. Never raises: it runs inside ``import numba``."""
+    try:
+        from numba.core import config
+
+        if getattr(config, "CACHE_LOCATOR_CLASSES", None):
+            config.CACHE_DIR = where
+            return
+        _add_locator(caching, where)
+    except Exception:  # noqa: BLE001 - an import of numba must not fail for our cache
+        try:
+            from numba.core import config
+
+            config.CACHE_DIR = where
+        except Exception:  # noqa: BLE001
+            pass
+
+
+def _add_locator(caching: Any, where: str) -> None:
     classes = caching.CacheImpl._locator_classes
     if any(getattr(c, "_clm_root", None) == str(ROOT) for c in classes):
         return
@@ -134,13 +154,14 @@ class _AfterImport(importlib.abc.MetaPathFinder):
     """Runs ``then(module)`` right after the module ``name`` is first imported, then leaves ``sys.meta_path``."""
 
     def __init__(self, name: str, then: Any) -> None:
-        self.name, self.then = name, then
+        self.name, self.then, self.done = name, then, False
 
     def find_spec(self, fullname: str, path: Any, target: Any = None) -> Any:
-        if fullname != self.name:
+        # Stays in sys.meta_path (removing itself while another thread walks the list could skip a finder there);
+        # answers once, and not to its own find_spec below.
+        if fullname != self.name or self.done:
             return None
-        if self in sys.meta_path:
-            sys.meta_path.remove(self)
+        self.done = True
         spec = importlib.util.find_spec(fullname)
         loader = getattr(spec, "loader", None)
         if loader is None or not hasattr(loader, "exec_module"):
