@@ -151,7 +151,8 @@ def _add_locator(caching: Any, where: str) -> None:
 
 
 class _AfterImport(importlib.abc.MetaPathFinder):
-    """Runs ``then(module)`` right after the module ``name`` is first imported, then leaves ``sys.meta_path``."""
+    """Runs ``then(module)`` right after the module ``name`` is first imported (once; it stays in ``sys.meta_path``
+    and answers nothing after)."""
 
     def __init__(self, name: str, then: Any) -> None:
         self.name, self.then, self.done = name, then, False
