@@ -432,3 +432,20 @@ def test_compile_time_is_recorded_said_in_the_summary_and_by_compare(tmp_path: P
     run = DesignRun(load_config(tmp_path / "t.toml"), wall_time=14.0, compile_time=12.3)
     assert "wall 14.0 s (12.3 s of it compiling numba kernels: a first run on this machine" in summary(run)
     assert "compiling" not in summary(DesignRun(load_config(tmp_path / "t.toml"), wall_time=1.0, compile_time=0.1))
+
+
+def test_evaluating_a_runs_pick_names_the_target_the_run_was_made_against(tmp_path: Path,
+                                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    # Rehearsal 8: clm evaluate --design RUN measured a run made against another target against the default cycloid
+    # without a word; a CI gate then compared MSE against the wrong curve.
+    text = TINY.replace("n_gen = 3", "n_gen = 1").replace("n_gen = 2", "n_gen = 1")
+    (tmp_path / "t.toml").write_text(text.replace("[algorithm]", "[target]\nL = 250.0\n\n[algorithm]"))
+    (tmp_path / "d.toml").write_text(text)
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert main(["design", str(tmp_path / "d.toml"), "--out", str(tmp_path / "p"), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["evaluate", "--design", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith(f"clm: note: {tmp_path / 'o'} was made against target cycloid:L=250") and "--target" in err
+    assert main(["evaluate", "--design", str(tmp_path / "p")]) == 0  # the default cycloid's run: nothing to say
+    assert capsys.readouterr().err == ""

@@ -118,9 +118,13 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
         info: dict[str, Any] = {"source": str(args.curve), "frame": "leg" if args.leg_frame else "design",
                 "time_law": curve.has_time}
         return ev, str(args.curve), info
-    from core.cli.simulate import design_label, load_design
+    from core.cli.simulate import design_label, load_design, run_target
 
     design, preset = load_design(args)
+    ran = run_target(getattr(args, "design", None)) if args.target is None else None
+    if ran is not None:  # measured against the default cycloid without a word (rehearsal 8)
+        print(f"clm: note: {args.design} was made against target {ran}; these numbers are against the default "
+              f"cycloid (give --target {ran} to measure against the run's)", file=sys.stderr)
     if args.leg_frame and csv_target:  # a foot path drawn in the leg frame: back through the design's own map
         target = dataclasses.replace(target, points=design.output.invert(target.points))
         kw["target"] = target

@@ -185,6 +185,30 @@ def run_h4(path: Path | None) -> float | None:
     return float(targets[-1]) if targets and isinstance(targets[-1], (int, float)) else None
 
 
+def run_target(path: Path | None) -> str | None:
+    """The shape target a ``clm design`` run's last stage measured against (its problem's ``target`` option), when
+    it is not the default cycloid; None otherwise (not a run, the RTCLM's heights, unreadable)."""
+    if path is None or str(path) == "-" or not (path.is_dir() or _is_run(path)):
+        return None
+    from core.analysis.targets import cycloid_params
+    from core.formats.files import read_design_result
+
+    try:
+        stages = read_design_result(path / "result.json" if path.is_dir() else path)["pipeline"]["stages"]
+        targets = [s["problem"]["options"].get("target") for s in stages]
+    except (KeyError, TypeError, ValueError, OSError):
+        return None
+    target = next((t for t in reversed(targets) if isinstance(t, str)), None)
+    if target is None:
+        return None
+    try:
+        if target.split(":", 1)[0] == "cycloid" and cycloid_params(target) == cycloid_params("cycloid"):
+            return None
+    except ValueError:
+        return None
+    return target
+
+
 def extent(points: np.ndarray) -> dict[str, float | None]:
     """Bounding box of a ``(n_samples, 2)`` path over its finite samples (mm); None if there are none."""
     ok = np.isfinite(points).all(axis=-1)
