@@ -19,9 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from core.kinematics.checks import MAX_ABS
+
 F64 = NDArray[np.float64]
 
-MAX_COORD = 1e6  # mm: a target curve's coordinates, as a design file's values
+MAX_COORD = MAX_ABS  # mm: a target curve's coordinates, as a design file's values (one limit)
 MIN_POINTS = 4
 CLOSE_TOL = 3.0  # a curve is closed when its last-to-first gap is at most this many median steps
 

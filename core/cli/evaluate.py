@@ -133,25 +133,24 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
         if note:  # a curve drawn clockwise or stance up: the design may match it, and walk wrongly
             print(f"clm: warning: target {Path(args.target).name} in the design's leg frame: {note}", file=sys.stderr)
     ev = evaluate(design, args.samples, backend=args.backend, **kw)
-    upside_down(design, design_label(args, preset), args.samples, args.backend)
+    sol = design.solve(args.samples, derivatives=False, backend=args.backend)  # joints: the words below
+    upside_down(sol, design, design_label(args, preset))
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
             "output": design.output.to_dict(), "clearance_note": None}  # a key of every design's record
     if rigid(design.output):  # which joint is lowest, in words (a pantograph's bars are not modelled)
         from core.optimize.rtclm import mode_clearance
 
-        sol = design.solve(args.samples, derivatives=False, backend=args.backend)
         c = mode_clearance(ground_clearance(sol, design.mechanism, design.output), design.mechanism, design.params)
         ev = dataclasses.replace(ev, clearance=c.value)  # the RTCLM's auxiliary mode: both legs' locked points
         info["clearance_note"] = c.text()
     return ev, design_label(args, preset), info
 
 
-def upside_down(design: Any, label: str, n_samples: int, backend: str) -> None:
+def upside_down(sol: Any, design: Any, label: str) -> None:
     """A warning on stderr when the design's own foot path stands on its swing in the leg frame (its flat part at
     the top): the paper's X3 in a design file without "output" is read with the identity and printed h_s 101 mm,
     S 35 % and "feasible" with no word (rehearsal 8). A path that only runs clockwise is not flagged: several of
-    the paper's RTCLM rows walk toward -x."""
-    sol = design.solve(n_samples, derivatives=False, backend=backend)
+    the paper's RTCLM rows walk toward -x. ``sol``: the design solved."""
     if sol.violation[0] != 0.0:
         return
     note = path_note(sol.leg[0], remedy=False)

@@ -11,6 +11,7 @@ from typing import Annotated, Any, Literal
 from msgspec import Meta, Struct
 
 from core.formats.typed import MAX_GEN, MAX_POP, MAX_SAMPLES, MAX_SEED
+from core.kinematics.checks import MAX_ABS
 from core.optimize.design_config import BACKENDS, METHODS
 
 Pos = Annotated[float, Meta(gt=0)]
@@ -28,8 +29,8 @@ class Output(Struct, forbid_unknown_fields=True, frozen=True):
 
 # The analysis' domain (core.kinematics.checks.MAX_ABS): past it the run failed at its first stage, exit 1 after
 # writing a failed result (rehearsal 8), or "completed" on overflowed numbers.
-Size = Annotated[float, Meta(gt=0, le=1e6)]
-Period = Annotated[float, Meta(ge=1e-6, le=1e6)]
+Size = Annotated[float, Meta(gt=0, le=MAX_ABS)]
+Period = Annotated[float, Meta(ge=1.0 / MAX_ABS, le=MAX_ABS)]
 
 
 class Target(Struct, forbid_unknown_fields=True, frozen=True):
