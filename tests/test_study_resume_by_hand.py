@@ -370,3 +370,36 @@ def test_the_digest_is_the_code_imported_not_the_files_edited_since(tmp_path: Pa
     edited = subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); import core; "
                              "print(core.CODE_DIGEST)", str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert edited.stdout.strip() != core.CODE_DIGEST
+
+
+def test_a_study_refused_at_its_start_leaves_no_directory_behind(tmp_path: Path, client: _Client,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    # Rehearsal 8: a refused study left --out behind with a lock and an empty database; a directory that was
+    # already there is left as it was, and one that holds runs is never touched.
+    from core.cli import main
+
+    client.run = lambda fn, *args: {"tcp://w1": "deadbeef0000"}  # type: ignore[attr-defined]
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "new"
+    assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--quiet"]) == 2
+    assert "the cluster's workers run other code" in capsys.readouterr().err
+    assert not out.exists()
+    there = tmp_path / "there"
+    there.mkdir()
+    assert main(["study", str(tmp_path / "s.toml"), "--out", str(there), "--quiet"]) == 2
+    assert there.is_dir()
+
+
+def test_an_unreachable_scheduler_is_refused_before_the_study_directory_is_made(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    import core.optimize.workers as workers
+    from core.cli import main
+
+    patient = workers.connect
+    monkeypatch.setattr(workers, "connect", lambda address: patient(address, timeout="1s"))  # not 20 s in a test
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "o"
+    assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("clm: error: no Dask scheduler answers at tcp://127.0.0.1:1 ")
+    assert not out.exists()

@@ -48,6 +48,23 @@ def _check_out(out: str | None) -> Path:
     return check_out_dir(out, ["study.sqlite", "report.md", "report.html"])
 
 
+def _remove_if_unused(out: Path) -> None:
+    """Remove a study directory this command made when no run finished in it (a refused or failed start)."""
+    import shutil
+    import sqlite3
+
+    try:
+        db = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
+        try:
+            used = db.execute("SELECT count(*) FROM runs").fetchone()[0] > 0
+        finally:
+            db.close()
+    except sqlite3.Error:
+        used = any(p.name not in {".lock", "study.sqlite"} for p in out.iterdir()) if out.is_dir() else True
+    if not used and not (out / "runs").exists():
+        shutil.rmtree(out, ignore_errors=True)
+
+
 def run(args: argparse.Namespace) -> int:
     import sqlite3
 
@@ -78,10 +95,23 @@ def _run(args: argparse.Namespace) -> int:
     from core.study.runner import run_study
 
     study = load_study(args.args[0])
+    if args.scheduler is not None:  # asked before DIR is made: a refusal leaves nothing behind (rehearsal 8)
+        from core.optimize.workers import connect
+
+        try:
+            connect(args.scheduler).close()
+        except ValueError as exc:
+            raise CLIError(str(exc)) from None
+    made = args.out is not None and not Path(args.out).exists()
     out = _check_out(args.out)
-    summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
-                        stream=None if args.quiet else sys.stderr, rerun_changed=args.rerun_changed,
-                        mixed_code=args.mixed_code)
+    try:
+        summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
+                            stream=None if args.quiet else sys.stderr, rerun_changed=args.rerun_changed,
+                            mixed_code=args.mixed_code)
+    except BaseException:
+        if made:
+            _remove_if_unused(out)
+        raise
     md, page = write_report(out)
     print(f"{study.name}: {summary.total} cells, {summary.skipped} already done, {summary.ran} run now "
           f"({summary.failed} failed) in {summary.wall_time:.1f} s; report: {md}, {page}")
