@@ -3,6 +3,7 @@ the product writes and reads."""
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 
@@ -41,3 +42,21 @@ def test_the_schemas_describe_required_keys_and_ranges():
     cfg = schemas.schema("design-config")["$defs"]["ConfigFile"]["properties"]
     assert cfg["seed"]["minimum"] == 0 and cfg["seed"]["maximum"] == 2**32 - 1
     assert "hierarchical" in cfg["method"]["enum"] and cfg["method"]["default"] == "hierarchical"
+
+
+@pytest.mark.parametrize("bad, why", [(float("nan"), "must be finite, got nan"),
+                                      (-3.0, "is a length and must be > 0 mm, got -3 mm"),
+                                      (2e6, "must be within +-1e+06 mm, got 2e+06 mm")])
+def test_a_design_no_reader_takes_back_is_not_written(bad, why):
+    # Rehearsal 8: design_to_dict wrote NaN and negative lengths that design_from_dict then refused, far from
+    # where the file was made. Every member that is written reads back.
+    from core.formats.design import design_from_dict
+    from core.kinematics.design import Design
+
+    good = PRESETS["fourbar/chebyshev"].design()
+    assert design_from_dict(design_to_dict(good)).named() == good.named()
+    spec = next(p for p in good.mechanism.params if p.kind == "length")
+    params = good.params.copy()
+    params[0, good.mechanism.param_names.index(spec.name)] = bad
+    with pytest.raises(ValueError, match=rf"^cannot write fourbar member 0: {spec.name} .*{re.escape(why)}"):
+        design_to_dict(Design(good.mechanism, params, good.output))

@@ -214,7 +214,14 @@ def design_from_dict(data: object) -> Design:
 
 
 def design_to_dict(design: Design, i: int = 0) -> dict[str, Any]:
-    """Member ``i`` in the design JSON format (``params`` by name, with ``units``)."""
+    """Member ``i`` in the design JSON format (``params`` by name, with ``units``).
+
+    ValueError (as :func:`value_problem` words it) for a member no reader would take back: a NaN or
+    negative length written out is a file that is refused when opened, far from where it was made."""
+    for spec, v in zip(design.mechanism.params, design.params[i], strict=True):
+        problem = value_problem(spec, float(v))
+        if problem is not None:
+            raise ValueError(f"cannot write {design.mechanism.name} member {i}: {problem}")
     return {
         "mechanism": design.mechanism.name,
         "params": design.named(i),
