@@ -154,3 +154,24 @@ def test_the_auxiliary_mode_counts_the_left_legs_locked_crank_and_rocker() -> No
     primary = Design(get("rtclm/case4").mechanism, params)
     c6 = ground_clearance(primary.solve(360), primary.mechanism, primary.output)
     assert mode_clearance(c6, primary.mechanism, params) is c6
+
+
+def test_the_auxiliary_clearance_is_one_rule_in_the_metrics_and_the_words() -> None:
+    # The objective (rtclm_metrics) and what the studio and clm evaluate say (mode_clearance) read the same value
+    # for every member, including those that do not assemble (NaN in both).
+    from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY
+    from core.optimize.rtclm import mode_clearance, rtclm_metrics
+
+    base = get("rtclm/case4").design().params
+    rng = np.random.default_rng(7)
+    left_low = np.array([[51.7282, 233.6429, 170.5449, 182.2574, 139.7624, 35.0462, 143.3577, 97.3132, 177.134,
+                          59.374, 148.9073, 106.7225, 2.2563]])  # its left B is lowest (the test above)
+    near = left_low * rng.uniform(0.99, 1.01, size=(20, base.shape[1]))
+    params = np.vstack([base * rng.uniform(0.85, 1.15, size=(40, base.shape[1])), left_low, near])
+    got = rtclm_metrics(params)["clearance_4"]
+    right = evaluate(Design(RTCLM_AUXILIARY, params)).clearance
+    assert (got < right - 0.1).sum() >= 5  # members whose left leg decides
+    aux = Design(RTCLM_AUXILIARY, params)
+    want = mode_clearance(ground_clearance(aux.solve(360), aux.mechanism, aux.output), aux.mechanism, params).value
+    assert np.isnan(got).any() and (~np.isnan(got)).sum() >= 10  # both kinds are in the sample
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6, equal_nan=True)

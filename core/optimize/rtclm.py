@@ -152,9 +152,11 @@ def rtclm_metrics(params: F64, h6_target: float = H6_TARGET, h4_target: float = 
     if auxiliary:
         aux = evaluate(Design(RTCLM_AUXILIARY, params), n_samples, backend=backend)  # type: ignore[arg-type]
         out.update(mode_metrics(aux, "4"))
-        with np.errstate(invalid="ignore"):  # both legs: the left one's locked B and C too (``mode_clearance``)
-            left = left_locked(params).min(axis=1) - aux.y_min
-            out["clearance_4"] = np.where(np.isnan(aux.clearance), np.nan, np.fmin(aux.clearance, left))
+        # Both legs, by the one rule (``mode_clearance``): the right leg's lowest joint, the left one's locked B and C.
+        right = Clearance(aux.clearance[:, None], ("right leg",), np.zeros(1, dtype=bool), aux.y_min)
+        with np.errstate(invalid="ignore"):
+            both = mode_clearance(right, RTCLM_AUXILIARY, params).value
+        out["clearance_4"] = np.where(np.isnan(aux.clearance), np.nan, both)
         out["aux_violation"] = tiered(aux.violation)
         out["dh4"] = np.abs(aux.h_m - h4_target)
     else:
