@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.kinematics.design import Design
-from core.kinematics.model import Crank, Ground
+from core.kinematics.model import Crank, Ground, Mechanism
 
 F64 = NDArray[np.float64]
 HOLE = 5.0  # mm: pivot hole diameter, by default (clm export --hole)
@@ -208,29 +208,24 @@ def drawing(design: Design, angle: float = 0.0, member: int = 0) -> Drawing:
                          f"over {sol.theta.shape[0]} crank samples): nothing to draw")
     grounds = {s.name for s in m.steps if isinstance(s, Ground)}
     links = tuple(b for b in m.bodies() if not set(b) <= grounds)
-    links = _parts_of_locked_cranks(m.name, links)
+    links = _parts_of_locked_cranks(m, links)
     # m.pivots(): the RTCLM's auxiliary mode locks A..D (its primary mode draws them).
     return Drawing(m.name, tuple(m.joint_names), joints, links, m.pivots(), np.asarray(sol.point[0]), drawn)
 
 
-# Cranks a mode locks to the link that carries their motor, but which are parts of their own: (motor axis, crank end).
-# The RTCLM's primary mode holds the second motor's crank H-F still on the rocker, so its linkage has one body
-# D-C-H-F; the leg built has a rocker D-C-H with a bore at H and the crank H-F (rehearsal 5: the parts sheet welded
-# them into one plate, with no hole for the motor).
-LOCKED_CRANKS: dict[str, tuple[str, str]] = {"rtclm_primary": ("H", "F")}
-
-
-def _parts_of_locked_cranks(mechanism: str, links: tuple[tuple[str, ...], ...]) -> tuple[tuple[str, ...], ...]:
-    """``links`` with a locked crank taken off the body that holds it (:data:`LOCKED_CRANKS`)."""
-    if mechanism not in LOCKED_CRANKS:
-        return links
-    axis, end = LOCKED_CRANKS[mechanism]
-    out: list[tuple[str, ...]] = []
-    for body in links:
-        if axis in body and end in body and len(body) > 2:
-            out += [tuple(p for p in body if p != end), (axis, end)]
-        else:
-            out.append(body)
+def _parts_of_locked_cranks(m: Mechanism, links: tuple[tuple[str, ...], ...]) -> tuple[tuple[str, ...], ...]:
+    """``links`` with each crank the mechanism holds still (``Mechanism.held_cranks``) taken off the body that holds
+    it: the RTCLM's primary mode has one body D-C-H-F, the leg built a rocker D-C-H with a bore at H and the crank
+    H-F (rehearsal 5: the parts sheet welded them into one plate, with no hole for the motor)."""
+    out = list(links)
+    for axis, end in m.held_cranks:
+        parts: list[tuple[str, ...]] = []
+        for body in out:
+            if axis in body and end in body and len(body) > 2:
+                parts += [tuple(p for p in body if p != end), (axis, end)]
+            else:
+                parts.append(body)
+        out = parts
     return tuple(out)
 
 

@@ -202,6 +202,9 @@ class Mechanism:
         locked: groups of ground points that are moving links held still in this mechanism (the RTCLM's auxiliary
             mode locks the primary mode's crank, coupler and rocker in the switching state): drawn as the links
             they are, in the frame's colour.
+        held_cranks: cranks this mechanism holds still on the link that carries their motor, as (motor axis, crank
+            end): parts of their own on the leg built (the RTCLM's primary mode holds crank H-F on the rocker D-C-H,
+            which has a bore at H for the second motor), one body to the solver.
     """
 
     name: str
@@ -214,6 +217,7 @@ class Mechanism:
     derive_failure: str = "its derived values have no solution"
     doc: str = ""
     locked: tuple[tuple[str, ...], ...] = ()
+    held_cranks: tuple[tuple[str, str], ...] = ()
 
     @property
     def n_params(self) -> int:

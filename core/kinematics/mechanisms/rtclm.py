@@ -314,6 +314,7 @@ RTCLM_PRIMARY = Mechanism(
         "Right leg, H locked: rigid rocker D-C-H-F, Watt-I six-bar driven at A; sample 0 is the "
         "switching state (crank phase Phi_A^r). The left leg is the same mechanism pi later."
     ),
+    held_cranks=(("H", "F"),),
 )
 
 RTCLM_AUXILIARY = Mechanism(
