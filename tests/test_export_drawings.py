@@ -103,6 +103,28 @@ def test_export_refuses_what_it_cannot_draw(tmp_path, capsys):
     assert "--dxf and --svg name the same file" in capsys.readouterr().err and not same.exists()
 
 
+def test_an_export_never_replaces_the_design_or_a_run_it_draws(tmp_path, capsys):
+    # Lab rehearsal: `--svg mine.json` (a tab-completion slip) replaced the design drawn with an SVG, and
+    # `--svg runs/a/result.json` destroyed the run; both printed "wrote ...".
+    design = tmp_path / "mine.json"
+    assert main(["presets", "show", "stephenson1/X3", "--json"]) == 0
+    design.write_text(capsys.readouterr().out)
+    before = design.read_text()
+    for kind in ("--svg", "--dxf"):
+        assert main(["export", "--design", str(design), kind, str(design)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"clm: error: {kind} {design}: a {kind[2:].upper()} file's name ends in .{kind[2:]}")
+        assert "give e.g. mine." + kind[2:] in err
+    assert design.read_text() == before
+    odd = tmp_path / "mine.SVG"  # the case of the suffix is the user's
+    assert main(["export", "--design", str(design), "--svg", str(odd)]) == 0 and odd.read_text().startswith("<svg")
+    capsys.readouterr()
+    named = tmp_path / "leg.svg"  # a design file named like a drawing is not drawn over either
+    named.write_text(before)
+    assert main(["export", "--design", str(named), "--svg", str(named)]) == 2
+    assert "is the design drawn" in capsys.readouterr().err and named.read_text() == before
+
+
 def test_the_studio_exports_the_shown_design_as_dxf_and_svg(tmp_path):
     from studio.exports import drawing_export
     from studio.state import Session

@@ -53,9 +53,10 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--hole/--width: {exc}") from None
     design, _ = load_design(args)
     d = drawing(design, math.radians(math.fmod(args.angle, 360.0)))  # 1e8 deg: sin/cos of a huge angle lost it
-    for out in (args.dxf, args.svg):
+    for out, kind in ((args.dxf, "dxf"), (args.svg, "svg")):
         if out is None:
             continue
+        _check_output(out, kind, args.design)
         if out.is_dir():
             raise CLIError(f"{out} is a folder")
         folder = out.parent
@@ -73,3 +74,13 @@ def run(args: argparse.Namespace) -> int:
     for w in cutting_warnings(d, plates):
         print(f"clm: warning: {w.text}{' (--hole)' if w.overlap else ''}", file=sys.stderr)
     return 0
+
+
+def _check_output(out: Path, kind: str, design: Path | None) -> None:
+    """Refuse an output that would replace what the user made (lab rehearsal: ``--svg mine.json`` overwrote the
+    design drawn, ``--svg runs/a/result.json`` the run): a name that is not ``.{kind}``, or the ``--design`` file."""
+    if out.suffix.lower() != f".{kind}":
+        raise CLIError(f"--{kind} {out}: a {kind.upper()} file's name ends in .{kind} (this would replace "
+                       f"{out.name!r} with a drawing); give e.g. {out.with_suffix('.' + kind).name}")
+    if design is not None and str(design) != "-" and out.resolve() == design.resolve():
+        raise CLIError(f"--{kind} {out} is the design drawn; give another file")
