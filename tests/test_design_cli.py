@@ -449,3 +449,34 @@ def test_evaluating_a_runs_pick_names_the_target_the_run_was_made_against(tmp_pa
     assert err.startswith(f"clm: note: {tmp_path / 'o'} was made against target cycloid:L=250") and "--target" in err
     assert main(["evaluate", "--design", str(tmp_path / "p")]) == 0  # the default cycloid's run: nothing to say
     assert capsys.readouterr().err == ""
+
+
+def test_a_second_design_into_a_folder_another_one_is_writing_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Lab rehearsal: two clm design runs into one --out both passed the "holds an earlier run" check (the first had
+    # not written yet), and the second's files silently replaced the first's. The lock is the real one a running
+    # clm design holds: taken here by another process, as a second terminal would.
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "t.toml").write_text(TINY)
+    out = tmp_path / "o"
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time; from core.formats.files import dir_lock\n"
+        f"with dir_lock({str(out)!r}, 'clm design', remove=True):\n"
+        "    print('held', flush=True); time.sleep(30)\n")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        assert main(["design", str(tmp_path / "t.toml"), "--out", str(out), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err == (f"clm: error: {out}: another clm design is writing into it (process {holder.pid}); wait for it "
+                       "to end, or choose another --out\n")
+        assert sorted(p.name for p in out.iterdir()) == [".lock"]  # nothing of a run was written
+    finally:
+        holder.kill()
+        holder.wait()
+    # When the lock's holder is gone, the folder is free; the run leaves its outputs only (no .lock).
+    time.sleep(0.1)
+    assert main(["design", str(tmp_path / "t.toml"), "--out", str(out), "--quiet"]) == 0
+    assert ".lock" not in {p.name for p in out.iterdir()} and (out / "result.json").is_file()

@@ -132,7 +132,7 @@ def test_a_second_study_into_the_same_directory_is_refused_while_the_first_runs(
     (tmp_path / "s.toml").write_text(STUDY)
     out = tmp_path / "out"
     with study_lock(out):  # the first clm study, still running
-        with pytest.raises(ValueError, match="another clm study is running into it"):
+        with pytest.raises(ValueError, match="another clm study is writing into it"):
             runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
     assert client.sent == []
     runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)  # once it has ended

@@ -26,7 +26,7 @@ import numpy as np
 
 from core.cli import CLIError
 from core.formats.config import load_config
-from core.formats.files import atomic_write, chart_file, check_out_dir, read_design_result, stage_file
+from core.formats.files import atomic_write, chart_file, check_out_dir, dir_lock, read_design_result, stage_file
 from core.formats.typed import MAX_SEED
 from core.kinematics.kernel_cache import CompileTimer
 from core.kinematics.model import OutputStage
@@ -308,6 +308,13 @@ def run(args: argparse.Namespace) -> int:
     if config.start.mechanism.derive is None:  # the RTCLM's targets are heights, not a curve
         _warn_target(config.baseline.target, config.start.output)
     check_out_dir(args.out_text, output_names(config))
+    # Held from the check for an earlier run to the last file written (lab rehearsal: a second clm design started
+    # into the same folder 0.3 s later passed the check, and its files silently replaced the first run's).
+    with dir_lock(args.out, "clm design", remove=True):
+        return _run_into(args, config)
+
+
+def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
     previous: list[str] = []
     if (args.out / "result.json").exists():
         if not args.overwrite:

@@ -3,11 +3,13 @@ one), and into an output folder checked writable before any work starts."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import re
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +54,45 @@ def check_out_dir(out: str | Path, files: Iterable[str] = ()) -> Path:
         if (d / name).is_dir():
             raise ValueError(f"--out {str(d)!r}: {name} is a folder; it would be overwritten by a file")
     return d
+
+
+@contextmanager
+def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator[None]:
+    """Hold ``DIR/.lock`` while ``what`` ("clm design") writes into ``DIR``: a second command into the same folder
+    is refused (ValueError naming the process) instead of writing over the first's files. The lock goes with the
+    process, however it ends. ``remove``: take the file away at the end (a run's folder lists its outputs only);
+    a command that opened the file as it went locks the new one instead."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    path = d / ".lock"
+    while True:
+        f = open(path, "a+")
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            pid = f.read().strip() or "?"
+            f.close()
+            raise ValueError(f"{d}: another {what} is writing into it (process {pid}); wait for it to end, or "
+                             "choose another --out") from None
+        try:
+            held = os.fstat(f.fileno()).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            held = False
+        if held:
+            break
+        f.close()  # removed by the holder that just finished: lock the file there now
+    try:
+        f.seek(0)
+        f.truncate()
+        f.write(str(os.getpid()))
+        f.flush()
+        yield
+    finally:
+        if remove:
+            path.unlink(missing_ok=True)
+        fcntl.flock(f, fcntl.LOCK_UN)
+        f.close()
 
 
 MAX_RESULT_BYTES = 512 * 2**20

@@ -6,17 +6,15 @@ before its row), so a crash or Ctrl-C loses nothing finished, and a row never na
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
-import os
 import sqlite3
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from core.formats.files import atomic_write
+from core.formats.files import atomic_write, dir_lock
 from core.formats.study import effective_settings
 
 SCHEMA = """
@@ -41,26 +39,9 @@ CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 @contextmanager
 def study_lock(directory: str | Path) -> Iterator[None]:
     """Hold ``DIR/.lock`` while a study runs into ``DIR``: a second ``clm study`` on the same directory is
-    refused (it ran every cell again beside the first, doubling the cost and the attempts counted). The lock
-    goes with the process, however it ends."""
-    d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
-    with open(d / ".lock", "a+") as f:
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            f.seek(0)
-            pid = f.read().strip() or "?"
-            raise ValueError(f"{d}: another clm study is running into it (process {pid}); wait for it to end, or "
-                             "choose another --out") from None
-        f.seek(0)
-        f.truncate()
-        f.write(str(os.getpid()))
-        f.flush()
-        try:
-            yield
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+    refused (it ran every cell again beside the first, doubling the cost and the attempts counted)."""
+    with dir_lock(directory, "clm study"):
+        yield
 
 
 # The digest scheme ``meta["study"]["digest"]`` names: 2 since session 24 (settings narrowed to what the cell runs);
