@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -274,3 +275,17 @@ def test_a_config_saved_with_a_byte_order_mark_loads(tmp_path: Path) -> None:
     from core.study.cell import read_config  # a study's cells read their case's config themselves
 
     assert read_config(str(tmp_path / "bom.toml")) == read_config(str(ASSETS / "stephenson1_cycloid.toml"))
+
+
+@pytest.mark.parametrize(("key", "value", "message"), [("h6", 1e300, "rtclm.h6: must be <= 1e+06"),
+                                                       ("h4", 0.0, "rtclm.h4: must be > 0"),
+                                                       ("h4", float("nan"), "rtclm.h4: must be")])
+def test_the_rtclm_heights_are_held_to_the_limits_of_every_other_length(key: str, value: float,
+                                                                          message: str) -> None:
+    # Review of session 31: [rtclm] h6 = 1e300 ran and "completed" with dh6 1e+300 (the studio refuses it).
+    text = (ASSETS / "rtclm_case1.toml").read_text()
+    data = tomllib.loads(text)
+    data.setdefault("rtclm", {})[key] = value
+    with pytest.raises(ValueError) as e:
+        parse_config(data, ASSETS)
+    assert str(e.value).startswith(message), str(e.value)

@@ -41,8 +41,8 @@ class Target(Struct, forbid_unknown_fields=True, frozen=True):
 
 
 class Rtclm(Struct, forbid_unknown_fields=True, frozen=True):
-    h6: Pos | None = None
-    h4: Pos | None = None
+    h6: Size | None = None  # h6 = 1e300 ran and "completed" with dh6 1e+300; the studio refuses over 1e6 mm
+    h4: Size | None = None
 
 
 class Algorithm(Struct, forbid_unknown_fields=True, frozen=True):
