@@ -359,3 +359,19 @@ def test_a_design_can_be_piped_in():
     assert empty.returncode == 2 and empty.stderr.count("\n") == 1 and empty.stderr.startswith("clm: error: <stdin>")
     bad = clm("evaluate", "--design", "-", stdin="{nope")
     assert bad.returncode == 2 and bad.stderr.startswith("clm: error: <stdin>: not valid JSON")
+
+
+def test_a_design_piped_in_never_reads_a_run_named_dash(tmp_path, monkeypatch):
+    # Review of session 31: with --design -, run_h4 read a folder literally named "-" in the working directory and
+    # called its h4 target "the run's".
+    import core.formats.files as files
+    from core.cli.simulate import run_h4, run_target
+
+    run = tmp_path / "-"
+    run.mkdir()
+    (run / "result.json").write_text("{}")
+    fake = {"pipeline": {"stages": [{"problem": {"name": "rtclm2", "options": {"h4_target": 333.0}}}]}}
+    monkeypatch.setattr(files, "read_design_result", lambda path: fake)
+    monkeypatch.chdir(tmp_path)
+    assert run_h4(run) == 333.0  # a real path to that folder is a run
+    assert run_h4(Path("-")) is None and run_target(Path("-")) is None

@@ -172,8 +172,8 @@ def run_pick(path: Path) -> Design:
 
 def run_h4(path: Path | None) -> float | None:
     """The h4 target (mm) a ``clm design`` run of the RTCLM drove to (its rtclm2 stage's ``h4_target``), or None
-    (not a run, not the RTCLM's, unreadable: the caller then names the cases' targets)."""
-    if path is None or not (path.is_dir() or _is_run(path)):
+    (not a run, not the RTCLM's, unreadable, piped in: the caller then names the cases' targets)."""
+    if path is None or str(path) == "-" or not (path.is_dir() or _is_run(path)):  # "-": stdin, not a file named so
         return None
     from core.formats.files import read_design_result
 
