@@ -179,7 +179,7 @@ def test_a_target_curve_in_metres_is_evaluated_with_a_warning(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("clm: warning: target foot_m.csv: it spans 0.18 mm") and err.count("\n") == 1
     _warn_target(str(path), PAPER_PANTOGRAPH)  # what clm design says of its config's target
-    assert "needs scaling" in capsys.readouterr().err
+    assert "need scaling" in capsys.readouterr().err
     _warn_target("cycloid:L=300.0,H=100.0,T=2.0", PAPER_PANTOGRAPH)
     assert capsys.readouterr().err == ""
 
@@ -375,3 +375,30 @@ def test_a_design_piped_in_never_reads_a_run_named_dash(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert run_h4(run) == 333.0  # a real path to that folder is a run
     assert run_h4(Path("-")) is None and run_target(Path("-")) is None
+
+
+def test_unit_slips_in_a_cycloid_a_curve_or_an_obstacle_are_warned_of(tmp_path, capsys):
+    # Lab rehearsal: cycloid:L=0.3,H=0.1 (m), T=2000 (ms) and --obstacle 0.025 0.025 (m) were evaluated without a
+    # word, where the same slips in a CSV are warned of; a --curve in m or ms too (review of session 31).
+    from core.analysis.targets import compound_cycloid
+    from core.cli import main
+
+    for spec, said in (("cycloid:L=0.3,H=0.1,T=2", "it spans 0.3 mm"),
+                       ("cycloid:L=300,H=100,T=2000", "its times make one cycle 2000 s long")):
+        assert main(["evaluate", "--preset", "stephenson1/X3", "--target", spec]) == 0
+        err = capsys.readouterr().err
+        assert err.startswith(f"clm: warning: target {spec}: {said}") and err.count("\n") == 1, err
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--target", "cycloid:L=250,H=80,T=1.5"]) == 0
+    assert capsys.readouterr().err == ""
+    t = np.linspace(0.0, 2.0, 120, endpoint=False)
+    pts = compound_cycloid(120)[0]
+    for name, scale, said in (("ms.csv", (1.0, 1000.0), "its times make one cycle 2000 s long"),
+                              ("m.csv", (0.001, 1.0), "it spans 0.3 mm")):
+        rows = "\n".join(f"{x * scale[0]:.9f},{y * scale[0]:.9f},{k * scale[1]:.6f}"
+                         for k, (x, y) in zip(t, pts, strict=True))
+        (tmp_path / name).write_text("x,y,t\n" + rows + "\n")
+        assert main(["evaluate", "--curve", str(tmp_path / name)]) == 0
+        err = capsys.readouterr().err
+        assert err.startswith(f"clm: warning: curve {name}: {said}"), err
+    assert main(["evaluate", "--preset", "stephenson1/X3", "--obstacle", "0.025", "0.025"]) == 0
+    assert capsys.readouterr().err.startswith("clm: warning: --obstacle 0.025 0.025: an obstacle under 1 mm")

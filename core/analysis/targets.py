@@ -252,10 +252,10 @@ def scale_note(points: Any, period: float | None = None) -> str:
     if not SPAN_MM[0] <= span <= SPAN_MM[1]:
         size = f"{span:,.0f}" if 1.0 <= span < 1e9 else f"{span:.2g}"
         notes.append(f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
-                     "mm (a file in m or um needs scaling)")
+                     "mm (values in m or um need scaling)")
     if period is not None and not PERIOD_S[0] <= period <= PERIOD_S[1]:
         notes.append(f"its times make one cycle {period:g} s long, where a leg's crank turns once in "
-                     f"{PERIOD_S[0]:g} to {PERIOD_S[1]:g} s: its times are read in s (a file in ms needs scaling)")
+                     f"{PERIOD_S[0]:g} to {PERIOD_S[1]:g} s: its times are read in s (times in ms need scaling)")
     return "; ".join(notes)
 
 

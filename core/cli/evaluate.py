@@ -84,6 +84,9 @@ def _check(args: argparse.Namespace) -> None:
         raise CLIError(f"--obstacle needs two non-negative sizes in mm, got {a} {b}")
     if not (math.isfinite(args.trunk) and args.trunk > 0):
         raise CLIError(f"--trunk must be a positive length in mm (the quadruped's hip distance), got {args.trunk}")
+    if 0.0 < max(a, b) < 1.0:  # lab rehearsal: --obstacle 0.025 0.025 (m) read psi2 99.98 % without a word
+        print(f"clm: warning: --obstacle {a:g} {b:g}: an obstacle under 1 mm; its sizes are read in mm (values in m "
+              "need scaling)", file=sys.stderr)
 
 
 def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]]:
@@ -93,11 +96,17 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
         raise CLIError(f"--mode {args.mode} applies to an RTCLM design (--preset or --design); a --curve has no mode")
     if args.leg_frame and args.curve is None and not csv_target:
         raise CLIError("--leg-frame applies to a --curve or a --target CSV; the cycloid is a design-frame target")
-    note = "" if target is None or args.target is None or args.target.split(":", 1)[0] == "cycloid" \
+    # A CSV in m or um, or times in ms, is read as mm and s; so is a cycloid given in them (lab rehearsal:
+    # cycloid:L=0.3,H=0.1 and T=2000 passed without a word) and a --curve (review of session 31).
+    note = "" if target is None or args.target is None \
         else scale_note(target.points, target.period if target.has_time else None)
-    if note:  # a CSV in m or um is read as mm
-        print(f"clm: warning: target {Path(args.target).name}: {note}", file=sys.stderr)
+    if note:
+        name = args.target if not csv_target else Path(args.target).name
+        print(f"clm: warning: target {name}: {note}", file=sys.stderr)
     curve = load_curve(args.curve) if args.curve is not None else None
+    note = "" if curve is None else scale_note(curve.points, curve.period if curve.has_time else None)
+    if note:
+        print(f"clm: warning: curve {Path(args.curve).name}: {note}", file=sys.stderr)
     period = args.period
     if period is None:  # the time law's period: T = 4 in the target is the crank period the optimizer used
         own = curve if curve is not None and curve.has_time else target
