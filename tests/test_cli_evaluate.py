@@ -182,6 +182,9 @@ def test_a_target_curve_in_metres_is_evaluated_with_a_warning(tmp_path, capsys):
     assert "need scaling" in capsys.readouterr().err
     _warn_target("cycloid:L=300.0,H=100.0,T=2.0", PAPER_PANTOGRAPH)
     assert capsys.readouterr().err == ""
+    _warn_target("cycloid:L=300.0,H=100.0,T=2000.0", PAPER_PANTOGRAPH)  # a config's T in ms (lab rehearsal)
+    assert capsys.readouterr().err.startswith("clm: warning: target cycloid:L=300.0,H=100.0,T=2000.0: its times make "
+                                              "one cycle 2000 s long")
 
 
 def test_a_target_with_times_in_ms_is_evaluated_with_a_warning_and_one_beyond_any_crank_is_refused(tmp_path, capsys):

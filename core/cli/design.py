@@ -388,9 +388,9 @@ def _warn_target(target: str, output: OutputStage) -> None:
 
     cycloid = target.split(":", 1)[0] == "cycloid"
     curve = load_target(target)  # read once: a CSV was read for each note
-    note = "" if cycloid else scale_note(curve.points, curve.period if curve.has_time else None)
+    note = scale_note(curve.points, curve.period if curve.has_time else None)  # a cycloid's T = 2000 (ms) too
     if note:
-        print(f"clm: warning: target {Path(target).name}: {note}", file=sys.stderr)
+        print(f"clm: warning: target {target if cycloid else Path(target).name}: {note}", file=sys.stderr)
     note = path_note(output.apply(curve.sample(360)), remedy=not cycloid)
     if note:
         fix = ". Check the config's output stage (the paper's legs map the cycloid by k = -1 about (L/2, 0))" \
