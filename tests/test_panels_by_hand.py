@@ -942,6 +942,14 @@ def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(st
     press(studio.files.load, c, upload(json.dumps(d).encode(), "bad-leg.json"))
     assert c.notes[-1][0] == "Design not loaded" and "bad-leg.json: " in c.notes[-1][1] and "r4" in c.notes[-1][1]
     assert studio.session.view.design == before
+    # A misspelt "params" is a design with a typo, named as the CLI names it (lab rehearsal: "not a studio session
+    # (format None ...)").
+    typo = {("parms" if k == "params" else k): v for k, v in d.items()}
+    press(studio.files.load, c, upload(json.dumps(typo).encode(), "typo.json"))
+    assert c.notes[-1][0] == "Design not loaded" and "typo.json: " in c.notes[-1][1] and "'parms'" in c.notes[-1][1]
+    assert "format" not in c.notes[-1][1] and studio.session.view.design == before
+    press(studio.files.load, c, upload(b'{"version": 2}', "odd.json"))
+    assert 'it has no "format"' in c.notes[-1][1] and "None" not in c.notes[-1][1]
     # A design of a mechanism without the paper's target gets one fitted to its path, as its preset does (review of
     # session 28: a Jansen leg kept the Stephenson cycloid and read MSE 206 mm against its preset's 2.3).
     press(studio.files.load, c, upload(json.dumps(design_to_dict(preset("jansen").design())).encode(), "j.json"))

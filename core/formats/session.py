@@ -102,6 +102,9 @@ def check_session(data: Any) -> SessionFile:
         if "mechanism" in data and "params" in data:  # 'clm presets show' writes these: a design, not a session
             raise ValueError("this is a design file (mechanism and params), not a studio session; a session is "
                              "what 'Download session' saves")
+        if "format" not in data:  # "format None" read as Python (lab rehearsal)
+            raise ValueError(f"not a studio session: it has no \"format\" (a session's is {SESSION_FORMAT!r}); a "
+                             "session is what 'Download session' saves")
         raise ValueError(f"not a studio session (format {data.get('format')!r}, expected {SESSION_FORMAT!r})")
     if data.get("version") not in READS_VERSIONS or isinstance(data.get("version"), bool):
         raise ValueError(f"unsupported session version {data.get('version')!r} (this studio reads "
