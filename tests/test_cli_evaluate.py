@@ -405,3 +405,30 @@ def test_unit_slips_in_a_cycloid_a_curve_or_an_obstacle_are_warned_of(tmp_path, 
         assert err.startswith(f"clm: warning: curve {name}: {said}"), err
     assert main(["evaluate", "--preset", "stephenson1/X3", "--obstacle", "0.025", "0.025"]) == 0
     assert capsys.readouterr().err.startswith("clm: warning: --obstacle 0.025 0.025: an obstacle under 1 mm")
+
+
+def test_a_design_in_metres_or_degrees_is_warned_of_where_it_is_read(tmp_path, capsys):
+    # Lab rehearsal: a design file in metres read "feasible" with a 0.3 mm stride, and one with angles in degrees
+    # (b = 29.8 "rad") was another leg, both without a word; clm export then advised smaller pins.
+    from core.cli import main
+    from core.formats.design import design_from_dict, design_to_dict, unit_note
+    from core.kinematics.presets import get
+
+    x3 = get("stephenson1/X3").design()
+    d = design_to_dict(x3)
+    kinds = {p.name: p.kind for p in x3.mechanism.params}
+    metres = dict(d, params={k: v / 1000.0 if kinds[k] != "angle" else v for k, v in d["params"].items()},
+                  output=dict(d["output"], **{k: d["output"][k] / 1000.0 for k in ("cx", "cy") if k in d["output"]}))
+    degrees = dict(d, params={k: math.degrees(v) if kinds[k] == "angle" else v for k, v in d["params"].items()})
+    (tmp_path / "metres.json").write_text(json.dumps(metres))
+    (tmp_path / "degrees.json").write_text(json.dumps(degrees))
+    for cmd in (["simulate"], ["evaluate"], ["export", "--svg", str(tmp_path / "x.svg")]):
+        assert main([*cmd, "--design", str(tmp_path / "metres.json")]) in (0, 2)
+        err = capsys.readouterr().err
+        assert err.startswith(f"clm: warning: {tmp_path / 'metres.json'}: its foot path: it spans 0.3"), (cmd, err)
+        main([*cmd, "--design", str(tmp_path / "degrees.json")])
+        err = capsys.readouterr().err
+        assert err.startswith(f"clm: warning: {tmp_path / 'degrees.json'}: ") and "probably degrees" in err, (cmd, err)
+        assert main([*cmd, "--preset", "stephenson1/X3"]) == 0
+        assert "stephenson1/X3:" not in capsys.readouterr().err  # (export's hole advice is its own)
+    assert unit_note(design_from_dict(degrees)).startswith("b = ")  # the first angle beyond one turn is named

@@ -950,6 +950,14 @@ def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(st
     assert "format" not in c.notes[-1][1] and studio.session.view.design == before
     press(studio.files.load, c, upload(b'{"version": 2}', "odd.json"))
     assert 'it has no "format"' in c.notes[-1][1] and "None" not in c.notes[-1][1]
+    # A design in degrees loads (nothing is lost) with a word on its units, as a target CSV in m does.
+    kinds = {p.name: p.kind for p in preset("watt1/paper").design().mechanism.params}
+    good = design_to_dict(preset("watt1/paper").design())
+    degrees = dict(good, params={k: float(np.degrees(v)) if kinds[k] == "angle" else v
+                                 for k, v in good["params"].items()})
+    press(studio.files.load, c, upload(json.dumps(degrees).encode(), "deg.json"))
+    assert c.notes[-1][0] == "Design loaded: check its units" and "probably degrees" in c.notes[-1][1]
+    assert studio.session.undo().design == before
     # A design of a mechanism without the paper's target gets one fitted to its path, as its preset does (review of
     # session 28: a Jansen leg kept the Stephenson cycloid and read MSE 206 mm against its preset's 2.3).
     press(studio.files.load, c, upload(json.dumps(design_to_dict(preset("jansen").design())).encode(), "j.json"))

@@ -127,7 +127,7 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
         info: dict[str, Any] = {"source": str(args.curve), "frame": "leg" if args.leg_frame else "design",
                 "time_law": curve.has_time}
         return ev, str(args.curve), info
-    from core.cli.simulate import design_label, load_design, run_target
+    from core.cli.simulate import design_label, load_design, run_target, warn_units
 
     design, preset = load_design(args)
     ran = run_target(getattr(args, "design", None)) if args.target is None else None
@@ -143,6 +143,7 @@ def _evaluate(args: argparse.Namespace) -> tuple[Evaluation, str, dict[str, Any]
             print(f"clm: warning: target {Path(args.target).name} in the design's leg frame: {note}", file=sys.stderr)
     ev = evaluate(design, args.samples, backend=args.backend, **kw)
     sol = design.solve(args.samples, derivatives=False, backend=args.backend)  # joints: the words below
+    warn_units(design, design_label(args, preset), sol)
     upside_down(sol, design, design_label(args, preset))
     info = {"mechanism": design.mechanism.name, "preset": preset, "params": design.named(0),
             "output": design.output.to_dict(), "clearance_note": None}  # a key of every design's record

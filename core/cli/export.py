@@ -39,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from core.cli.simulate import load_design
+    from core.cli.simulate import design_label, load_design, warn_units
 
     if args.dxf is None and args.svg is None:
         raise CLIError("nothing to write: give --dxf and/or --svg")
@@ -51,7 +51,8 @@ def run(args: argparse.Namespace) -> int:
         plates = Plates(args.hole, args.width)
     except ValueError as exc:
         raise CLIError(f"--hole/--width: {exc}") from None
-    design, _ = load_design(args)
+    design, preset = load_design(args)
+    warn_units(design, design_label(args, preset))  # before the hole advice a design in m would draw
     d = drawing(design, math.radians(math.fmod(args.angle, 360.0)))  # 1e8 deg: sin/cos of a huge angle lost it
     for out, kind in ((args.dxf, "dxf"), (args.svg, "svg")):
         if out is None:

@@ -79,6 +79,17 @@ def load_design(args: argparse.Namespace) -> tuple[Design, str | None]:
     return Design(mechanisms.get(MODES[mode]), design.params, design.output), None
 
 
+def warn_units(design: Design, label: str, sol: Any = None) -> None:
+    """``clm: warning:`` on stderr when the design looks written in m or degrees (``core.formats.design.unit_note``);
+    ``sol``: the design solved, if the caller has it."""
+    from core.formats.design import unit_note
+
+    sol = design.solve(360, derivatives=False) if sol is None else sol
+    note = unit_note(design, sol.point[0] if sol.violation[0] == 0.0 else None)  # else: what does not assemble
+    if note:
+        print(f"clm: warning: {label}: {note}", file=sys.stderr)
+
+
 def design_label(args: argparse.Namespace, preset: str | None) -> str:
     """What the output calls the design: the preset, or the preset or file in the ``--mode`` it was switched to (a
     switched preset is no preset any more, and was printed as "None")."""
@@ -309,5 +320,6 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--samples must be between {MIN_SAMPLES} and {MAX_SAMPLES}, got {args.samples}")
     design, preset = load_design(args)
     sol = design.solve(args.samples, backend=args.backend)
+    warn_units(design, design_label(args, preset), sol)
     print(dumps(solution_dict(design, sol, preset)) if args.json else summary(design, sol, design_label(args, preset)))
     return 0

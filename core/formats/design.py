@@ -213,6 +213,30 @@ def design_from_dict(data: object) -> Design:
     return Design(mech, params, output)
 
 
+def unit_note(design: Design, path: ArrayLike | None = None, i: int = 0) -> str:
+    """A word when member ``i`` looks written in other units than mm and rad, else "" (lab rehearsal: a design in
+    metres read "feasible" with a 0.3 mm stride, one with angles in degrees was another leg, without a word): an
+    angle beyond one turn (29.8 "rad" is 29.8 degrees), and, given its foot ``path`` ``(n, 2)`` (mm), a path far
+    from a leg's size (``core.analysis.targets.scale_note``)."""
+    from core.analysis.targets import scale_note
+
+    notes = []
+    turns = [(p.name, float(v)) for p, v in zip(design.mechanism.params, design.params[i], strict=True)
+             if p.kind == "angle" and abs(float(v)) > 2.0 * math.pi]
+    if turns:
+        named = ", ".join(f"{n} = {v:g}" for n, v in turns[:3]) + (", ..." if len(turns) > 3 else "")
+        n, v = turns[0]
+        notes.append(f"{named} rad: beyond one turn, so probably degrees; angles are in rad ({n} = {v:g} deg would "
+                     f"be {math.radians(v):.4g} rad)")
+    if path is not None:
+        pts = np.asarray(path, dtype=np.float64).reshape(-1, 2)
+        pts = pts[np.isfinite(pts).all(axis=1)]
+        size = scale_note(pts) if len(pts) > 1 else ""
+        if size:
+            notes.append(f"its foot path: {size}")
+    return "; ".join(notes)
+
+
 def design_to_dict(design: Design, i: int = 0) -> dict[str, Any]:
     """Member ``i`` in the design JSON format (``params`` by name, with ``units``).
 

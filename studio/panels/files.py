@@ -144,7 +144,7 @@ class FilesPanel:
         """A design file (``mechanism`` and ``params``, as ``clm presets show`` and Design (JSON) write it) becomes
         the editor's design; False for anything else (a session, or what the session reader refuses and names).
         Rehearsal 3: the README's loop (presets show > my.json, edit, simulate --design) dead-ended at the studio."""
-        from core.formats.design import design_from_dict
+        from core.formats.design import design_from_dict, unit_note
         from core.formats.session import MAX_SESSION_BYTES, parse_json
 
         if len(content) > MAX_SESSION_BYTES:
@@ -164,6 +164,11 @@ class FilesPanel:
             self.studio.notify(client, "Design not loaded", f"{name}: {exc}. The editor's design is kept.")
             return True
         self.studio.refresh()
+        note = unit_note(design, self.studio.session.view.solution.point[0])
+        if note:  # lab rehearsal: a design in m or degrees loaded green, a 0.3 mm leg on screen
+            self.studio.notify(client, "Design loaded: check its units", f"{name}: {note}. It is the editor's design "
+                               "now; Undo takes it back", color="yellow")
+            return True
         self.studio.notify(client, "Design loaded", f"{name} is the editor's design now "
                            f"({design.mechanism.title}); Undo takes it back", color="green")
         return True
