@@ -85,6 +85,9 @@ def test_a_curve_without_times_says_what_its_constant_speed_makes_up(tmp_path: P
         ("0,0\n1,0\n2,0\n3,0\n40,0\n", "open curve"),
         ("0,0\n1,0\nnan,1\n0,1\n", "NaN"),
         ("0;0\n1;0\n1;1\n0;1\n", "got 1 (the columns must be separated by commas)"),
+        # A spreadsheet in a European locale (lab rehearsal: "'9002;1' is not a number").
+        ("x;y\n1,9002;1,4698\n0;0\n1;1\n0;1\n", "data row 1 '1,9002;1,4698' has ';' between columns and ',' as the "
+         "decimal point: save the CSV with ',' between columns and '.' as the decimal point"),
     ],
 )
 def test_bad_csv_is_one_line_and_exit_2(

@@ -145,6 +145,11 @@ def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
         body = body[1:]  # a header: no cell of it is a number ("abc,1.5" is a bad data row, not a header)
     if not body:
         raise ValueError(f"{name}: no data rows (expected lines 'x,y' or 'x,y,t')")
+    semi = next((i for i, r in enumerate(body) if len(r) > 1 and any(";" in c for c in r)), None)
+    if semi is not None:  # '1,9;1,4': a spreadsheet's ';' columns with decimal commas, read as '9;1' (lab rehearsal)
+        raise ValueError(f"{name}: data row {semi + 1} {','.join(body[semi]).strip()!r} has ';' between columns and "
+                         "',' as the decimal point: save the CSV with ',' between columns and '.' as the decimal "
+                         "point")
     ncol = len(body[0])
     if ncol not in (2, 3):
         hint = ""
