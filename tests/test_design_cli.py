@@ -321,7 +321,7 @@ def test_a_folder_without_an_earlier_run_keeps_every_file_and_a_foreign_result_i
                                                      (15, 143, "terminated; stopping after this generation")],
                          ids=["ctrl-c", "sigterm"])
 def test_ctrl_c_or_sigterm_stop_clm_design_between_generations_and_write_the_partial_result(
-        tmp_path: Path, signum: int, code: int, said: str) -> None:
+        tmp_path: Path, signum: int, code: int, said: str, capsys: pytest.CaptureFixture[str]) -> None:
     # SIGTERM (kill, timeout, a batch scheduler's end of job) used to end the run with nothing written.
     import subprocess
     import sys
@@ -346,6 +346,10 @@ def test_ctrl_c_or_sigterm_stop_clm_design_between_generations_and_write_the_par
     result = json.loads((out / "result.json").read_text())
     stages = result["pipeline"]["results"]
     assert stages[0]["status"] == "cancelled" and stages[0]["generation"] < 100000, stages[0]["status"]
+    # The stopped run's pick is there to evaluate (lab rehearsal: "the run picked no design (status cancelled)").
+    assert stages[0]["picked"] is not None
+    assert main(["evaluate", "--design", str(out)]) == 0
+    assert "the run was stopped during" in capsys.readouterr().err
 
 
 def test_a_stage_that_fails_keeps_the_stages_finished_before_it(tmp_path: Path, capsys: pytest.CaptureFixture[str],
@@ -356,10 +360,10 @@ def test_a_stage_that_fails_keeps_the_stages_finished_before_it(tmp_path: Path, 
 
     real = run_module.run_stage
 
-    def second_fails(config, pipe, k, *args):  # type: ignore[no-untyped-def]
+    def second_fails(config, pipe, k, *args, **kwargs):  # type: ignore[no-untyped-def]
         if k == 1:
             raise ZeroDivisionError("float division by zero")
-        return real(config, pipe, k, *args)
+        return real(config, pipe, k, *args, **kwargs)
 
     monkeypatch.setattr(run_module, "run_stage", second_fails)
     (tmp_path / "t.toml").write_text(TINY)

@@ -123,6 +123,10 @@ def test_cancellation_mid_stage_leaves_a_loadable_partial_result() -> None:
     assert back["pipeline"]["results"][2] is None
     # The partial stage can still hand a pick to a rerun.
     assert loaded.choose("knee") >= 0
+    # It has its rule's pick, as the studio's Stop gives one (lab rehearsal: nothing could evaluate or export a run
+    # stopped with Ctrl-C), and the run ended there all the same.
+    assert res[1].picked is not None and loaded.picked == res[1].picked
+    assert out.final() is not None and out.final()[0] is res[1]
 
 
 def test_single_level_reports_the_three_extremes() -> None:

@@ -174,7 +174,11 @@ def run_pick(path: Path) -> Design:
         picked = [r for r in Pipeline.from_dict(pipe).lineage if r.picked is not None]
         if not picked:
             raise ValueError(f"{path}: the run picked no design (status {data.get('status', '?')})")
-        return check_design(picked[-1].pick())
+        last = picked[-1]
+        if last.status == "cancelled":  # stopped by Ctrl-C: its rule's pick among the population it reached
+            print(f"clm: note: {path}: the run was stopped during {last.name} (generation {last.generation}); its "
+                  "pick is that stage's rule among the population it reached", file=sys.stderr)
+        return check_design(last.pick())
     except (KeyError, TypeError) as e:
         raise CLIError(f"{path}: not a readable 'clm design' result ({type(e).__name__}: {e})") from None
     except ValueError as e:

@@ -137,16 +137,21 @@ def choose(result: StageResult, rule: PickRule, mask: NDArray[np.bool_] | None =
 
 
 def run_stage(config: DesignConfig, pipe: Pipeline, k: int, pick: int | None, seed: int,
-               callback: Callable[[Progress], None] | None, cancel: threading.Event | None) -> StageResult:
+               callback: Callable[[Progress], None] | None, cancel: threading.Event | None,
+               pick_cancelled: bool = False) -> StageResult:
     """Run stage k of ``pipe`` from member ``pick`` of stage k-1 with its automatic pick; record and return it.
 
-    A cancelled stage is recorded without a pick.
+    With ``pick_cancelled``, a cancelled stage (Ctrl-C) is picked by the same rule among the population it reached,
+    as the studio's Stop picks (lab rehearsal: the CLI kept 569 generations that nothing could evaluate or export);
+    otherwise (a multi-start chain, which keeps a finished chain instead), or cancelled before its first
+    population, it is recorded without a pick. The run stops at a cancelled stage either way.
     """
     stage_cfg = config.stages[k]
     start, _ = pipe.parent(k, pick)
     spec = resolved_spec(stage_cfg, start, seed)
     res = pipe.stage(k, pick, spec=spec, callback=callback).run(cancel=cancel)
-    if res.status not in ("complete", "stopped"):
+    done = ("complete", "stopped", "cancelled") if pick_cancelled else ("complete", "stopped")
+    if res.status not in done or res.pop == 0:
         pipe.record(k, res)
         return res
     nxt = None

@@ -183,10 +183,11 @@ def run_design(config: DesignConfig, callback: Callable[[Progress], None] | None
         starts = config.stages[k].starts
         if starts is None:
             try:
-                res = run_stage(config, pipe, k, pick, derived_seed(config.seed, k), callback, cancel)
+                res = run_stage(config, pipe, k, pick, derived_seed(config.seed, k), callback, cancel,
+                                pick_cancelled=True)
             except Exception as e:
                 raise _failed(config, pipe, blocks, used, t0, k, e) from e
-            if res.picked is None:
+            if res.picked is None or res.status == "cancelled":  # a cancelled stage has its pick, and ends the run
                 return DesignRun(config, pipe, status="cancelled", wall_time=time.perf_counter() - t0,
                                  multistart=tuple(blocks), workers=used)
             pick, k = res.picked, k + 1
