@@ -145,6 +145,10 @@ BAD = [
     ("target.L", 1e300, "target.L: must be <= 1e+06"),
     ("bounds.r1", [1e-300, 1e300], "bounds.r1: bounds must lie within +-1e+06 (mm or rad), got [1e-300, 1e+300]"),
     ("stages.0.n_gen", 0, "stages[0].n_gen: must be >= 1, got 0"),
+    # Bounds in degrees or metres (lab rehearsal: angles of 349 "rad", a 0.17 mm crank).
+    ("bounds.b", [0.0, 360.0], "bounds.b: angles are in rad and one turn is enough: [0, 360] goes beyond +-2 pi "
+     "(degrees? [0, 360] deg is [0, 6.283] rad)"),
+    ("bounds.r1", [0.03, 0.5], "bounds.r1: [0.03, 0.5] mm: a link under 1 mm long (metres? lengths are in mm)"),
     ("stages.0.box", 5, "stages[0].box: expected a string or a table, got an integer"),
     ("workers", "many", "workers: 'many' is not one of auto"),
     ("stages.0.algorithm.pop_size", 0, "stages[0].algorithm.pop_size: must be >= 2"),

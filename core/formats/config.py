@@ -115,6 +115,11 @@ def _bounds(mech: Mechanism, table: dict[str, Any]) -> Mechanism:
             raise _fail(key, f"impossible bounds: lower {lo:g} is not below upper {hi:g}")
         if p.kind == "length" and lo <= 0.0:
             raise _fail(key, f"a length must stay > 0 mm, got lower bound {lo:g}")
+        if p.kind == "angle" and max(abs(lo), abs(hi)) > 2.0 * math.pi:  # lab rehearsal: 349 "rad" from degrees
+            raise _fail(key, f"angles are in rad and one turn is enough: [{lo:g}, {hi:g}] goes beyond +-2 pi "
+                        f"(degrees? [{lo:g}, {hi:g}] deg is [{math.radians(lo):.4g}, {math.radians(hi):.4g}] rad)")
+        if p.kind == "length" and hi < 1.0:  # a link under 1 mm long is no leg's: metres (lab rehearsal)
+            raise _fail(key, f"[{lo:g}, {hi:g}] mm: a link under 1 mm long (metres? lengths are in mm)")
         params.append(replace(p, lo=lo, hi=hi, sized=False))
     return replace(mech, params=tuple(params))
 
