@@ -173,3 +173,23 @@ def test_a_run_that_outgrows_the_memory_is_one_line(capsys, monkeypatch):
     assert main(["moea", "--problem", "mw3"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("clm: error: not enough memory for this run (Unable to allocate")
+
+
+@pytest.mark.parametrize(("text", "said"), [
+    ('{"mechanism": "stephenson1", "params": {"r1": 128,33}}',
+     "Expecting property name enclosed in double quotes at line 1 column 51 (a decimal comma? JSON numbers take '.': "
+     "128.33)"),
+    ('{"mechanism": "stephenson1", "params": {"r1": "12', "Unterminated string starting at line 1 column 47"),
+])
+def test_a_broken_design_json_is_said_in_plain_words(tmp_path, capsys, text, said):
+    # Lab rehearsal: "Unterminated string starting at at line 17", Python's words for a decimal comma.
+    (tmp_path / "d.json").write_text(text)
+    assert main(["simulate", "--design", str(tmp_path / "d.json")]) == 2
+    assert capsys.readouterr().err == f"clm: error: {tmp_path / 'd.json'}: not valid JSON: {said}\n"
+
+
+def test_a_windows_path_is_shown_as_typed_with_a_word_on_its_separator(capsys):
+    # Lab rehearsal: 'C:\\Users\\student\\x3.json' came back with its backslashes doubled (a repr).
+    assert main(["simulate", "--design", "C:\\Users\\student\\x3.json"]) == 2
+    assert capsys.readouterr().err == ("clm: error: design file C:\\Users\\student\\x3.json not found ('\\' is not a "
+                                       "folder separator here: use '/')\n")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -109,7 +110,7 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
         text = _stdin(MAX_DESIGN_BYTES)
         path = Path("<stdin>")
     elif not path.exists():
-        raise CLIError(f"design file {str(path)!r} not found")
+        raise CLIError(f"design file {path} not found{backslash_hint(path)}")
     elif path.is_dir() and not (path / "result.json").is_file():
         raise CLIError(f"{path} is a folder without a result.json: not a 'clm design --out' run; give a design JSON "
                        "or a run's folder")
@@ -120,7 +121,7 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
     try:
         data = json.loads(text, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as e:
-        raise CLIError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+        raise CLIError(f"{path}: not valid JSON: {json_message(e)}") from None
     except RecursionError:
         raise CLIError(f"{path}: not a design: nested too deep") from None
     except ValueError as e:  # unique_keys
@@ -129,6 +130,22 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
         return design_from_dict(data), None
     except ValueError as e:
         raise CLIError(f"{path}: {e}") from None
+
+
+def json_message(e: json.JSONDecodeError) -> str:
+    """Where and what, in words: "Unterminated string starting at" read "... at at line 17" (lab rehearsal); a
+    decimal comma ("r4": 128,33) is said to be one."""
+    hint = ""
+    if e.msg.startswith("Expecting property name") and e.pos > 0 and e.doc[e.pos - 1:e.pos] == ",":
+        before = e.doc[max(0, e.pos - 12):e.pos - 1].rstrip()
+        if before[-1:].isdigit():
+            hint = " (a decimal comma? JSON numbers take '.': 128.33)"
+    return f"{e.msg.removesuffix(' at')} at line {e.lineno} column {e.colno}{hint}"
+
+
+def backslash_hint(path: Path) -> str:
+    """A word for a Windows path typed on a system whose folder separator is '/' (lab rehearsal)."""
+    return " ('\\' is not a folder separator here: use '/')" if "\\" in str(path) and os.sep == "/" else ""
 
 
 def _stdin(max_bytes: int) -> str:

@@ -109,7 +109,7 @@ def read_design_result(path: Path) -> dict[str, Any]:
     try:
         data = json.loads(text)
     except json.JSONDecodeError as e:
-        raise ValueError(f"{path}: not valid JSON: {e.msg} at line {e.lineno}") from None
+        raise ValueError(f"{path}: not valid JSON: {e.msg.removesuffix(' at')} at line {e.lineno}") from None
     except RecursionError:
         raise ValueError(f"{path}: not a 'clm design' result: nested too deep") from None
     if not isinstance(data, dict) or data.get("format") != RESULT_FORMAT:
