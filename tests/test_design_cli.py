@@ -131,6 +131,11 @@ def test_the_seed_given_on_the_command_line_is_the_one_recorded_and_compared(
     assert main(["compare", str(tmp_path / "s2"), str(tmp_path / "s3")]) == 0
     out = capsys.readouterr().out
     assert "(nsga2, seed 2)" in out and "(nsga2, seed 3)" in out and "seed 4" not in out
+    # One run named twice (its folder and its result.json) is listed once, with a word (lab rehearsal).
+    assert main(["compare", str(tmp_path / "s2"), str(tmp_path / "s2" / "result.json")]) == 0
+    cap = capsys.readouterr()
+    assert cap.out.count("tiny: ") == 1 and cap.err == f"clm: note: {tmp_path / 's2' / 'result.json'} is given more " \
+        "than once; listed once\n"
 
 
 def test_compare_prints_one_row_per_method(outputs: tuple[Path, Path, str], capsys: pytest.CaptureFixture[str]) -> None:

@@ -293,3 +293,17 @@ def test_the_rtclm_heights_are_held_to_the_limits_of_every_other_length(key: str
     with pytest.raises(ValueError) as e:
         parse_config(data, ASSETS)
     assert str(e.value).startswith(message), str(e.value)
+
+
+def test_slips_a_student_makes_get_the_name_they_meant(tmp_path: Path) -> None:
+    # Lab rehearsal: "best:MSE" listed the metrics without the one meant, a design JSON given as the config read
+    # only "not valid TOML", and the paper's row name alone got no suggestion.
+    from core.kinematics import presets
+
+    with pytest.raises(ValueError, match=r"reports no metric 'MSE'; did you mean 'mse'\?; known: "):
+        parse_config(with_("stages.1.pick", "best:MSE"))
+    (tmp_path / "x3.json").write_text('{"mechanism": "stephenson1", "params": {}}')
+    with pytest.raises(ValueError, match=r"not valid TOML: .*\(this is a design JSON; clm design takes a TOML "):
+        load_config(tmp_path / "x3.json")
+    with pytest.raises(ValueError, match=r"^unknown preset 'X3'; did you mean stephenson1/X3\? "):
+        presets.get("X3")

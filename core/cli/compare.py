@@ -11,6 +11,7 @@ RTCLM runs add the columns h6 and h4.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -108,7 +109,13 @@ def infeasible(row: dict[str, Any]) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     rows: list[dict[str, Any]] = []
+    seen: set[Path] = set()
     for p in args.runs:
+        f = (p / "result.json" if p.is_dir() else p).resolve()
+        if f in seen:  # lab rehearsal: 'clm compare runs/a runs/a' listed the run twice without a word
+            print(f"clm: note: {p} is given more than once; listed once", file=sys.stderr)
+            continue
+        seen.add(f)
         rows += [{**r, "source": str(p)} for r in load_rows(p)]
     extra = [k for k in ("h6", "h4") if any(k in r for r in rows)]
     header = ["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)"] + [f"{k} (mm)" for k in extra]

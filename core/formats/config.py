@@ -74,7 +74,12 @@ def load_config(path: str | Path) -> DesignConfig:
     try:
         data = tomllib.loads(text)
     except (tomllib.TOMLDecodeError, RecursionError) as e:
-        raise ValueError(f"{p}: not valid TOML: {str(e).splitlines()[0] if str(e) else 'nested too deep'}") from None
+        hint = ""
+        if text.lstrip().startswith("{") and '"mechanism"' in text:  # a design JSON given for a config (lab rehearsal)
+            hint = " (this is a design JSON; clm design takes a TOML configuration such as assets/configs/*.toml, " \
+                   "whose preset names the design it starts from)"
+        raise ValueError(f"{p}: not valid TOML: {str(e).splitlines()[0] if str(e) else 'nested too deep'}"
+                         f"{hint}") from None
     return parse_config(data, p.parent, str(p))
 
 
@@ -227,7 +232,9 @@ def _pick(v: str | int, key: str, spec: ProblemSpec) -> PickRule:
 
 def _metric(name: str, key: str, spec: ProblemSpec, what: str) -> str:
     if name not in spec.metric_names:
-        raise _fail(key, f"{what!r}: problem {spec.name!r} reports no metric {name!r}; known: "
+        same = [m for m in spec.metric_names if m.lower() == name.lower()]  # "best:MSE" (lab rehearsal)
+        hint = f"; did you mean {same[0]!r}?" if same else ""
+        raise _fail(key, f"{what!r}: problem {spec.name!r} reports no metric {name!r}{hint}; known: "
                     f"{', '.join(spec.metric_names)}")
     return name
 
