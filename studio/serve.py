@@ -75,6 +75,9 @@ def main(argv: list[str] | None = None) -> int:
     try:  # Ctrl-C from here on stops the studio cleanly, whenever it comes (even while the address is printed)
         try:
             token = None if args.token is None else check_token(args.token) if args.token else new_token()
+            if args.session is not None and not args.session.parent.is_dir():  # it read "[Errno 2] ... s.json.tmp"
+                raise ValueError(f"--session {args.session}: there is no folder {args.session.parent}; create it, "
+                                 "or give a session file in a folder that exists")
             if args.session is not None:
                 lock = SessionLock(args.session)  # one studio per session file
             if args.session is not None and args.session.exists():

@@ -490,6 +490,12 @@ def test_clm_studio_refuses_a_malformed_session_file_with_one_line(tmp_path, cap
     assert main(["--session", str(bad), "--port", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("clm-studio: error: ") and "s.json" in err[0]
+    # A session in a folder that does not exist (lab rehearsal: "[Errno 2] ... 's.json.tmp'").
+    missing = tmp_path / "nodir" / "s.json"
+    assert main(["--session", str(missing), "--port", "0"]) == 2
+    assert capsys.readouterr().err == (f"clm-studio: error: --session {missing}: there is no folder {missing.parent}; "
+                                       "create it, or give a session file in a folder that exists\n")
+    assert not missing.parent.exists()
     bad.write_text("{not json")
     assert main(["--session", str(bad), "--port", "0"]) == 2
     assert "not JSON" in capsys.readouterr().err
