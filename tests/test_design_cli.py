@@ -489,3 +489,22 @@ def test_a_second_design_into_a_folder_another_one_is_writing_is_refused(
     time.sleep(0.1)
     assert main(["design", str(tmp_path / "t.toml"), "--out", str(out), "--quiet"]) == 0
     assert ".lock" not in {p.name for p in out.iterdir()} and (out / "result.json").is_file()
+
+
+def test_a_design_run_piped_into_a_reader_that_goes_away_runs_on(tmp_path: Path) -> None:
+    # Lab rehearsal: 'clm design ... 2>&1 | head' failed its stage on the progress bar's BrokenPipeError, and the
+    # folder then refused a rerun. A real pipe whose reader has closed.
+    import subprocess
+    import sys
+
+    (tmp_path / "t.toml").write_text(TINY)
+    out = tmp_path / "o"
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.Popen([sys.executable, "-m", "core.cli", "design", str(tmp_path / "t.toml"), "--out", str(out)],
+                            cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    assert proc.stderr is not None
+    proc.stderr.read(1)  # the first progress line has begun
+    proc.stderr.close()
+    assert proc.wait(timeout=300) in (0, 1)
+    data = json.loads((out / "result.json").read_text())
+    assert data["status"] == "complete", data.get("error")

@@ -76,6 +76,12 @@ class ProgressBar:
         self.deciles: dict[tuple[int, int | None], int] = {}
 
     def __call__(self, p: Progress) -> None:
+        try:
+            self._draw(p)
+        except OSError:  # BrokenPipeError: the reader went away ('2>&1 | head'): the run goes on, undrawn
+            self.stream = io.StringIO()  # (lab rehearsal: it failed the stage and the folder blocked a rerun)
+
+    def _draw(self, p: Progress) -> None:
         frac = min(1.0, p.fraction)
         done = int(round(BAR * frac))
         best = ""
@@ -103,8 +109,11 @@ class ProgressBar:
 
     def close(self) -> None:
         if self.tty and self.line is not None:
-            self.stream.write("\n")
-            self.stream.flush()
+            try:
+                self.stream.write("\n")
+                self.stream.flush()
+            except OSError:
+                pass
 
 
 def stage_rows(res: StageResult) -> tuple[list[str], list[list[Any]]]:
