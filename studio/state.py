@@ -29,6 +29,7 @@ from core.formats.design import check_params, design_from_dict, design_to_dict, 
 from core.formats.drawing import Plates
 from core.formats.session import SESSION_FORMAT, SessionFile, check_session
 from core.kinematics import mechanisms, presets
+from core.kinematics.checks import MAX_ABS
 from core.kinematics.design import Design
 from core.kinematics.mechanisms.rtclm import RTCLM_AUXILIARY, RTCLM_PRIMARY
 from core.kinematics.model import Mechanism
@@ -160,6 +161,9 @@ def fitted_target(design: Design, name: str, period: float = 2.0, h4: float = H4
     if not np.isfinite(path).all():
         return TargetSpec(period=period, origin=f"the paper's ({name}'s path does not close)", h4=h4)
     span = path.max(axis=0) - path.min(axis=0)
+    if float(np.abs(path).max()) > MAX_ABS or float(span.max()) > MAX_ABS:  # a 15 km Jansen leg (review of session
+        # 31): a target there is refused everywhere, so none is fitted
+        return TargetSpec(period=period, origin=f"the paper's ({name}'s path reaches past {MAX_ABS:g} mm)", h4=h4)
     length, height = max(round(float(span[0])), 1.0), max(round(float(span[1])), 1.0)
     placed = place_cycloid(path, length, height)
     note = f"{FITTED} {name} path and placed on it"

@@ -639,3 +639,18 @@ def test_the_pin_holes_travel_with_the_session_and_a_bad_one_is_refused() -> Non
                       ({"hole": 5.0, "depth": 1}, "depth")):
         with pytest.raises(ValueError, match=said):
             S.from_dict(dict(data, plates=bad))
+
+
+def test_a_design_whose_path_is_past_the_target_limit_loads_with_its_mechanisms_target() -> None:
+    # Review of session 31: a Jansen leg x15000 (every parameter under 1e6 mm, its path wider) was refused with
+    # "target length must be at most 1e+06 mm", a target the designer never gave.
+    from core.kinematics.presets import get
+
+    big = get("jansen").design().scaled(15000)
+    assert float(np.abs(big.params).max()) < 1e6
+    jansen = Session.default()
+    jansen.load_preset("jansen")
+    for s in (Session.default(), jansen):
+        v = s.set_design(big, by_hand=True, cause="design big.json", refit=True)
+        assert v.design is not None and np.array_equal(v.design.params, big.params)
+        assert v.target.length is not None and v.target.length <= 1e6
