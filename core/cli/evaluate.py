@@ -241,7 +241,9 @@ def table(ev: Evaluation, label: str, papers: bool = False, height: tuple[str, s
     ]
     if untimed and height is None and np.isfinite(r["mse_phase"]):
         at_zero = rows.pop()
-        rows.append(("shape error MSE, best phase", _fmt(r["mse_phase"]), "mm (the target has no times: f1 is this)"))
+        rows.append(("shape error MSE, best phase", _fmt(r["mse_phase"]),
+                     "mm (the target has no times: it is taken at constant speed along its length, so this includes "
+                     "timing; f1 is this)"))  # a leg's own path read 21 mm against itself (lab rehearsal)
         rows.append(("shape error, its first point at t = 0", at_zero[1], "mm (no meaning without times)"))
     elif np.isfinite(r["mse_phase"]):
         rows.append(("shape error, best phase", _fmt(r["mse_phase"]), "mm"))
