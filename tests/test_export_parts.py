@@ -131,3 +131,11 @@ def test_the_studio_names_its_own_hole_field_where_only_smaller_pins_help() -> N
     assert said and all(w.endswith("(Pin hole Ø above the Drawing buttons)") == ("overlap" in w) for w in said)
     assert any("overlap" in w for w in said)
     assert not any(w.endswith("buttons)") for w in drawing_warnings(view, 0.0, Plates(5.0)))
+
+
+def test_a_hole_in_metres_is_warned_of(tmp_path, capsys):
+    # Lab rehearsal: --hole 0.005 (5 mm written in m) drew 5 um pins without a word.
+    from core.cli import main
+
+    assert main(["export", "--preset", "stephenson1/X3", "--dxf", str(tmp_path / "m.dxf"), "--hole", "0.005"]) == 0
+    assert capsys.readouterr().err.startswith("clm: warning: --hole 0.005: a pivot hole under 0.5 mm")

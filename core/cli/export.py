@@ -51,6 +51,9 @@ def run(args: argparse.Namespace) -> int:
         plates = Plates(args.hole, args.width)
     except ValueError as exc:
         raise CLIError(f"--hole/--width: {exc}") from None
+    if plates.hole < 0.5:  # lab rehearsal: --hole 0.005 (metres) drew 5 um pins without a word
+        print(f"clm: warning: --hole {plates.hole:g}: a pivot hole under 0.5 mm; it is read in mm (values in m need "
+              "scaling)", file=sys.stderr)
     design, preset = load_design(args)
     warn_units(design, design_label(args, preset))  # before the hole advice a design in m would draw
     d = drawing(design, math.radians(math.fmod(args.angle, 360.0)))  # 1e8 deg: sin/cos of a huge angle lost it
