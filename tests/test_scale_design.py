@@ -96,3 +96,14 @@ def test_a_size_too_large_is_refused_with_the_right_advice_and_a_tiny_one_keeps_
     assert capsys.readouterr().err.rstrip().endswith("choose a smaller size")
     assert main(["scale", "--preset", "jansen", "--factor", "1e-5"]) == 0
     assert "(leg-frame path width 67.91 -> 0.000679 mm)" in capsys.readouterr().out
+
+
+def test_a_stride_in_metres_is_warned_of(capsys):
+    # Lab rehearsal: --stride 0.3 (300 mm written in m) wrote a 0.3 mm leg without a word.
+    from core.cli import main
+
+    assert main(["scale", "--preset", "stephenson1/X3", "--stride", "0.3"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("clm: warning: stephenson1/X3 x0.001") and "its foot path: it spans 0.3" in err
+    assert main(["scale", "--preset", "stephenson1/X3", "--stride", "150"]) == 0
+    assert capsys.readouterr().err == ""

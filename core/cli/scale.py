@@ -39,7 +39,7 @@ def _mm(v: float) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from core.cli.simulate import design_label, extent, load_design
+    from core.cli.simulate import design_label, extent, load_design, warn_units
 
     design, preset = load_design(args)
     sol = design.solve(360)
@@ -68,6 +68,7 @@ def run(args: argparse.Namespace) -> int:
                        f"{after.violation[0]:.3g} mm: the solver's tolerances are absolute and its lengths bounded): "
                        f"choose a {way} size")
     new = extent(after.leg[0])["width"]
+    warn_units(scaled, f"{label} x{factor:.4g}", after)  # lab rehearsal: --stride 0.3 (metres) without a word
     data = {"name": f"{label} x{factor:.4g}", "title": design.mechanism.title, **design_to_dict(scaled),
             "source": f"{label} scaled by {factor:.6g}"
                       + (f" (leg-frame path width {_mm(width)} -> {_mm(new)} mm)" if width and new else "")}
