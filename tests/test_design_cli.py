@@ -210,7 +210,13 @@ def test_compare_paper_appends_the_rtclm_cases_for_rtclm_runs(tmp_path: Path,
     out = capsys.readouterr().out.splitlines()
     assert out[0].split()[-4:] == ["h6", "(mm)", "h4", "(mm)"] and "h_s/300" not in out[0]
     assert out[2].startswith("paper: RTCLM case 1 (printed)")
-    assert out[2].split()[-6:] == ["798", "-", "-", "-", "50.1", "220.1"]
+    assert out[2].split()[-7:] == ["798", "-", "-", "-", "-", "50.1", "220.1"]  # no evaluations printed
+    # The run's own row counts its evaluations, every stage's (lab rehearsal: CMOES spent 2-3x NSGA-II's at the
+    # same population and generations, and nothing said so).
+    data = json.loads((tmp_path / "o" / "result.json").read_text())
+    spent = sum(r["n_evals"] for r in data["pipeline"]["results"] if r is not None)
+    assert spent > 0 and data["rows"][0]["evals"] == spent
+    assert out[0].split()[3] == "evaluations" and out[1].split()[-6] == str(spent)
     assert len([x for x in out if x.startswith("paper: ")]) == 5 and not any("DP+SQP" in x for x in out)
 
 

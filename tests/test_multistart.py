@@ -129,6 +129,11 @@ def test_reported_time_counts_the_losing_chains(run: DesignRun) -> None:
     (block,) = run.multistart
     lineage = sum(r.timings["total"] for r in run.results)
     assert run.compute_time == pytest.approx(lineage + sum(c.time for c in block.chains if c.index != block.chosen))
+    # Evaluations are counted the same way, every chain's (clm compare's column).
+    assert all(c.evals is not None and c.evals > 0 for c in block.chains)
+    spent = sum(r.n_evals for r in run.results) + sum(c.evals or 0 for c in block.chains if c.index != block.chosen)
+    assert run.compute_evals == spent and run.rows()[0]["evals"] == spent
+    assert Chain.from_dict({**block.chains[0].to_dict(), "evals": None}).evals is None  # an older result
     assert run.rows()[0]["time"] == pytest.approx(run.compute_time)
 
 

@@ -80,7 +80,7 @@ def load_rows(path: Path) -> list[dict[str, Any]]:
     compiled = data.get("compile_time")
     if isinstance(compiled, int | float) and compiled >= COMPILE_NOTE:  # a first run: its time is mostly compiling
         rows = [{**r, "compiled": float(compiled)} for r in rows]
-    numeric = {"time", "mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4", "violation", "dp"}
+    numeric = {"time", "evals", "mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4", "violation", "dp"}
     config: dict[str, Any] = data["config"] if isinstance(data.get("config"), dict) else {}
     try:
         return [{**{k: (decode_float(v) if k in numeric else v) for k, v in r.items()}, "run": _run_name(config, r)}
@@ -118,7 +118,9 @@ def run(args: argparse.Namespace) -> int:
         seen.add(f)
         rows += [{**r, "source": str(p)} for r in load_rows(p)]
     extra = [k for k in ("h6", "h4") if any(k in r for r in rows)]
-    header = ["method", "time (s)", "MSE (mm)", "S (%)", "I (mm/s)"] + [f"{k} (mm)" for k in extra]
+    # Evaluations beside the time (lab rehearsal: at the same population and generations CMOES spent 2-3x NSGA-II's,
+    # and a comparison read as like for like); a result written before they were kept reads "-".
+    header = ["method", "time (s)", "evaluations", "MSE (mm)", "S (%)", "I (mm/s)"] + [f"{k} (mm)" for k in extra]
     out = []
     labels = [r["label"] for r in rows]
     named = [f"{r['label']} ({r['run']})" if labels.count(r["label"]) > 1 and r.get("run") else r["label"]
@@ -128,17 +130,19 @@ def run(args: argparse.Namespace) -> int:
             label += f" in {r['source']}"
         label += "" if r.get("status", "complete") == "complete" else f" [{r['status']}]"
         label += " *" if infeasible(r) else ""
-        out.append([label, r.get("time", float("nan"))] + [r.get(k, float("nan")) for k in ("mse", "S", "I", *extra)])
+        evals = r.get("evals")
+        out.append([label, r.get("time", float("nan")), "-" if evals is None or evals != evals else int(evals)]
+                   + [r.get(k, float("nan")) for k in ("mse", "S", "I", *extra)])
     rtclm = bool(rows) and all("h4" in r for r in rows)
     if args.paper and rtclm:  # the RTCLM's own table, not the Stephenson-I baselines of B-5
         nan = float("nan")
-        out += [[name, 60.0 * t, nan, nan, nan, h6, h4] for name, t, h6, h4 in PAPER_C1]
+        out += [[name, 60.0 * t, "-", nan, nan, nan, h6, h4] for name, t, h6, h4 in PAPER_C1]
     elif args.paper:
         # The paper's S is h_s / 300 mm (spec §4), ours h_s / l_s: side by side only in a column of their own.
-        header.insert(4, "h_s/300 (%)")
+        header.insert(5, "h_s/300 (%)")
         for row, r in zip(out, rows, strict=True):
-            row.insert(4, 100.0 * r.get("h_s", float("nan")) / 300.0)
-        out += [[name, 60.0 * t, mse, float("nan"), s, i] + [float("nan")] * len(extra)
+            row.insert(5, 100.0 * r.get("h_s", float("nan")) / 300.0)
+        out += [[name, 60.0 * t, "-", mse, float("nan"), s, i] + [float("nan")] * len(extra)
                 for name, t, mse, s, i in PAPER_B5]
     print(table(header, out))
     if any(infeasible(r) for r in rows):

@@ -189,6 +189,7 @@ class _Chain:
         self.metrics: list[dict[str, float]] = []
         self.params: list[dict[str, float]] = []
         self.time = 0.0
+        self.evals = 0
         self.status = "running"
         self.feasible = False
 
@@ -201,6 +202,7 @@ class _Chain:
         for k in range(self.first + len(self.picks), upto + 1):
             res = run_stage(self.config, self.pipe, k, pick, self.seeds[k - self.first], tagged, cancel)
             self.time += float(res.timings["total"])
+            self.evals += int(res.n_evals)
             pick = res.picked
             self.picks.append(pick)
             if pick is None:
@@ -223,7 +225,7 @@ class _Chain:
         # A chain still running when the run stopped counts as cancelled.
         status = "cancelled" if self.status == "running" else self.status
         return Chain(self.j, self.seeds, status, tuple(self.picks), tuple(self.metrics), tuple(self.params),
-                     self.feasible and status == "complete", self.time)
+                     self.feasible and status == "complete", self.time, self.evals)
 
 
 def _tag(callback: Callable[[Progress], None], j: int) -> Callable[[Progress], None]:

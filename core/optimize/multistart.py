@@ -178,6 +178,7 @@ class Chain:
         params: per stage, the pick's parameters by name.
         feasible: whether the pick at the block's last stage meets its stage's constraints.
         time: compute time of the chain's stages (s).
+        evals: function evaluations of the chain's stages (None in a result written before they were kept).
     """
 
     index: int
@@ -188,6 +189,7 @@ class Chain:
     params: tuple[Mapping[str, float], ...]
     feasible: bool
     time: float
+    evals: int | None = None
 
     @property
     def last(self) -> Mapping[str, float]:
@@ -206,7 +208,7 @@ class Chain:
     def to_dict(self) -> dict[str, Any]:
         return {"index": self.index, "seeds": list(self.seeds), "status": self.status, "picks": list(self.picks),
                 "metrics": [dict(m) for m in self.metrics], "params": [dict(p) for p in self.params],
-                "feasible": self.feasible, "time": self.time}
+                "feasible": self.feasible, "time": self.time, "evals": self.evals}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Chain:
@@ -215,7 +217,8 @@ class Chain:
 
         return cls(int(d["index"]), tuple(int(s) for s in d["seeds"]), str(d["status"]),
                    tuple(None if p is None else int(p) for p in d["picks"]), tuple(floats(m) for m in d["metrics"]),
-                   tuple(floats(p) for p in d["params"]), bool(d["feasible"]), decode_float(d["time"]))
+                   tuple(floats(p) for p in d["params"]), bool(d["feasible"]), decode_float(d["time"]),
+                   None if d.get("evals") is None else int(d["evals"]))
 
 
 @dataclass(frozen=True)
@@ -242,6 +245,12 @@ class MultiStart:
     def time(self) -> float:
         """Compute time of the chains that lost (the winner's is in its stage results)."""
         return float(sum(c.time for c in self.chains if c.index != self.chosen))
+
+    @property
+    def evals(self) -> int | None:
+        """Function evaluations of the chains that lost; None when a chain's were not kept (an older result)."""
+        lost = [c.evals for c in self.chains if c.index != self.chosen]
+        return None if any(e is None for e in lost) else int(sum(e for e in lost if e is not None))
 
     def to_dict(self) -> dict[str, Any]:
         return {"starts": self.starts.to_dict(), "stages": list(self.stages), "first": self.first,

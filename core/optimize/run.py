@@ -72,6 +72,14 @@ class DesignRun:
         return float(sum(r.timings["total"] for r in self.results) + sum(m.time for m in self.multistart))
 
     @property
+    def compute_evals(self) -> int | None:
+        """Function evaluations of every stage run, as :attr:`compute_time` counts (None: a chain's not kept)."""
+        lost = [m.evals for m in self.multistart]
+        if any(e is None for e in lost):
+            return None
+        return int(sum(r.n_evals for r in self.results) + sum(e for e in lost if e is not None))
+
+    @property
     def results(self) -> list[StageResult]:
         return [] if self.pipeline is None else self.pipeline.lineage
 
@@ -98,12 +106,13 @@ class DesignRun:
             for obj in shown:
                 if r.shortlist.best:
                     i = r.choose(f"best:{obj}")
-                    out.append(_row(f"{c.name}: single-level, smallest {obj}", c.method, total, r, i, self.status))
+                    out.append(_row(f"{c.name}: single-level, smallest {obj}", c.method, total, r, i, self.status,
+                                    self.compute_evals))
             return out
         fin = self.final()
         if fin is not None:
             r, i = fin
-            out.append(_row(f"{c.name}: {r.name} pick", c.method, total, r, i, self.status))
+            out.append(_row(f"{c.name}: {r.name} pick", c.method, total, r, i, self.status, self.compute_evals))
         return out
 
     def to_dict(self) -> dict[str, Any]:
@@ -150,9 +159,10 @@ def _failed(config: DesignConfig, pipe: Pipeline, blocks: list[MultiStart], used
 ROW_METRICS = ("mse", "S", "I", "h_s", "f2", "f3", "h6", "h4", "dh6", "dh4")
 
 
-def _row(label: str, method: str, total: float, r: StageResult, i: int, status: str) -> dict[str, Any]:
-    row: dict[str, Any] = {"label": label, "method": method, "time": total, "status": status, "stage": r.name,
-                           "member": i, "feasible": bool(r.feasible[i]), "params": r.named(i)}
+def _row(label: str, method: str, total: float, r: StageResult, i: int, status: str,
+         evals: int | None) -> dict[str, Any]:
+    row: dict[str, Any] = {"label": label, "method": method, "time": total, "evals": evals, "status": status,
+                           "stage": r.name, "member": i, "feasible": bool(r.feasible[i]), "params": r.named(i)}
     for k in ROW_METRICS:
         if k in r.metrics:
             row[k] = float(r.metrics[k][i])
