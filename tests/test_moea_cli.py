@@ -156,3 +156,11 @@ def test_a_run_that_compiled_kernels_says_how_much_of_its_time_that_was(capsys, 
     monkeypatch.setattr(kernel_cache.CompileTimer, "seconds", property(lambda self: 0.0))
     assert main(["moea", "--problem", "ctp2", "--pop", "20", "--evals", "200"]) == 0
     assert "compiling" not in capsys.readouterr().out
+
+
+def test_an_igd_without_a_feasible_member_and_a_budget_overshot_are_said(capsys):
+    # Lab rehearsal: "IGD -" and 3077 evaluations of a 3000 budget were left to guess.
+    assert main(["moea", "--problem", "mw1", "--pop", "20", "--evals", "110", "--seed", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "IGD - (no feasible member at the end: nothing to measure)" in out
+    assert "120 evaluations (the generation that reached --evals 110 ran to its end)" in out

@@ -72,7 +72,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     compiled = (f" ({r['compile_time']:.1f} s of it compiling numba kernels: a first run on this machine)"
                 if r["compile_time"] >= COMPILE_NOTE else "")
-    print(f"{r['algorithm']} on {r['problem']} (pop {r['pop']}, seed {r['seed']}): IGD {_fmt(r['igd'])} (lower is "
-          f"better), HV {_fmt(r['hv'])} (higher is better), {r['n_eval']} evaluations, {r['feasible']} of "
-          f"{r['size']} feasible, front {r['front_size']}, {r['wall_time']:.2f} s{compiled}")
+    # Lab rehearsal: "IGD -" and 3077 evaluations of a 3000 budget were left to guess.
+    none = "no feasible member at the end: nothing to measure" if not math.isfinite(r["igd"]) else "lower is better"
+    past = (f" (the generation that reached --evals {args.evals} ran to its end)" if r["n_eval"] > args.evals else "")
+    print(f"{r['algorithm']} on {r['problem']} (pop {r['pop']}, seed {r['seed']}): IGD {_fmt(r['igd'])} ({none}), "
+          f"HV {_fmt(r['hv'])} (higher is better), {r['n_eval']} evaluations{past}, {r['feasible']} of {r['size']} "
+          f"feasible, front {r['front_size']}, {r['wall_time']:.2f} s{compiled}")
     return 0
