@@ -344,7 +344,7 @@ def test_a_failing_stage_names_where_it_failed_not_where_the_failure_was_passed_
     import core.optimize.run as run_module
     from core.study.cell import run_cell
 
-    def fails(*args):  # type: ignore[no-untyped-def]
+    def fails(*args, **kwargs):  # type: ignore[no-untyped-def]
         raise ZeroDivisionError("float division by zero")
 
     monkeypatch.setattr(run_module, "run_stage", fails)

@@ -148,7 +148,10 @@ class StagesPanel:
         if st.state == "stopping":
             return f"**Stopping** {st.stage} after generation {st.generation}…"
         if st.stage is None:
-            return "Idle. Choose a stage and press Run."
+            # Lab rehearsal: a first-time student read only this line; it now says what a run gives and where.
+            return ("Idle. Choose a stage (they run in order, each from the last one's pick) and press Run: its "
+                    "Pareto front grows in the chart below and in the scene, and a click on a candidate makes it the "
+                    "editor's design.")
         mark = "" if st.ok else "⚠ "
         return f"{mark}Last run: {st.stage} {st.message} ({seconds(st.elapsed)} compute{compiled})."
 
