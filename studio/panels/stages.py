@@ -149,9 +149,7 @@ class StagesPanel:
             return f"**Stopping** {st.stage} after generation {st.generation}…"
         if st.stage is None:
             # Lab rehearsal: a first-time student read only this line; it now says what a run gives and where.
-            return ("Idle. Choose a stage (they run in order, each from the last one's pick) and press Run: its "
-                    "Pareto front grows in the chart below and in the scene, and a click on a candidate makes it the "
-                    "editor's design.")
+            return "Idle. Choose a stage and press Run; its front grows below: click a candidate to take it."
         mark = "" if st.ok else "⚠ "
         return f"{mark}Last run: {st.stage} {st.message} ({seconds(st.elapsed)} compute{compiled})."
 
