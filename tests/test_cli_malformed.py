@@ -193,3 +193,23 @@ def test_a_windows_path_is_shown_as_typed_with_a_word_on_its_separator(capsys):
     assert main(["simulate", "--design", "C:\\Users\\student\\x3.json"]) == 2
     assert capsys.readouterr().err == ("clm: error: design file C:\\Users\\student\\x3.json not found ('\\' is not a "
                                        "folder separator here: use '/')\n")
+
+
+def test_presets_show_writes_a_file_only_for_a_name_it_knows_and_keeps_an_existing_one(tmp_path, capsys):
+    # Lab rehearsal: 'clm presets show stephenson1/x3 > mine.json' emptied the student's edited design (the shell
+    # truncates before the name is read), and the empty file then read "Expecting value at line 1 column 1".
+    mine = tmp_path / "mine.json"
+    assert main(["presets", "show", "stephenson1/X3", "--out", str(mine)]) == 0
+    assert capsys.readouterr().out == f"wrote {mine}\n"
+    edited = mine.read_text().replace('"r1": ', '"r1": 1 + ', 0)
+    assert main(["presets", "show", "stephenson1/x3", "--out", str(mine)]) == 2  # a typo: the file is untouched
+    assert "did you mean stephenson1/X3" in capsys.readouterr().err and mine.read_text() == edited
+    assert main(["presets", "show", "stephenson1/X2", "--out", str(mine)]) == 2
+    assert "exists; pass --overwrite" in capsys.readouterr().err and mine.read_text() == edited
+    assert main(["presets", "show", "stephenson1/X2", "--out", str(mine), "--overwrite"]) == 0
+    assert main(["simulate", "--design", str(mine)]) == 0
+    capsys.readouterr()
+    empty = tmp_path / "empty.json"
+    empty.write_text("")
+    assert main(["simulate", "--design", str(empty)]) == 2
+    assert capsys.readouterr().err == f"clm: error: {empty} is empty: not a design JSON\n"

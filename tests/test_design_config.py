@@ -307,3 +307,21 @@ def test_slips_a_student_makes_get_the_name_they_meant(tmp_path: Path) -> None:
         load_config(tmp_path / "x3.json")
     with pytest.raises(ValueError, match=r"^unknown preset 'X3'; did you mean stephenson1/X3\? "):
         presets.get("X3")
+
+
+def test_a_windows_path_in_a_config_is_named_as_what_toml_made_of_it(tmp_path: Path) -> None:
+    # Lab rehearsal: curve = "data\target.csv" became a TAB, and the error's repr printed it back as typed.
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "target.csv").write_text("x,y\n0,0\n100,0\n100,50\n0,50\n")
+    cfg = tmp_path / "c.toml"
+    text = (ASSETS / "stephenson1_cycloid.toml").read_text()
+    block = 'curve = "cycloid"\nL = 300.0\nH = 100.0\nT = 2.0'
+    assert block in text
+    cfg.write_text(text.replace(block, 'curve = "data\\target.csv"'))
+    with pytest.raises(ValueError, match=r"starts an escape: \\t is a tab; write the path with '/'"):
+        load_config(cfg)
+    cfg.write_text(cfg.read_text().replace('"data\\target.csv"', "'data\\target.csv'"))
+    with pytest.raises(ValueError, match=r"not found \('\\' is not a folder separator here: use '/'\)"):
+        load_config(cfg)
+    cfg.write_text(cfg.read_text().replace("'data\\target.csv'", '"data/target.csv"'))
+    assert load_config(cfg).stages

@@ -118,6 +118,8 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
         return run_pick(path / "result.json" if path.is_dir() else path), None
     else:
         text = read_user_file(path, MAX_DESIGN_BYTES, "design file")
+    if not text.strip():  # read "Expecting value at line 1 column 1" (lab rehearsal: a '> my.json' that failed)
+        raise CLIError(f"{path} is empty: not a design JSON")
     try:
         data = json.loads(text, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as e:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
@@ -153,7 +154,14 @@ def _target(t: Target, base: Path) -> str:
             raise _fail(f"target.{k}", "only for curve = \"cycloid\"")
     p = (base / t.curve).resolve()
     if not p.is_file():
-        raise _fail("target.curve", f"file {str(p)!r} not found")
+        # Lab rehearsal: "data\target.csv" in a TOML "..." string holds a TAB, and its repr read as typed.
+        hint = ""
+        if any(c in t.curve for c in "\t\n\r\b\f"):
+            hint = (" (a backslash in a TOML \"...\" string starts an escape: \\t is a tab; write the path with '/', "
+                    "or in '...' quotes)")
+        elif "\\" in t.curve and os.sep == "/":
+            hint = " ('\\' is not a folder separator here: use '/')"
+        raise _fail("target.curve", f"file {p} not found{hint}")
     from core.analysis.targets import load_curve
 
     try:
