@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -110,6 +109,8 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
         text = _stdin(MAX_DESIGN_BYTES)
         path = Path("<stdin>")
     elif not path.exists():
+        from core.formats.files import backslash_hint
+
         raise CLIError(f"design file {path} not found{backslash_hint(path)}")
     elif path.is_dir() and not (path / "result.json").is_file():
         raise CLIError(f"{path} is a folder without a result.json: not a 'clm design --out' run; give a design JSON "
@@ -143,11 +144,6 @@ def json_message(e: json.JSONDecodeError) -> str:
         if before[-1:].isdigit():
             hint = " (a decimal comma? JSON numbers take '.': 128.33)"
     return f"{e.msg.removesuffix(' at')} at line {e.lineno} column {e.colno}{hint}"
-
-
-def backslash_hint(path: Path) -> str:
-    """A word for a Windows path typed on a system whose folder separator is '/' (lab rehearsal)."""
-    return " ('\\' is not a folder separator here: use '/')" if "\\" in str(path) and os.sep == "/" else ""
 
 
 def _stdin(max_bytes: int) -> str:

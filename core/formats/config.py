@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import inspect
 import math
-import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
@@ -30,6 +29,7 @@ from core.formats.config_file import (
     Stage,
     Target,
 )
+from core.formats.files import backslash_hint
 from core.formats.typed import decode, kind
 from core.kinematics import presets
 from core.kinematics.checks import MAX_ABS
@@ -159,8 +159,8 @@ def _target(t: Target, base: Path) -> str:
         if any(c in t.curve for c in "\t\n\r\b\f"):
             hint = (" (a backslash in a TOML \"...\" string starts an escape: \\t is a tab; write the path with '/', "
                     "or in '...' quotes)")
-        elif "\\" in t.curve and os.sep == "/":
-            hint = " ('\\' is not a folder separator here: use '/')"
+        else:
+            hint = backslash_hint(t.curve)
         raise _fail("target.curve", f"file {p} not found{hint}")
     from core.analysis.targets import load_curve
 

@@ -56,6 +56,11 @@ def check_out_dir(out: str | Path, files: Iterable[str] = ()) -> Path:
     return d
 
 
+def backslash_hint(path: str | Path) -> str:
+    """A word for a Windows path typed on a system whose folder separator is '/' (lab rehearsal), else ""."""
+    return " ('\\' is not a folder separator here: use '/')" if "\\" in str(path) and os.sep == "/" else ""
+
+
 @contextmanager
 def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator[None]:
     """Hold ``DIR/.lock`` while ``what`` ("clm design") writes into ``DIR``: a second command into the same folder
