@@ -164,3 +164,10 @@ def test_an_igd_without_a_feasible_member_and_a_budget_overshot_are_said(capsys)
     out = capsys.readouterr().out
     assert "IGD - (no feasible member at the end: nothing to measure)" in out
     assert "120 evaluations (the generation that reached --evals 110 ran to its end)" in out
+
+
+def test_an_algorithm_name_is_taken_in_any_case_as_problem_names_are(capsys):
+    # Lab rehearsal: `--problem MW3` was taken and `--algorithm CMOES` refused with a did-you-mean.
+    assert main(["moea", "--problem", "MW3", "--algorithm", "NSGA2", "--pop", "20", "--evals", "100", "--json",
+                 "--option", "crossover_prob=0.5"]) == 0
+    assert json.loads(capsys.readouterr().out)["algorithm"] == "nsga2"
