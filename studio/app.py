@@ -380,6 +380,7 @@ class Studio:
         still = held or self._page_loading()  # (a page loading holds it quietly: ~1.5 s)
         pb = self.session.snapshot()[1] if still else self.session.advance(dt)
         view = self._shown
+        self.scene.name_joints(not pb.playing)  # a no-op but on Play / Pause
         if view is None or not self.server.get_clients():  # nobody watching: keep time, skip the pushes
             return
         if self._study_dirty and time.monotonic() - self._last_push >= STUDY_PUSH_PERIOD:

@@ -229,6 +229,7 @@ class SceneFrames:
         joints: ``(n_samples, n_moving, 3)`` moving joints per sample.
         pivots: ``(n_pivots, 3)`` ground pivots a link touches (the RTCLM auxiliary mode's locked A..D are not drawn).
         pivot_names: names of the ground pivots.
+        joint_names: names of the moving joints, in ``joints``' order (labelled while the animation is paused).
         foot: ``(n_samples, 1, 3)`` tracked point, design frame.
         leg_foot: ``(n_samples, 1, 3)`` tracked point, leg frame (leg-view local coordinates).
         path, target: ``(m, 2, 3)`` design-frame path and target segments.
@@ -274,6 +275,7 @@ class SceneFrames:
     feature_labels: tuple[SceneText, ...] = ()
     scale_bars: F32 = field(default_factory=lambda: np.zeros((0, 2, 3), dtype=np.float32))
     text_height: float = 0.0
+    joint_names: tuple[str, ...] = ()
 
     @property
     def n_samples(self) -> int:
@@ -425,6 +427,7 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         joints=_lift(to_scene(pose[:, ~is_ground]), Z_MARKERS),
         pivots=_lift(to_scene(pose[0, pivots]), Z_MARKERS),
         pivot_names=tuple(n for n, shown in zip(mech.joint_names, pivots, strict=True) if shown),
+        joint_names=tuple(n for n, g in zip(mech.joint_names, is_ground, strict=True) if not g),
         foot=_lift(to_scene(foot[:, None, :]), 2 * Z_MARKERS),
         leg_foot=_lift(to_scene(leg_foot[:, None, :]), 2 * Z_MARKERS),
         path=_lift(to_scene(closed_polyline(point)), Z_LINES),

@@ -68,6 +68,10 @@ class MechanismScene:
         self._frames: SceneFrames | None = None
         self._index = -1
         self._labels: list[viser.LabelHandle] = []
+        # The moving joints are named only while the animation is paused (lab rehearsal: the tooltips say "BC"
+        # and the scene named only A and D); moving labels every frame would cost lag on software rendering.
+        self._joint_labels: list[viser.LabelHandle] = []
+        self._named = False
         self.frames_pushed = 0
         scene = server.scene
         scene.set_up_direction("+y")
@@ -188,8 +192,9 @@ class MechanismScene:
                 node.visible = False
 
     def _show_labels(self, frames: SceneFrames) -> None:
-        """Static labels: ground pivots (design view) and feature points (leg view)."""
-        for label in self._labels:
+        """Static labels: ground pivots (design view) and feature points (leg view); the moving joints' labels,
+        shown while paused."""
+        for label in (*self._labels, *self._joint_labels):
             label.remove()
         off = 0.6 * frames.marker
         scene = self.server.scene
@@ -204,6 +209,31 @@ class MechanismScene:
                             font_size_mode="scene", font_scene_height=t.height, position=t.position)
             for k, t in enumerate(frames.feature_labels)
         ]
+        self._joint_labels = [
+            scene.add_label(f"/design/joint_labels/{name}", name, anchor="bottom-left", font_size_mode="scene",
+                            font_scene_height=small, visible=self._named)
+            for name in frames.joint_names
+        ]
+
+    def _place_joint_labels(self, i: int) -> None:
+        f = self._frames
+        if f is None or not self._named:
+            return
+        off = 0.6 * f.marker
+        for label, (x, y, z) in zip(self._joint_labels, f.joints[i], strict=False):
+            label.position = (float(x) + off, float(y) + off, float(z))
+
+    def name_joints(self, on: bool) -> None:
+        """Show the moving joints' names at the current pose (the animation paused), or hide them (playing)."""
+        with self._lock:
+            if on == self._named:
+                return
+            self._named = on
+            with self.server.atomic():
+                for label in self._joint_labels:
+                    label.visible = on
+                if self._index >= 0:
+                    self._place_joint_labels(self._index)
 
     def _draw(self, index: int) -> None:
         f = self._frames
@@ -214,6 +244,7 @@ class MechanismScene:
         self.joints.points = f.joints[i]
         self.foot.points = f.foot[i]
         self.leg_foot.points = f.leg_foot[i]
+        self._place_joint_labels(i)
         if f.walk is not None:
             self.walk_body.points = f.walk.body[i]
             self.walk_feet.points = f.walk.feet[i]

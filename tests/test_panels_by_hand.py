@@ -1157,3 +1157,28 @@ def test_a_pick_shown_in_the_rtclms_auxiliary_mode_is_the_same_leg_for_undo_and_
     assert len(studio.session.undone) == steps and not client.notes
     studio.refresh()
     assert 'class="clm-verdict"' in studio.metrics.stage.content
+
+
+def test_the_moving_joints_are_named_while_paused_and_follow_the_crank(studio):
+    # Lab rehearsal: the parameter tooltips name links such as "BC" and the scene named only A and D.
+    scene = studio.scene
+    frames = scene.show(studio.session.view)
+    names = [label.text for label in scene._joint_labels]
+    assert names == list(frames.joint_names) and {"B", "C", "P"} <= set(names)
+    assert not set(names) & set(frames.pivot_names)
+    studio._tick(0.0)  # paused: named at the pose shown
+    assert all(label.visible for label in scene._joint_labels)
+    k = names.index("B")
+    at0 = np.array(scene._joint_labels[k].position)
+    np.testing.assert_allclose(at0[:2], frames.joints[scene._index][k, :2] + 0.6 * frames.marker, rtol=1e-6)
+    press(studio.playback.angle, Client(), 90.0)  # scrubbing moves them with the joints
+    scene.draw(scene._index + frames.n_samples // 4)
+    at90 = np.array(scene._joint_labels[k].position)
+    np.testing.assert_allclose(at90[:2], frames.joints[scene._index][k, :2] + 0.6 * frames.marker, rtol=1e-6)
+    assert np.linalg.norm(at90 - at0) > frames.marker
+    studio.session.set_playing(True)
+    studio._tick(0.0)  # playing: hidden (moving labels every frame would cost lag)
+    assert not any(label.visible for label in scene._joint_labels)
+    studio.session.set_playing(False)
+    studio._tick(0.0)
+    assert all(label.visible for label in scene._joint_labels)
