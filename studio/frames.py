@@ -174,6 +174,49 @@ def pivot_label_spots(names: tuple[str, ...], pivots: np.ndarray, links: np.ndar
     return tuple(out)
 
 
+def label_box(text: str, position: tuple[float, float, float], anchor: str, h: float
+              ) -> tuple[float, float, float, float]:
+    """The box ``(x0, y0, x1, y1)`` a corner-anchored label covers (PIVOT_SPOTS' anchors)."""
+    x, y, w, th = position[0], position[1], text_width(text, h), text_height(text, h)
+    xs = (x, x + w) if anchor.endswith("left") else (x - w, x)
+    ys = (y - th, y) if anchor.startswith("top") else (y, y + th)
+    return (xs[0], ys[0], xs[1], ys[1])
+
+
+def joint_label_spots(names: tuple[str, ...], joints: np.ndarray, links: np.ndarray, h: float, off: float,
+                      taken: tuple[tuple[float, float, float, float], ...] = ()
+                      ) -> tuple[tuple[tuple[float, float, float], str], ...]:
+    """The moving joints' label positions and anchors at one pose: each joint in turn takes the corner, ``off``
+    away, that the fewest links cross, clear of the labels placed before it (``taken``: boxes ``(x0, y0, x1,
+    y1)``, e.g. the pivots') and of the other joints (B and F of the Stephenson-I overlapped as "BF").
+
+    Args:
+        joints: ``(k, 3)`` joints; links: ``(n_edges, 2, 3)`` the link segments at that pose (scene units).
+    """
+    seg = np.asarray(links, dtype=np.float64)[None, :, :, :2]
+    a, d = seg[:, :, 0, :], seg[:, :, 1, :] - seg[:, :, 0, :]
+    pts = np.asarray(joints, dtype=np.float64)
+    boxes = list(taken)
+    out: list[tuple[tuple[float, float, float], str]] = []
+    for k, (name, p) in enumerate(zip(names, pts, strict=True)):
+        w, th = text_width(name, h), text_height(name, h)
+        others = np.delete(pts[:, :2], k, axis=0)
+        best, least = ((float(p[0]) + off, float(p[1]) - off, float(p[2])), "top-left"), np.inf
+        box = (0.0, 0.0, 0.0, 0.0)
+        for sx, sy, anchor in PIVOT_SPOTS:
+            x0, y0 = p[0] + sx * off, p[1] + sy * off
+            xa, xb = (x0, x0 + w) if sx > 0 else (x0 - w, x0)
+            ya, yb = (y0 - th, y0) if sy < 0 else (y0, y0 + th)
+            cost = float(_crosses_box(a, d, (xa, ya, xb, yb)).sum())
+            cost += 3.0 * sum(xa < c and c < xb and ya < e and e < yb for c, e in others)
+            cost += 3.0 * sum(xa < b[2] and b[0] < xb and ya < b[3] and b[1] < yb for b in boxes)
+            if cost < least:
+                best, least, box = ((float(x0), float(y0), float(p[2])), anchor), cost, (xa, ya, xb, yb)
+        boxes.append(box)
+        out.append(best)
+    return tuple(out)
+
+
 def _crosses_box(a: F64, d: F64, box: tuple[float, float, float, float]) -> np.ndarray:
     """Whether segments ``a + t d`` (t in [0, 1]; ``(..., 2)`` arrays) pass through the open box (Liang-Barsky)."""
     lo, hi = np.zeros(a.shape[:-1]), np.ones(a.shape[:-1])

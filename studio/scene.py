@@ -24,6 +24,8 @@ from studio.frames import (
     SceneFrames,
     SceneText,
     build_frames,
+    joint_label_spots,
+    label_box,
     paint,
     pivot_label_spots,
 )
@@ -72,6 +74,8 @@ class MechanismScene:
         # and the scene named only A and D); moving labels every frame would cost lag on software rendering.
         self._joint_labels: list[viser.LabelHandle] = []
         self._named = False
+        self._label_height = 0.0
+        self._pivot_boxes: tuple[tuple[float, float, float, float], ...] = ()
         self.frames_pushed = 0
         scene = server.scene
         scene.set_up_direction("+y")
@@ -200,6 +204,9 @@ class MechanismScene:
         scene = self.server.scene
         small = 0.8 * frames.text_height
         spots = pivot_label_spots(frames.pivot_names, frames.pivots, frames.links, small, off)
+        self._label_height = small
+        self._pivot_boxes = tuple(label_box(name, xyz, anchor, small)
+                                  for name, (xyz, anchor) in zip(frames.pivot_names, spots, strict=True))
         self._labels = [
             scene.add_label(f"/design/pivot_labels/{name}", name, anchor=anchor,  # type: ignore[arg-type]
                             font_size_mode="scene", font_scene_height=small, position=(x, y, 0.0))
@@ -217,11 +224,12 @@ class MechanismScene:
 
     def _place_joint_labels(self, i: int) -> None:
         f = self._frames
-        if f is None or not self._named:
+        if f is None or not self._named or not self._joint_labels:
             return
-        off = 0.6 * f.marker
-        for label, (x, y, z) in zip(self._joint_labels, f.joints[i], strict=False):
-            label.position = (float(x) + off, float(y) + off, float(z))
+        spots = joint_label_spots(f.joint_names, f.joints[i], f.links[i], self._label_height, 0.6 * f.marker,
+                                  self._pivot_boxes)
+        for label, (position, anchor) in zip(self._joint_labels, spots, strict=True):
+            label.position, label.anchor = position, anchor  # type: ignore[assignment]
 
     def name_joints(self, on: bool) -> None:
         """Show the moving joints' names at the current pose (the animation paused), or hide them (playing)."""

@@ -289,3 +289,29 @@ def test_the_auxiliary_mode_draws_the_links_it_holds_still_in_the_frames_colour(
             x, y = j[names.index(n)]
             assert box[0] <= x <= box[2] and box[1] <= y <= box[3], (preset, n)
     assert Session.default("rtclm/case2").view.design.mechanism.locked == ()  # the primary mode moves them
+
+
+@pytest.mark.parametrize("preset", ["stephenson1/X3", "jansen", "klann", "watt1/paper", "rtclm/case1"])
+def test_moving_joint_labels_keep_off_each_other_and_the_pivot_labels(preset):
+    # Session 33: the joints' labels at a fixed corner read "BF" where the Stephenson-I's B and F sit close.
+    from studio.frames import joint_label_spots, label_box, pivot_label_spots
+
+    f = build_frames(Session.default(preset).view)
+    h, off = 0.8 * f.text_height, 0.6 * f.marker
+    pivots = tuple(label_box(n, xyz, a, h) for n, (xyz, a) in
+                   zip(f.pivot_names, pivot_label_spots(f.pivot_names, f.pivots, f.links, h, off), strict=True))
+    worst = 0
+    for i in range(0, f.n_samples, 7):
+        spots = joint_label_spots(f.joint_names, f.joints[i], f.links[i], h, off, pivots)
+        boxes = [label_box(n, xyz, a, h) for n, (xyz, a) in zip(f.joint_names, spots, strict=True)]
+        for (xyz, _), p in zip(spots, f.joints[i], strict=True):  # a marker's offset from its joint, diagonally
+            np.testing.assert_allclose(np.abs(np.array(xyz[:2]) - p[:2]), off, rtol=1e-5)
+        clash = sum(_overlaps(a, b) for a, b in itertools.combinations(boxes, 2))
+        clash += sum(_overlaps(a, b) for a in boxes for b in pivots)
+        worst = max(worst, clash)
+    assert worst <= (1 if preset == "klann" else 0), worst  # four corners each: Klann crowds three joints once
+    # A fixed corner would not have kept them apart (the test can fail): B and F of the Stephenson-I at 0.
+    if preset == "stephenson1/X3":
+        fixed = [label_box(n, (p[0] + off, p[1] + off, 0.0), "bottom-left", h)
+                 for n, p in zip(f.joint_names, f.joints[0], strict=True)]
+        assert sum(_overlaps(a, b) for a, b in itertools.combinations(fixed, 2)) >= 1
