@@ -358,6 +358,27 @@ def walk_text(view: DesignView) -> str:
             f"ψ₂({a:g}, {b:g}) {100.0 * float(ev.psi2[0]):.1f} % · ψ₄({a:g}, {b:g}) {100.0 * float(ev.psi4[0]):.1f} %")
 
 
+BENCH_SHORT = (("mse", "MSE"), ("S", "S"), ("I", "I"), ("h_s", "hₛ"))  # the stages' figures, as the paper names them
+
+
+def bench_text(view: DesignView) -> str:
+    """The bench trajectory's headline figures over the bench view (its Metrics rows: MSE, S, I, h_s; the RTCLM's
+    h6 or h4 first), two a line;
+    a figure that is not this leg's (it does not walk; the RTCLM's MSE) is left out, and with none left the line
+    says why. The Metrics panel sat below the fold at 1280 x 720: these are what a slider is moved for."""
+    rows = {r.key: r for r in view.rows}
+    figures: tuple[tuple[str, str], ...] = BENCH_SHORT
+    if "h_m" in rows and not rows["h_m"].label.startswith("Crossing"):  # the RTCLM's: "h6 (crossing height hₘ)"
+        figures = (("h_m", rows["h_m"].label.split()[0]), *BENCH_SHORT)
+    shown = [(short, rows[k]) for k, short in figures if k in rows and not rows[k].undefined]
+    parts = [f"{short} {r.text()} {r.unit}" for short, r in shown
+             if isinstance(r.value, float) and math.isfinite(r.value)]
+    if not parts:  # nothing to measure: why not, as the Metrics panel's "Why not" says it
+        why = rows["why"].text() if "why" in rows else "-"
+        return "" if why == "-" else "\n".join(textwrap.wrap(why, 32))
+    return "\n".join(" · ".join(parts[i:i + 2]) for i in range(0, len(parts), 2))
+
+
 def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
     """Scene geometry of a walking view (pure)."""
     n_legs = wf.feet.shape[1]
@@ -437,7 +458,7 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
     leg_pts = np.concatenate([leg, target_leg])
     wf = view.walking
     lay, composition, texts, bars, h = _compose_views(design_pts, leg_pts, None if wf is None else wf.bounds,
-                                                      walk_text(view) if wf is not None else "")
+                                                      walk_text(view) if wf is not None else "", bench_text(view))
     g = lay.leg
     pad = 0.06 * max(g[2] - g[0], g[3] - g[1])
     x0, y0, x1, y1 = g[0] - pad, g[1] - pad, g[2] + pad, g[3] + pad
@@ -494,12 +515,12 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
     )
 
 
-def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_line: str
+def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_line: str, leg_line: str = ""
                    ) -> tuple[Layout, Composition, tuple[SceneText, ...], F64, float]:
     """Lay the views out from their own bounding boxes, titles and scale bars included: gaps wide enough that
     no title, note or scale label reaches into the next view, the walking view low enough for its two title
     lines, and bounds (for the camera) around all of it. The text height follows the composition's size, so
-    it is solved by a few fixed-point steps.
+    it is solved by a few fixed-point steps. ``leg_line``: the bench figures, between the bench title and its view.
 
     Returns:
         the layout, the composition (bounds include every label), the labels, the scale bars ``(k, 2, 2)`` mm
@@ -516,20 +537,22 @@ def _compose_views(design_pts: F64, leg_pts: F64, walk_bounds: F64 | None, walk_
         bar_w = {k: nice_step(span, 5) + 0.5 * h + text_width(f"{nice_step(span, 5):g} mm", small)
                  for k, span in (("design", dw), ("leg", lw + 2 * pad))}
         gap1 = pad + 2.0 * h + max(0.0, text_width(DESIGN_TITLE, h) - dw, bar_w["design"] - dw)
-        gap2 = 2.0 * h + max(pad, text_width(LEG_TITLE, h) - lw - pad, bar_w["leg"] - lw - pad)
+        gap2 = 2.0 * h + max(pad, text_width(LEG_TITLE, h) - lw - pad, bar_w["leg"] - lw - pad,
+                             text_width(leg_line or " ", h) - lw - pad)
         walk_gap = pad + 3.0 * small + text_height(NOTE_ROOM, small) + 5.0 * h
         lay = layout(design_pts, leg_pts, gap1)
         comp = compose(lay, walk_bounds, gap2, walk_gap)
         off = lay.leg_offset
         legbox = np.array([g[0] - pad, g[1] - pad, g[2] + pad, g[3] + pad]) + np.concatenate([off, off])
         inset = comp.inset
+        leg_top = max(legbox[3] + 0.6 * h, g[3] + off[1] + (0.4 + LINE) * FEATURE_TEXT * h + 0.4 * h)
         texts = [
             _text("design_title", DESIGN_TITLE, d[0], d[3] + 0.6 * h, "bottom-left", h),
             # Above the feature labels over the path's top too (they stand 0.4 of a feature label's height over it):
             # on the RTCLM's 20 mm foot path the padding is ~1 mm and "t6=t7=t8" printed through the title.
             _text("leg_title", LEG_TITLE, legbox[0],
-                  max(legbox[3] + 0.6 * h, g[3] + off[1] + (0.4 + LINE) * FEATURE_TEXT * h + 0.4 * h),
-                  "bottom-left", h),
+                  leg_top + (text_height(leg_line, h) + 0.3 * h if leg_line else 0.0), "bottom-left", h),
+            *((_text("leg_text", leg_line, legbox[0], leg_top, "bottom-left", h),) if leg_line else ()),
             _text("inset_title", INSET_TITLE, inset[0], inset[3] + 0.6 * h, "bottom-left", h),
             _text("inset_note", NOTE_ROOM, inset[0], inset[1] - 0.6 * small, "top-left", small),
         ]

@@ -219,10 +219,14 @@ def test_no_feature_label_prints_through_the_bench_view_s_title(preset):
     # The RTCLM's foot path is ~20 mm, so the bench view's padding is ~1 mm: "t6=t7=t8" over the path's top printed
     # through "Bench trajectory (leg frame)".
     f = build_frames(Session.default(preset).view, show_target=not preset.startswith("rtclm"))  # as the studio
-    title = texts_by_key(f)["leg_title"].box
+    title, figures = texts_by_key(f)["leg_title"].box, texts_by_key(f)["leg_text"].box
     assert f.feature_labels
     for t in f.feature_labels:
         assert not overlaps(t.box, title), (t.text, t.box, title)
+        assert not overlaps(t.box, figures), (t.text, t.box, figures)
+    assert title[1] >= figures[3] - 1e-9  # the bench figures between the title and the view
+    for t in f.texts:
+        assert t.key == "leg_text" or not overlaps(t.box, figures), t.key
 
 
 def test_the_text_height_follows_the_larger_side_of_the_whole_composition(x3):
@@ -315,3 +319,32 @@ def test_moving_joint_labels_keep_off_each_other_and_the_pivot_labels(preset):
         fixed = [label_box(n, (p[0] + off, p[1] + off, 0.0), "bottom-left", h)
                  for n, p in zip(f.joint_names, f.joints[0], strict=True)]
         assert sum(_overlaps(a, b) for a, b in itertools.combinations(fixed, 2)) >= 1
+
+
+def test_the_bench_figures_print_over_the_bench_view_as_the_metrics_rows_read(x3_view, x3):
+    # The Metrics panel sat below the fold at 1280 x 720: MSE, S, I and h_s are what a slider is moved for.
+    from studio.metrics import shape_error
+
+    ev = x3_view.evaluation
+    want = (f"MSE {shape_error(ev):.2f} mm · S {float(ev.S[0]):.2f} %\n"
+            f"I {float(ev.I[0]):.2f} mm/s · hₛ {float(ev.h_s[0]):.2f} mm")
+    assert texts_by_key(x3)["leg_text"].text == want
+    assert want.startswith("MSE 4.10 mm · S 2.00 %")  # the paper's X3: 4.102 mm, 2.002 % (Appendix B)
+
+
+def test_the_bench_figures_leave_out_what_is_not_this_leg_s():
+    from studio.frames import bench_text
+
+    x3 = Session.default("stephenson1/X3").view
+    breaks = build_view(x3.design.replace(r4=131.8), "stephenson1/X3", x3.target)
+    assert bench_text(breaks) == "does not assemble over the whole\ncycle (shortfall 0.23 mm)"
+    seen = set()
+    for v in (x3, *(build_view(x3.design.replace(r3=r3), "stephenson1/X3", x3.target) for r3 in (110.0, 130.0))):
+        walks = bool(v.evaluation.feasible[0])
+        assert ("S " in bench_text(v)) == walks and bench_text(v).startswith("MSE "), (walks, bench_text(v))
+        seen.add(walks)
+    assert seen == {True, False}  # r3 = 130 mm assembles and does not walk: its MSE alone
+    rtclm = Session.default("rtclm/clm-case1").view  # its stages drive h6 and h4, not a shape: no MSE, h6 first
+    h6 = float(rtclm.evaluation.h_m[0])
+    assert bench_text(rtclm).startswith(f"h6 {h6:.2f} mm · S ") and "MSE" not in bench_text(rtclm)
+    assert bench_text(Session.default("rtclm/case1").view).startswith("no single landing/take-off pair")
