@@ -4,7 +4,8 @@
 
 Per algorithm and case, the run of smallest |dh4| + |dh6| among the seeds whose pick met its stage's constraints
 (the paper: the best of at least three; the study report's "best picked design" takes the same); absolute = the
-sum over cases of |dh4| + |dh6| over 5, relative h6 / h4 = the sum of |dh| / target over 5 (per mille); then every
+mean over the cases of |dh4| + |dh6|, relative h6 / h4 = the mean of |dh| / target (per mille), each with its
+standard deviation over the five cases (the paper's "smaller / larger standard deviations"); then every
 run's median |dh4| and feasible ratio per case, "–" for a case without a run.
 """
 
@@ -20,6 +21,12 @@ from core.study.store import current_rows, read_study
 USAGE = "usage: python scripts/paper_fig19.py STUDY_DIR   (a `clm study` directory holding RTCLM cases)"
 
 
+def spread(values: list[float], digits: int) -> str:
+    """``mean ± sd`` over the five cases: the sample standard deviation (n - 1, MATLAB's ``std``; the paper's
+    Fig. 19 draws its bars in MATLAB)."""
+    return f"{np.mean(values):.{digits}f} ± {np.std(values, ddof=1):.{digits}f}"
+
+
 def main(directory: str) -> None:
     meta, rows = read_study(directory)
     study = meta.get("study") if isinstance(meta.get("study"), dict) else None
@@ -28,11 +35,13 @@ def main(directory: str) -> None:
     algs = [a for a in labels if any(r["algorithm"] == a for r in rows)] or list(dict.fromkeys(r["algorithm"]
                                                                                                 for r in rows))
     print("| algorithm | absolute (mm) | relative h6 (‰) | relative h4 (‰) | picks meeting the stage's constraints "
-          "(all runs) |")
+          "(all runs) |")  # each figure: mean ± standard deviation over the five cases
     print("|---|---|---|---|---|")
     medians = []
     for a in algs:
-        ab = r6 = r4 = 0.0
+        ab: list[float] = []
+        r6: list[float] = []
+        r4: list[float] = []
         ok = n = 0
         dh4, feas = [], []
         missing = []
@@ -51,14 +60,14 @@ def main(directory: str) -> None:
                 missing.append(k)
                 continue
             best = min(good, key=lambda p: abs(p["dh4"]) + abs(p["dh6"]))
-            ab += abs(best["dh4"]) + abs(best["dh6"])
-            r6 += abs(best["dh6"]) / H6_TARGET
-            r4 += abs(best["dh4"]) / H4_CASES[k]
+            ab.append(abs(best["dh4"]) + abs(best["dh6"]))
+            r6.append(1000 * abs(best["dh6"]) / H6_TARGET)
+            r4.append(1000 * abs(best["dh4"]) / H4_CASES[k])
         name = labels.get(a, a)
         if missing:  # the paper's figures average the five cases: a sum over fewer is no such figure
             print(f"| {name} | – | – | – | {ok}/{n} (no feasible pick in case {', '.join(map(str, missing))}) |")
         else:
-            print(f"| {name} | {ab / 5:.2f} | {1000 * r6 / 5:.1f} | {1000 * r4 / 5:.1f} | {ok}/{n} |")
+            print(f"| {name} | {spread(ab, 2)} | {spread(r6, 1)} | {spread(r4, 1)} | {ok}/{n} |")
 
         def cases(values: list[float], digits: int) -> str:  # five slots, case by case: a gap shifted them left
             return " / ".join("–" if not np.isfinite(v) else f"{v:.{digits}f}" for v in values)

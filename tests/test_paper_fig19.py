@@ -32,8 +32,8 @@ def test_the_best_of_each_case_averaged_over_five_and_a_missing_case_named(monke
     mod.main("unused")
     out = capsys.readouterr().out.splitlines()
     a = next(ln for ln in out if ln.startswith("| A |")).split("|")
-    assert float(a[2]) == pytest.approx(3.0)  # |1| + |-2| in each case, the worse seed of case 1 not taken
-    assert float(a[3]) == pytest.approx(1000 * 1.0 / 50.0, abs=0.05)
+    assert a[2].strip() == "3.00 ± 0.00"  # |1| + |-2| in each case, the worse seed of case 1 not taken
+    assert float(a[3].split("±")[0]) == pytest.approx(1000 * 1.0 / 50.0, abs=0.05)
     assert a[5].strip() == "5/7"
     assert next(ln for ln in out if ln.startswith("| B |")) == "| B | – | – | – | 4/4 (no feasible pick in case 5) |"
     # The medians keep a slot per case (review of session 29: a gap shifted case 3's into case 2's place).
@@ -50,3 +50,14 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path):
                        ([str(tmp_path / "none")], "paper_fig19: error: ")):
         r = subprocess.run([sys.executable, script, *args], capture_output=True, text=True, timeout=120)
         assert r.returncode == 2 and r.stderr.startswith(said) and "Traceback" not in r.stderr
+
+
+def test_the_spread_is_the_sample_standard_deviation_over_the_five_cases(monkeypatch, capsys):
+    # The paper's "smaller / larger standard deviations" (Fig. 19's bars, drawn in MATLAB: std divides by n - 1).
+    mod = fig19()
+    rows = [row("a", k, 0.0, float(k)) for k in range(1, 6)]  # |dh4| + |dh6| = 1..5: mean 3, sd sqrt(2.5)
+    monkeypatch.setattr(mod, "read_study", lambda d: ({"study": {"labels": {"a": "A"}}}, rows))
+    monkeypatch.setattr(mod, "current_rows", lambda study, r: r)
+    mod.main("unused")
+    a = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("| A |")).split("|")
+    assert a[2].strip() == "3.00 ± 1.58" and a[3].strip() == "0.0 ± 0.0"
