@@ -66,15 +66,6 @@ def test_verbose_prints_pymoo_s_progress_table(problem, name, columns, capsys):
     assert capsys.readouterr().out == ""
 
 
-def test_ask_says_ask_and_tell_is_not_supported():
-    alg = NSGA2(pop_size=10)
-    alg.setup(get_problem("zdt1"), termination=("n_gen", 3), seed=1)
-    with pytest.raises(NotImplementedError, match="not ask/tell"):
-        alg.ask()
-    alg.next()  # next() still runs the generation
-    assert len(alg.pop) == 10
-
-
 def test_population_is_kept_inside_the_bounds_and_duplicates_are_eliminated():
     p = get_problem("zdt1", n_var=4)
     r = minimize(p, NSGA2(pop_size=50), ("n_gen", 20), seed=2)

@@ -8,6 +8,8 @@ Python objects. Evaluations are counted on pymoo's evaluator, so ``("n_eval", k)
 
 from __future__ import annotations
 
+import queue
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,6 +66,40 @@ class Initialization:
         self.sampling: F64 | None = None
 
 
+class _AskTell:
+    """pymoo's ask-and-tell on an array algorithm: a generation runs in a worker thread, and each evaluation it
+    makes is handed out by ``ask`` and waits for ``tell``. A generation may evaluate more than once (CMOEMT's and
+    MOEA/D-CMT's children in batches, CMOES's two populations): it ends at the ``tell`` after its last one."""
+
+    def __init__(self) -> None:
+        self.to_user: queue.Queue[tuple[str, Any]] = queue.Queue()
+        self.to_worker: queue.Queue[tuple[F64, F64, F64]] = queue.Queue()
+        self.worker: threading.Thread | None = None
+        self.pending: F64 | None = None  # the members ask() handed out, not told yet
+        self.counted = 0  # the evaluator's count when they were handed out
+
+    def start(self, generation: Any) -> None:
+        def work() -> None:
+            try:
+                generation()
+                self.to_user.put(("done", None))
+            except BaseException as e:  # noqa: BLE001 - raised again in the caller's thread
+                self.to_user.put(("error", e))
+
+        self.worker = threading.Thread(target=work, name="ask-tell generation", daemon=True)
+        self.worker.start()
+
+    def request(self) -> F64 | None:
+        """The worker's next members to evaluate, or None when its generation ended."""
+        kind, value = self.to_user.get()
+        if kind == "eval":
+            return value
+        self.worker = None
+        if kind == "error":
+            raise value
+        return None
+
+
 class ArrayAlgorithm(Algorithm):
     """Base of the array-based algorithms. ``self.arrays`` is the current (output) population."""
 
@@ -78,6 +114,7 @@ class ArrayAlgorithm(Algorithm):
         self.repair = repair
         self.initialization = Initialization()
         self.trace: list[dict[str, float]] = []
+        self._asktell: _AskTell | None = None
 
     def setup(self, problem: Any, verbose: bool = False, progress: bool = False, **kwargs: Any) -> Algorithm:
         """pymoo's setup, with pymoo's progress table for ``minimize(..., verbose=True)`` (none was set)."""
@@ -89,10 +126,54 @@ class ArrayAlgorithm(Algorithm):
         return super().setup(problem, verbose=verbose, progress=progress, **kwargs)
 
     def ask(self) -> Population | None:
-        """Not supported: a generation evaluates inside ``advance`` (sometimes child by child), so there is no
-        population to hand out; pymoo's ``ask`` returned None here and the caller failed later."""
-        raise NotImplementedError(f"{type(self).__name__} runs its generations on arrays and evaluates inside "
-                                  "them: use minimize() or next(), not ask/tell")
+        """pymoo's ask: the next members to evaluate, as a Population of X (None once terminated). Evaluate them
+        (``algorithm.evaluator.eval(problem, pop)``, or by any means that sets F, and G and H if the problem has
+        constraints) and pass them to :meth:`tell`. Asking again before telling gives the same members.
+
+        A generation runs in a worker thread that waits at each evaluation: the same seed gives the same result
+        as ``minimize``, and a generation that evaluates twice (CMOES, CMOEMT) asks twice."""
+        at = self._asktell = self._asktell or _AskTell()
+        while at.pending is None:
+            if not self.has_next():
+                return None
+            at.start(self.next)  # pymoo's next: its first call starts the clock, then advance()
+            at.pending = at.request()
+            at.counted = self.evaluator.n_eval
+        return Population.new("X", at.pending)
+
+    def tell(self, infills: Any = None, **kwargs: Any) -> Any:
+        """pymoo's tell: the members :meth:`ask` gave, evaluated. Returns the result once terminated, else None."""
+        at = self._asktell
+        if at is None or at.pending is None:
+            raise ValueError(f"{type(self).__name__}.tell takes the population ask() gave: ask first")
+        n = len(at.pending)
+        if infills is None or len(infills) != n:
+            raise ValueError(f"tell takes the {n} members ask() gave, got {0 if infills is None else len(infills)}")
+        p = self.problem
+        F, G, H = (_told(infills, key, n, k) for key, k in (("F", p.n_obj), ("G", p.n_ieq_constr),
+                                                             ("H", p.n_eq_constr)))
+        X = _told(infills, "X", n, p.n_var)
+        if F is None or G is None or H is None or X is None or not np.array_equal(X, at.pending):
+            raise ValueError("tell takes the members ask() gave, evaluated: their X as given, "
+                             f"{p.n_obj} objectives, {p.n_ieq_constr} inequality and {p.n_eq_constr} equality "
+                             "constraints each")
+        if self.evaluator.n_eval == at.counted:  # not counted by algorithm.evaluator.eval: by another means
+            self.evaluator.n_eval += n
+        at.pending = None
+        at.to_worker.put((F, G, H))
+        at.pending = at.request()
+        at.counted = self.evaluator.n_eval
+        if at.pending is None and self.termination.has_terminated():
+            return self.result()
+        return None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Copies and pickles (``minimize`` deep-copies its algorithm) leave the ask-and-tell worker behind: between
+        ``ask`` and ``tell`` a generation is half done in it, so that is refused."""
+        at = self._asktell
+        if at is not None and at.pending is not None:
+            raise TypeError(f"{type(self).__name__} cannot be copied between ask() and tell(): tell first")
+        return {**self.__dict__, "_asktell": None}
 
     # pymoo's pop/opt, built on demand from the arrays.
     @property
@@ -158,24 +239,24 @@ class ArrayAlgorithm(Algorithm):
         return np.asarray(self.repair._do(self.problem, X), dtype=np.float64)
 
     def evaluate(self, X: F64) -> Arrays:
-        """Evaluate ``(n, d)`` members through the problem, counted on pymoo's evaluator."""
+        """Evaluate ``(n, d)`` members through the problem, counted on pymoo's evaluator (under ask-and-tell, by
+        whoever evaluates what ask() handed out)."""
         X = np.asarray(X, dtype=np.float64)
         n = len(X)
         if n == 0:
             p = self.problem
             return Arrays(X.reshape(0, p.n_var), np.zeros((0, p.n_obj)), np.zeros((0, p.n_ieq_constr + p.n_eq_constr)),
                           np.zeros(0))
+        at = self._asktell
+        if at is not None and at.worker is threading.current_thread():
+            at.to_user.put(("eval", X))
+            return _arrays(X, *at.to_worker.get())
         out = self.problem.evaluate(X, return_as_dictionary=True)
         F = np.asarray(out["F"], dtype=np.float64).reshape(n, -1)
         G = np.asarray(out.get("G", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
         H = np.asarray(out.get("H", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
-        if H.shape[1]:
-            G = np.concatenate([G, np.abs(H) - EQ_EPS], axis=1)
-        with np.errstate(invalid="ignore"):
-            cv = np.maximum(G, 0.0).sum(axis=1)
-        cv = np.where(np.isnan(cv), np.inf, cv)
         self.evaluator.n_eval += n
-        return Arrays(X, F, G, cv)
+        return _arrays(X, F, G, H)
 
     def budget(self, per_generation: int, initial: int) -> int:
         """The evaluations this run may spend: the ``n_eval`` termination's, or generations x ``per_generation``
@@ -217,3 +298,25 @@ class ArrayAlgorithm(Algorithm):
 
     def _infill(self) -> None:
         return None
+
+
+def _told(pop: Any, key: str, n: int, k: int) -> F64 | None:
+    """``(n, k)`` values of ``key`` from a told population, None where they are missing or of another shape."""
+    if k == 0:
+        return np.zeros((n, 0))
+    try:
+        v = np.asarray(pop.get(key), dtype=np.float64)
+    except (TypeError, ValueError):  # None for members nobody evaluated
+        return None
+    return v.reshape(n, k) if v.size == n * k else None
+
+
+def _arrays(X: F64, F: F64, G: F64, H: F64) -> Arrays:
+    """Evaluated members as Arrays: each equality constraint h a column |h| - EQ_EPS of G, cv the sum of positive G
+    (NaN read as +inf)."""
+    if H.shape[1]:
+        G = np.concatenate([G, np.abs(H) - EQ_EPS], axis=1)
+    with np.errstate(invalid="ignore"):
+        cv = np.maximum(G, 0.0).sum(axis=1)
+    cv = np.where(np.isnan(cv), np.inf, cv)
+    return Arrays(X, F, G, cv)
