@@ -400,3 +400,33 @@ def test_moead_cmt_takes_the_drawn_task_and_rewards_it(monkeypatch):
     alg = MOEADCMT(pop_size=20)
     minimize(problem_by_name("mw3"), alg, ("n_gen", 3), seed=2, copy_algorithm=False)
     assert {r["task"] for r in alg.trace[1:]} == {2.0} and alg.rwd[0] == 0.0
+
+
+def test_imtcmo_s_epsilon_ends_at_0_past_its_budget_and_ignores_an_infinite_violation():
+    # EMO rehearsal (session 33): under a time or pymoo's default termination X passed 1 and ε read
+    # (3.4e15+3.8e15j); one member with an infinite violation made VAR0 inf, then ε NaN.
+    p = problem_by_name("mw3")
+    alg = IMTCMO(pop_size=20)
+    r = minimize(p, alg, ("n_gen", 4), seed=1)
+    a = r.algorithm
+    var0 = a.var0
+    assert np.isfinite(var0) and var0 > 0
+    a.x = 1.7  # past the budget the schedule was made for
+    assert a.epsilon() == 0.0 and isinstance(a.epsilon(), float)
+
+    class OneUndefined(Problem):  # MW3 with the first member's violation undefined
+        def __init__(self) -> None:
+            super().__init__(n_var=p.n_var, n_obj=2, n_ieq_constr=p.n_ieq_constr, xl=p.xl, xu=p.xu)
+            self.calls = 0
+
+        def _evaluate(self, x, out, *args, **kwargs):
+            o = p.evaluate(x, return_as_dictionary=True)
+            G = np.asarray(o["G"], dtype=float).reshape(len(x), -1)
+            if self.calls == 0:
+                G[0] = np.inf
+            self.calls += 1
+            out["F"], out["G"] = o["F"], G
+
+    b = minimize(OneUndefined(), IMTCMO(pop_size=20), ("n_gen", 4), seed=1).algorithm
+    assert b.var0 == var0  # the same sample, the largest finite violation: the same level
+    assert all(np.isfinite(row["eps"]) for row in b.trace)

@@ -150,7 +150,9 @@ class IMTCMO(ArrayAlgorithm):
         p1 = self.evaluate(self.initial_X())
         p2 = self.evaluate(self.repaired(self.random_state.uniform(self.xl, self.xu, size=(n, p.n_var))))
         self.max_fe = self.budget(2 * n, 2 * n)
-        self.var0, self.cp = epsilon_schedule(float(np.concatenate([p1.cv, p2.cv]).max()))
+        cv = np.concatenate([p1.cv, p2.cv])
+        finite = cv[np.isfinite(cv)]  # an undefined member's infinite CV sets no level (as CMOEMT's): inf, then NaN
+        self.var0, self.cp = epsilon_schedule(float(finite.max()) if len(finite) else 0.0)
         self.x = 0.0
         self.fit1 = spea2.fitness(p1.F, p1.cv)
         self.fit2 = spea2.fitness(p2.F, p2.cv)
@@ -161,7 +163,9 @@ class IMTCMO(ArrayAlgorithm):
                  feasible_ratio_P2=float((p2.cv <= 0).mean()))
 
     def epsilon(self) -> float:
-        return self.var0 * (1.0 - self.x) ** self.cp if self.cp > 0 else self.var0
+        # X past 1 (a time or pymoo's default termination runs past the assumed budget): 0, the schedule's end,
+        # where (1 - X)^cp of a negative base was a complex number (EMO rehearsal, session 33)
+        return self.var0 * (1.0 - min(self.x, 1.0)) ** self.cp if self.cp > 0 else self.var0
 
     def _advance(self, infills: Any = None, **kwargs: Any) -> None:
         n, rng = self.pop_size, self.random_state
