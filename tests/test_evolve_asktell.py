@@ -105,3 +105,29 @@ def test_a_copy_after_tell_runs_on_alike_and_a_copy_between_ask_and_tell_is_refu
             a.evaluator.eval(p, pop)
             a.tell(infills=pop)
     assert np.array_equal(alg.result().F, twin.result().F) and twin.evaluator.n_eval == alg.evaluator.n_eval
+
+
+@pytest.mark.parametrize("name", PAPER)
+def test_a_keyword_the_algorithm_does_not_take_is_refused_not_swallowed(name):
+    # EMO rehearsal (session 33): pymoo's Algorithm swallowed any keyword, so `popsize=20` ran at pop 100 and
+    # `crossover=SBX(...)` did nothing, without a word.
+    from pymoo.operators.crossover.sbx import SBX
+    from pymoo.operators.sampling.rnd import FloatRandomSampling
+
+    cls = type(make_algorithm(AlgorithmSpec(name, 20), 2, 1))
+    with pytest.raises(TypeError, match="takes no keyword 'popsize'"):
+        cls(popsize=20)
+    with pytest.raises(TypeError, match="takes no keyword 'crossover'"):
+        cls(pop_size=20, crossover=SBX())
+    with pytest.raises(TypeError, match="sampling is an \\(n, d\\) array"):
+        cls(pop_size=20, sampling=FloatRandomSampling())
+    cls(pop_size=20, seed=3, save_history=True, verbose=False)  # pymoo's own keywords pass
+
+
+def test_an_array_sampling_is_the_first_population():
+    p = get_problem("mw3")
+    X = np.random.default_rng(7).uniform(p.xl, p.xu, size=(20, p.n_var))
+    cls = type(make_algorithm(AlgorithmSpec("nsga2", 20), 2, 1))
+    r = minimize(p, cls(pop_size=20, sampling=X), ("n_gen", 1), seed=1)
+    got = r.pop.get("X")
+    assert np.array_equal(got[np.lexsort(got.T)], X[np.lexsort(X.T)])

@@ -100,12 +100,27 @@ class _AskTell:
         return None
 
 
+PYMOO_KEYWORDS = frozenset({"termination", "output", "display", "callback", "archive", "return_least_infeasible",
+                            "save_history", "verbose", "seed", "evaluator"})
+"""The keywords pymoo's ``Algorithm`` itself takes."""
+
+
 class ArrayAlgorithm(Algorithm):
     """Base of the array-based algorithms. ``self.arrays`` is the current (output) population."""
 
     is_initialized: bool
 
-    def __init__(self, pop_size: int = 100, repair: Any = None, **kwargs: Any) -> None:
+    def __init__(self, pop_size: int = 100, repair: Any = None, sampling: F64 | None = None, **kwargs: Any) -> None:
+        # pymoo's Algorithm swallows any keyword: `popsize=20` ran at 100 and `crossover=SBX(...)` did nothing
+        # (EMO rehearsal, session 33). Only its own are passed on; `sampling` is an (n, d) array of first members.
+        unknown = sorted(set(kwargs) - PYMOO_KEYWORDS)
+        if unknown:
+            raise TypeError(f"{type(self).__name__} takes no keyword {', '.join(map(repr, unknown))}: its options are "
+                            "its own constructor's (see its docstring and docs/algorithms.md), and pymoo's "
+                            f"{', '.join(sorted(PYMOO_KEYWORDS))}")
+        if sampling is not None and not isinstance(sampling, np.ndarray):
+            raise TypeError(f"{type(self).__name__}'s sampling is an (n, d) array of first members, not a pymoo "
+                            f"{type(sampling).__name__}: pass sampling.do(problem, n).get('X')")
         self._arrays: Arrays | None = None
         self._pop_cache: Population | None = None
         self._opt_cache: Population | None = None
@@ -113,6 +128,7 @@ class ArrayAlgorithm(Algorithm):
         self.pop_size = int(pop_size)
         self.repair = repair
         self.initialization = Initialization()
+        self.initialization.sampling = sampling
         self.trace: list[dict[str, float]] = []
         self._asktell: _AskTell | None = None
 
