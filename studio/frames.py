@@ -491,7 +491,9 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         joints=_lift(to_scene(pose[:, ~is_ground]), Z_MARKERS),
         pivots=_lift(to_scene(pose[0, pivots]), Z_MARKERS),
         pivot_names=tuple(n for n, shown in zip(mech.joint_names, pivots, strict=True) if shown),
-        joint_names=tuple(n for n, g in zip(mech.joint_names, is_ground, strict=True) if not g),
+        # none where it never assembles: every joint sits on one pivot (review of session 33: six names piled on A)
+        joint_names=tuple(n for n, g in zip(mech.joint_names, is_ground, strict=True) if not g) if hold is not None
+        else (),
         foot=_lift(to_scene(foot[:, None, :]), 2 * Z_MARKERS),
         leg_foot=_lift(to_scene(leg_foot[:, None, :]), 2 * Z_MARKERS),
         path=_lift(to_scene(closed_polyline(point)), Z_LINES),

@@ -131,3 +131,40 @@ def test_an_array_sampling_is_the_first_population():
     r = minimize(p, cls(pop_size=20, sampling=X), ("n_gen", 1), seed=1)
     got = r.pop.get("X")
     assert np.array_equal(got[np.lexsort(got.T)], X[np.lexsort(X.T)])
+
+
+def test_next_between_ask_and_tell_is_refused_and_an_interrupted_tell_goes_on():
+    # Review of session 33: ask(); next() ran a second generation beside the waiting one, and a Ctrl-C inside
+    # tell() left its worker running while the next ask() started another: 140 evaluations where minimize spent 120.
+    from core.optimize.evolve import base
+
+    p = get_problem("mw3")
+    alg = make_algorithm(AlgorithmSpec("nsga2", 20), 2, 1)
+    alg.setup(p, termination=("n_gen", 6), seed=1)
+    pop = alg.ask()
+    with pytest.raises(RuntimeError, match="waiting for tell"):
+        alg.next()
+    alg.evaluator.eval(p, pop)
+    alg.tell(infills=pop)
+    real, hit = base._AskTell.request, []
+
+    def interrupted(self):  # the user's Ctrl-C while tell() waits for the worker
+        if not hit:
+            hit.append(1)
+            raise KeyboardInterrupt
+        return real(self)
+
+    pop = alg.ask()
+    alg.evaluator.eval(p, pop)
+    base._AskTell.request = interrupted
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            alg.tell(infills=pop)
+    finally:
+        base._AskTell.request = real
+    while alg.has_next():  # the notebook cell run again
+        pop = alg.ask()
+        alg.evaluator.eval(p, pop)
+        alg.tell(infills=pop)
+    ref = minimize(p, make_algorithm(AlgorithmSpec("nsga2", 20), 2, 1), ("n_gen", 6), seed=1)
+    assert np.array_equal(alg.result().F, ref.F) and alg.evaluator.n_eval == ref.algorithm.evaluator.n_eval == 120

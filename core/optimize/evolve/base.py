@@ -150,12 +150,22 @@ class ArrayAlgorithm(Algorithm):
         as ``minimize``, and a generation that evaluates twice (CMOES, CMOEMT) asks twice."""
         at = self._asktell = self._asktell or _AskTell()
         while at.pending is None:
-            if not self.has_next():
-                return None
-            at.start(self.next)  # pymoo's next: its first call starts the clock, then advance()
+            if at.worker is None:  # else a generation is still on (a tell() interrupted by Ctrl-C): wait for it
+                if not self.has_next():
+                    return None
+                at.start(super().next)  # pymoo's next: its first call starts the clock, then advance()
             at.pending = at.request()
             at.counted = self.evaluator.n_eval
         return Population.new("X", at.pending)
+
+    def next(self) -> None:
+        """pymoo's next (one generation, evaluated through the problem); refused while ask-and-tell has a
+        generation half done (it ran a second one beside it: review of session 33)."""
+        at = self._asktell
+        if at is not None and at.worker is not None:
+            raise RuntimeError(f"{type(self).__name__}: a generation is waiting for tell(); tell it the members "
+                               "ask() gave before next() or run()")
+        super().next()
 
     def tell(self, infills: Any = None, **kwargs: Any) -> Any:
         """pymoo's tell: the members :meth:`ask` gave, evaluated. Returns the result once terminated, else None."""
