@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import re
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -514,3 +515,28 @@ def test_a_design_run_piped_into_a_reader_that_goes_away_runs_on(tmp_path: Path)
     assert proc.wait(timeout=300) in (0, 1)
     data = json.loads((out / "result.json").read_text())
     assert data["status"] == "complete", data.get("error")
+
+
+def test_ctrl_c_of_a_piped_clm_design_whose_reader_went_away_still_keeps_the_pick(tmp_path: Path) -> None:
+    # Review of session 32: `clm design ... 2>&1 | head`, then Ctrl-C: the handler's message raised BrokenPipeError
+    # inside the running stage, which ended "failed" with nothing picked.
+    import subprocess
+    import sys
+
+    from ctrl_c import sigint_as_in_a_terminal
+
+    cfg = tmp_path / "long.toml"
+    cfg.write_text(TINY.replace("n_gen = 3", "n_gen = 100000"))
+    out = tmp_path / "out"
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.Popen([sys.executable, "-m", "core.cli", "design", str(cfg), "--out", str(out)], cwd=root,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, preexec_fn=sigint_as_in_a_terminal)
+    try:
+        assert proc.stderr is not None and proc.stderr.read(1)  # generations are running
+        proc.stderr.close()  # `head` has read its lines and gone
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=120)
+    finally:
+        proc.kill()
+    stages = json.loads((out / "result.json").read_text())["pipeline"]["results"]
+    assert stages[0]["status"] == "cancelled" and stages[0]["picked"] is not None

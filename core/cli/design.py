@@ -336,12 +336,20 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
     old: dict[int, Any] = {}
     terminated = False
 
+    def say(text: str) -> None:
+        # A closed pipe (`clm design ... | head`) must not turn a graceful stop into a failed stage (review of
+        # session 32: the handler's print raised BrokenPipeError inside the running stage).
+        try:
+            print(text, file=sys.stderr)
+        except OSError:
+            pass
+
     def on_sigint(signum: int, frame: Any) -> None:
         # First Ctrl-C: stop between generations and keep the partial result; a second one aborts.
         if cancel.is_set():
             raise KeyboardInterrupt
         cancel.set()
-        print("\nclm: stopping after this generation (Ctrl-C again to abort)", file=sys.stderr)
+        say("\nclm: stopping after this generation (Ctrl-C again to abort)")
 
     def on_sigterm(signum: int, frame: Any) -> None:
         # kill, timeout, a batch scheduler's end of job: the same graceful stop (a generation takes well under
@@ -350,7 +358,7 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
         terminated = True
         if not cancel.is_set():
             cancel.set()
-            print("\nclm: terminated; stopping after this generation", file=sys.stderr)
+            say("\nclm: terminated; stopping after this generation")
 
     if threading.current_thread() is threading.main_thread():
         old = {signal.SIGINT: signal.signal(signal.SIGINT, on_sigint),
