@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import queue
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from pymoo.core.algorithm import Algorithm
+from pymoo.core.evaluator import Evaluator
 from pymoo.core.individual import Individual
 from pymoo.core.population import Population
 
@@ -109,6 +111,7 @@ class ArrayAlgorithm(Algorithm):
     """Base of the array-based algorithms. ``self.arrays`` is the current (output) population."""
 
     is_initialized: bool
+    max_fe: int  # the budget a subclass schedules over (see budget())
 
     def __init__(self, pop_size: int = 100, repair: Any = None, sampling: F64 | None = None, **kwargs: Any) -> None:
         # pymoo's Algorithm swallows any keyword: `popsize=20` ran at 100 and `crossover=SBX(...)` did nothing
@@ -277,6 +280,14 @@ class ArrayAlgorithm(Algorithm):
         if at is not None and at.worker is threading.current_thread():
             at.to_user.put(("eval", X))
             return _arrays(X, *at.to_worker.get())
+        ev = self.evaluator
+        if type(ev) is not Evaluator or ev.callback is not None:  # a user's evaluator (spec §1.8): through it
+            pop = ev.eval(self.problem, Population.new("X", X))
+            p = self.problem
+            told = [_told(pop, k, n, m) for k, m in (("F", p.n_obj), ("G", p.n_ieq_constr), ("H", p.n_eq_constr))]
+            if any(v is None for v in told):
+                raise ValueError(f"{type(ev).__name__}.eval left members without F, G or H of the problem's shapes")
+            return _arrays(X, *told)  # type: ignore[arg-type]
         out = self.problem.evaluate(X, return_as_dictionary=True)
         F = np.asarray(out["F"], dtype=np.float64).reshape(n, -1)
         G = np.asarray(out.get("G", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
@@ -285,16 +296,30 @@ class ArrayAlgorithm(Algorithm):
         return _arrays(X, F, G, H)
 
     def budget(self, per_generation: int, initial: int) -> int:
-        """The evaluations this run may spend: the ``n_eval`` termination's, or generations x ``per_generation``
-        plus the ``initial`` population(s) for an ``n_gen`` one, the smaller for both (a collection); schedules
-        such as an epsilon need it."""
-        budgets = []
-        for t in getattr(self.termination, "terminations", (self.termination,)):  # a collection: the first to end
-            if getattr(t, "n_max_evals", None) is not None:
-                budgets.append(int(t.n_max_evals))
-            elif getattr(t, "n_max_gen", None) is not None:
-                budgets.append(int(initial + (int(t.n_max_gen) - 1) * per_generation))
-        return min(budgets) if budgets else int(initial + 100 * per_generation)
+        """The evaluations this run may spend, which schedules such as an epsilon need: the ``n_eval``
+        termination's, or generations x ``per_generation`` plus the ``initial`` population(s) for an ``n_gen`` one;
+        of several (a collection, ``TerminateIfAny``, pymoo's default termination's caps) the first to end. Under a
+        time termination it is estimated again before each generation from the evaluations per second so far
+        (:meth:`rebudget`); with none of these, 100 generations."""
+        self._per_generation, self._initial = per_generation, initial
+        known = _evaluations(self.termination, per_generation, initial)
+        return int(initial + 100 * per_generation) if known is None else known
+
+    def rebudget(self) -> None:
+        """Under a time termination: the budget estimated from the time left at the evaluations per second so far
+        (a schedule spans the run's time), then :meth:`budget_changed`."""
+        clock = _clock(self.termination)
+        per = getattr(self, "_per_generation", None)
+        if clock is None or per is None or self.start_time is None or \
+                _evaluations(self.termination, per, self._initial) is not None:
+            return
+        used = min(max((time.time() - self.start_time) / clock, 1e-9), 1.0)
+        n_eval = int(self.evaluator.n_eval)
+        self.max_fe = max(int(n_eval / used), n_eval + per)
+        self.budget_changed()
+
+    def budget_changed(self) -> None:
+        """Recompute what a subclass derives from ``max_fe`` (CMOES's generations, CMOEMT's Tc)."""
 
     def log(self, **values: float) -> None:
         """Append this generation's trace row (generation and evaluations added)."""
@@ -311,6 +336,7 @@ class ArrayAlgorithm(Algorithm):
             self.is_initialized = True
             self._post_advance()
         else:
+            self.rebudget()
             val = self._advance(infills=infills, **kwargs)
             if val is None or val:
                 self._post_advance()
@@ -346,3 +372,32 @@ def _arrays(X: F64, F: F64, G: F64, H: F64) -> Arrays:
         cv = np.maximum(G, 0.0).sum(axis=1)
     cv = np.where(np.isnan(cv), np.inf, cv)
     return Arrays(X, F, G, cv)
+
+
+def _evaluations(t: Any, per_generation: int, initial: int) -> int | None:
+    """The evaluations termination ``t`` allows (generations counted as ``initial`` then ``per_generation`` each),
+    None if it sets no such limit (a time, a tolerance)."""
+    if getattr(t, "n_max_evals", None) is not None:
+        return int(t.n_max_evals)
+    if getattr(t, "n_max_gen", None) is not None:
+        return int(initial + (int(t.n_max_gen) - 1) * per_generation)
+    inner = getattr(t, "termination", None)  # RobustTermination: its inner one's limit
+    if inner is not None:
+        return _evaluations(inner, per_generation, initial)
+    parts = getattr(t, "terminations", None) or getattr(t, "criteria", None)
+    if not parts:
+        return None
+    known = [b for b in (_evaluations(c, per_generation, initial) for c in parts) if b is not None]
+    if type(t).__name__ == "TerminateIfAll":  # the last to end: every part must have a limit
+        return max(known) if len(known) == len(parts) else None
+    return min(known) if known else None  # the first to end
+
+
+def _clock(t: Any) -> float | None:
+    """Seconds of a time termination in ``t`` (the shortest, if several), else None."""
+    if getattr(t, "max_time", None) is not None:
+        return float(t.max_time)
+    inner = getattr(t, "termination", None)
+    parts = [inner] if inner is not None else (getattr(t, "terminations", None) or getattr(t, "criteria", None) or [])
+    times = [s for s in (_clock(c) for c in parts) if s is not None]
+    return min(times) if times else None

@@ -107,13 +107,16 @@ class CMOEMT(OnePerWeight, ArrayAlgorithm):
         self.p3 = p3
         self.arrays = p1
         self.max_fe = self.budget(2 * n, 3 * n)
-        self.Tc = 0.9 * math.ceil(self.max_fe / n)
+        self.budget_changed()
         self.pull, self.eps, self.eps0, self.r = False, 0.0, 0.0, math.inf
         self.ideal: dict[int, F64] = {}
         self.nadir: dict[int, F64] = {}
         self.log(pull=0.0, eps=0.0, eps0=0.0, rf=float((self.P2.cv <= 1e-6).mean()), r=math.inf, transfer=0.0,
                  feasible_ratio_P1=float((p1.cv <= 0).mean()), feasible_ratio_P2=float((self.P2.cv <= 0).mean()),
                  feasible_ratio_P3=float((p3.cv <= 0).mean()))
+
+    def budget_changed(self) -> None:
+        self.Tc = 0.9 * math.ceil(self.max_fe / self.n)
 
     # Task 2: MOEA/D with push and pull -------------------------------------------------------------
 

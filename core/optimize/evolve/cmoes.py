@@ -116,7 +116,7 @@ class CMOES(ArrayAlgorithm):
         p1 = self.evaluate(self.initial_X())
         p2 = self.evaluate(self.repaired(self.random_state.uniform(self.xl, self.xu, size=(n, p.n_var))))
         self.max_fe = self.budget(3 * n, 2 * n)
-        self.max_gen = math.ceil(self.max_fe / n)
+        self.budget_changed()
         order, self.front, self.crowd = rank_and_crowding(p1, n)
         self.arrays = p1.take(order)
         self.p2, self.fit2 = p2, spea2.fitness(p2.F)
@@ -125,6 +125,9 @@ class CMOES(ArrayAlgorithm):
         self.max_cv = float(np.nanmax(np.concatenate([p1.cv, p2.cv]))) if n else 0.0
         self.stage2 = False
         self._log(1, 0.0, float("nan"), len(self.arrays), 0)
+
+    def budget_changed(self) -> None:
+        self.max_gen = math.ceil(self.max_fe / self.pop_size)
 
     def _log(self, stage: int, tau: float, eps: float, q: int, fe: int) -> None:
         p1 = self.arrays

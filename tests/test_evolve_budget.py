@@ -1,0 +1,119 @@
+"""What the array algorithms take from pymoo's run settings: the budget their schedules span under every kind of
+termination, and a user's own Evaluator (spec §1.8: evaluations go through it)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from pymoo.core.evaluator import Evaluator
+from pymoo.core.termination import TerminateIfAll, TerminateIfAny
+from pymoo.optimize import minimize
+from pymoo.termination.default import DefaultMultiObjectiveTermination
+from pymoo.termination.max_eval import MaximumFunctionCallTermination
+from pymoo.termination.max_gen import MaximumGenerationTermination
+from pymoo.termination.max_time import TimeBasedTermination
+from pymoo.termination.robust import RobustTermination
+
+from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+from core.optimize.moea import problem_by_name
+
+PAPER = ["nsga2", "cmoemt", "cmoes", "drlos_emcmo", "imtcmo", "mccmo", "moead_cmt"]
+SCHEDULED = ["cmoemt", "cmoes", "drlos_emcmo", "imtcmo", "moead_cmt"]  # MCCMO has no schedule
+
+
+class Counting(Evaluator):
+    """A user's evaluator: counts its calls and the members it saw (a lab's wrapper around a simulator)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.calls, self.seen = 0, 0
+
+    def _eval(self, problem, pop, evaluate_values_of, **kwargs):
+        self.calls += 1
+        self.seen += len(pop)
+        super()._eval(problem, pop, evaluate_values_of, **kwargs)
+
+
+@pytest.mark.parametrize("name", PAPER)
+def test_a_users_evaluator_evaluates_every_member_and_changes_nothing_else(name):
+    problem = problem_by_name("mw3")
+    plain = minimize(problem, make_algorithm(AlgorithmSpec(name, 20), 2, 1), ("n_eval", 400), seed=1)
+    ev = Counting()
+    own = minimize(problem, make_algorithm(AlgorithmSpec(name, 20), 2, 1), ("n_eval", 400), seed=1, evaluator=ev)
+    # CMOEMT's and MOEA/D-CMT's children made again (ahead = true) are evaluated too, and not counted
+    unused = sum(r.get("evaluated_ahead_unused", 0.0) for r in own.algorithm.trace)
+    assert ev.calls > 0 and ev.seen == own.algorithm.evaluator.n_eval + unused
+    assert own.algorithm.evaluator.n_eval == plain.algorithm.evaluator.n_eval
+    assert np.array_equal(own.X, plain.X) and np.array_equal(own.F, plain.F)
+
+
+def test_an_evaluators_callback_sees_every_evaluation():
+    seen = []
+    res = minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1), ("n_eval", 300),
+                   seed=1, evaluator=Evaluator(callback=lambda pop: seen.append(len(pop))))
+    assert sum(seen) == res.algorithm.evaluator.n_eval >= 300
+
+
+def test_an_evaluator_that_leaves_members_unevaluated_is_named():
+    class Lazy(Evaluator):
+        def _eval(self, problem, pop, evaluate_values_of, **kwargs):
+            pass
+
+    with pytest.raises(ValueError, match="Lazy.eval left members without F"):
+        minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("imtcmo", 20), 2, 1), ("n_eval", 300),
+                 seed=1, evaluator=Lazy())
+
+
+def budget_of(termination) -> int:
+    # CMOES at N = 20: 2N initially, then 3N each generation
+    alg = make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1)
+    alg.setup(problem_by_name("mw3"), termination=termination, seed=1)
+    alg.next()
+    assert alg.max_gen == math.ceil(alg.max_fe / 20)
+    return alg.max_fe
+
+
+def test_the_budget_under_every_kind_of_termination():
+    gens = lambda g: 40 + (g - 1) * 60  # noqa: E731
+    assert budget_of(MaximumFunctionCallTermination(3000)) == 3000
+    assert budget_of(MaximumGenerationTermination(30)) == gens(30)
+    assert budget_of(TerminateIfAny(MaximumGenerationTermination(30), MaximumFunctionCallTermination(900))) == 900
+    assert budget_of(TerminateIfAll(MaximumGenerationTermination(30), MaximumFunctionCallTermination(900))) == gens(30)
+    assert budget_of(RobustTermination(MaximumFunctionCallTermination(1200))) == 1200
+    # pymoo's default termination ends at its caps at the latest: 1000 generations or 100 000 evaluations
+    assert budget_of(DefaultMultiObjectiveTermination(n_max_evals=5000)) == 5000
+    assert budget_of(DefaultMultiObjectiveTermination(n_max_gen=50)) == gens(50)
+    assert budget_of(DefaultMultiObjectiveTermination()) == min(100_000, gens(1000))
+    # nothing that limits evaluations: 100 generations after the first (a time in it: estimated as it runs)
+    assert budget_of(TerminateIfAll(MaximumGenerationTermination(30), TimeBasedTermination(60))) == gens(101)
+
+
+@pytest.mark.parametrize("name", SCHEDULED)
+def test_a_time_budget_is_estimated_from_the_evaluations_per_second_so_far(name):
+    alg = make_algorithm(AlgorithmSpec(name, 20), 2, 1)
+    alg.setup(problem_by_name("mw3"), termination=TimeBasedTermination(100.0), seed=1)
+    alg.next()
+    alg.next()
+    alg.start_time = time.time() - 25.0  # a quarter of the time used: the budget is 4x the evaluations so far
+    n_eval = alg.evaluator.n_eval
+    alg.rebudget()
+    assert 3.9 * n_eval <= alg.max_fe <= 4 * n_eval
+    if name == "cmoes":
+        assert alg.max_gen == math.ceil(alg.max_fe / 20)
+    if name == "cmoemt":
+        assert alg.Tc == pytest.approx(0.9 * math.ceil(alg.max_fe / alg.n))
+    alg.start_time = time.time() - 100.0  # the time is up: the budget is what was spent, and a generation more
+    alg.rebudget()
+    assert n_eval < alg.max_fe <= 4 * n_eval
+
+
+def test_a_time_termination_runs_the_schedule_to_its_end():
+    # CMOES's tau (its epsilon's progress) reaches most of the way by the end of a 3-second run (compiled first:
+    # a first compile inside the run is a slow start the estimate only catches up with)
+    minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1), ("n_gen", 40), seed=1)
+    res = minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1), ("time", 3.0), seed=1)
+    taus = [r["tau"] for r in res.algorithm.trace]
+    assert taus[-1] > 0.7 and res.algorithm.max_fe < 3 * res.algorithm.evaluator.n_eval, (taus[-5:], len(taus))
