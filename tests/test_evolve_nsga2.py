@@ -83,3 +83,15 @@ def test_quality_matches_pymoos_nsga2(name, evals):
     assert np.isfinite(ours).any()
     p = ranksums(ours, theirs).pvalue
     assert p > 0.01 or np.median(ours) < np.median(theirs), (np.median(ours), np.median(theirs), p)
+
+
+@pytest.mark.parametrize("kwargs, named", [({"crossover_eta": -1.0}, "crossover_eta"),
+                                           ({"mutation_prob": 1.5}, "mutation_prob"),
+                                           ({"mutation_eta": float("nan")}, "mutation_eta"),
+                                           ({"crossover_prob": "0.9"}, "crossover_prob"),
+                                           ({"pop_size": 1}, "population")])
+def test_built_directly_its_options_are_checked_as_a_configs(kwargs, named):
+    # NSGA2(crossover_eta=-1) divided by zero in its first generation (EMO rehearsal, session 33)
+    with pytest.raises(ValueError, match=f"nsga2 .*{named}"):
+        NSGA2(**kwargs)
+    assert NSGA2(crossover_eta=np.float32(10), pop_size=np.int64(20)).pop_size == 20

@@ -8,6 +8,7 @@ member, 1/d per variable, η 20).
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 import numpy as np
@@ -37,6 +38,16 @@ class NSGA2(ArrayAlgorithm):
     def __init__(self, pop_size: int = 100, crossover_prob: float = 0.9, crossover_eta: float = 15.0,
                  mutation_prob: float = 0.9, mutation_prob_var: float | None = None, mutation_eta: float = 20.0,
                  eliminate_duplicates: bool = True, **kwargs: Any) -> None:
+        from core.optimize.algorithms import RANGES  # the ranges a config's options are checked on
+
+        given = {"crossover_prob": crossover_prob, "crossover_eta": crossover_eta, "mutation_prob": mutation_prob,
+                 "mutation_prob_var": mutation_prob_var, "mutation_eta": mutation_eta}
+        for key, v in given.items():  # built directly, as from a config (crossover_eta=-1 divided by zero)
+            lo, hi = RANGES[key]
+            if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Real) or not lo <= v <= hi):
+                raise ValueError(f"nsga2 {key} must be a number in [{lo:g}, {hi:g}], got {v!r}")
+        if isinstance(pop_size, bool) or not isinstance(pop_size, (int, np.integer)) or pop_size < 2:
+            raise ValueError(f"nsga2 needs a population of at least 2, got {pop_size!r}")
         super().__init__(pop_size=pop_size, **kwargs)
         self.crossover_prob, self.crossover_eta = float(crossover_prob), float(crossover_eta)
         self.mutation_prob, self.mutation_eta = float(mutation_prob), float(mutation_eta)
