@@ -18,6 +18,7 @@ from pymoo.termination.max_gen import MaximumGenerationTermination
 from core.optimize.evolve import cmoemt, imtcmo, moead_cmt, spea2
 from core.optimize.evolve.base import Arrays
 from core.optimize.evolve.cmoemt import CMOEMT
+from core.optimize.evolve.cmoes import CMOES
 from core.optimize.evolve.imtcmo import IMTCMO, aux_select
 from core.optimize.evolve.moead import fmin_into
 from core.optimize.evolve.moead_cmt import MOEADCMT
@@ -430,3 +431,30 @@ def test_imtcmo_s_epsilon_ends_at_0_past_its_budget_and_ignores_an_infinite_viol
     b = minimize(OneUndefined(), IMTCMO(pop_size=20), ("n_gen", 4), seed=1).algorithm
     assert b.var0 == var0  # the same sample, the largest finite violation: the same level
     assert all(np.isfinite(row["eps"]) for row in b.trace)
+
+
+class NaNConstraints(Problem):
+    """MW3 whose members with x0 < 0.1 have undefined constraints (pymoo's CTP2-5 give NaN outside their domain)."""
+
+    def __init__(self) -> None:
+        self.p = problem_by_name("mw3")
+        super().__init__(n_var=self.p.n_var, n_obj=2, n_ieq_constr=self.p.n_ieq_constr, xl=self.p.xl, xu=self.p.xu)
+        self.undefined = 0
+
+    def _evaluate(self, x, out, *args, **kwargs):
+        o = self.p.evaluate(x, return_as_dictionary=True)
+        G = np.asarray(o["G"], dtype=float).reshape(len(x), -1)
+        G[x[:, 0] < 0.1] = np.nan
+        self.undefined += int((x[:, 0] < 0.1).sum())
+        out["F"], out["G"] = o["F"], G
+
+
+def test_cmoes_epsilon_starts_at_the_largest_finite_violation():
+    # EMO rehearsal (session 33, F16/F17): one undefined member made CMOES's largest violation +inf, so its
+    # epsilon was inf (every member epsilon-feasible) until tau = 1, where inf x 0 is NaN
+    alg, problem = CMOES(pop_size=20), NaNConstraints()
+    minimize(problem, alg, ("n_gen", 40), seed=1, copy_algorithm=False)
+    assert problem.undefined > 0
+    rows = alg.trace
+    assert all(np.isfinite(r["max_cv"]) and r["max_cv"] > 0 for r in rows)
+    assert all(np.isfinite(r["eps"]) for r in rows if r["stage"] == 2.0) and rows[-1]["stage"] == 2.0

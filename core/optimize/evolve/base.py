@@ -352,6 +352,14 @@ class ArrayAlgorithm(Algorithm):
         return None
 
 
+def largest_violation(*cvs: F64) -> float:
+    """The largest finite violation among ``cvs`` (0 if none): where an epsilon schedule starts. An undefined
+    member's infinite violation sets no level (an infinite start made epsilon inf, then NaN: session 33)."""
+    cv = np.concatenate(cvs) if cvs else np.zeros(0)
+    finite = cv[np.isfinite(cv)]
+    return float(finite.max()) if len(finite) else 0.0
+
+
 def _told(pop: Any, key: str, n: int, k: int) -> F64 | None:
     """``(n, k)`` values of ``key`` from a told population, None where they are missing or of another shape."""
     if k == 0:

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, Ahead, draw_pools, make_children, numbers, stale
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import ga
@@ -129,8 +129,7 @@ class CMOEMT(OnePerWeight, ArrayAlgorithm):
         if gen < self.Tc:
             if self.r <= CHANGE and not self.pull:
                 self.pull = True
-                finite = self.P2.cv[np.isfinite(self.P2.cv)]  # an undefined member's infinite CV sets no level
-                self.eps0 = float(finite.max()) if len(finite) else 0.0
+                self.eps0 = largest_violation(self.P2.cv)
                 self.eps = self.eps0
             if self.pull:
                 self.eps = (1 - TAU) * self.eps if rf < ALPHA else self.eps0 * (1 - gen / self.Tc) ** CP

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.nsga2 import rank_and_crowding
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -122,7 +122,7 @@ class CMOES(ArrayAlgorithm):
         self.p2, self.fit2 = p2, spea2.fitness(p2.F)
         self.p3, self.key3 = self.arrays, self.arrays.cv.copy()
         self.fit1 = spea2.fitness(self.arrays.F, self.arrays.cv)
-        self.max_cv = float(np.nanmax(np.concatenate([p1.cv, p2.cv]))) if n else 0.0
+        self.max_cv = largest_violation(p1.cv, p2.cv)
         self.stage2 = False
         self._log(1, 0.0, float("nan"), len(self.arrays), 0)
 
@@ -158,13 +158,13 @@ class CMOES(ArrayAlgorithm):
         order2, self.fit2, _ = spea2.select(pool2.F, n, None)
         self.p2 = pool2.take(order2)
         self.p3, self.key3 = self.p2, self.p2.cv.copy()
-        self.max_cv = max(self.max_cv, float(np.nanmax(np.concatenate([self.arrays.cv, self.p2.cv]))))
+        self.max_cv = max(self.max_cv, largest_violation(self.arrays.cv, self.p2.cv))
         self._log(1, 0.0, float("nan"), len(self.arrays), len(off))
 
     def _stage2(self, p1: Arrays, n: int, gen: int) -> None:
         tau = min(gen / self.max_gen, 1.0)
         union = Arrays.concat(p1, self.p2, self.p3)
-        self.max_cv = float(np.nanmax(union.cv)) if len(union) else 0.0
+        self.max_cv = largest_violation(union.cv)
         if not self.stage2:
             self.p2, self.fit2, self.p3, self.key3, _ = even_search(union, p1.F[p1.cv <= 0], n, tau, self.max_cv)
             self.fit1 = spea2.fitness(p1.F, p1.cv)

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.variation import polynomial_mutation
 
 F64 = NDArray[np.float64]
@@ -150,9 +150,7 @@ class IMTCMO(ArrayAlgorithm):
         p1 = self.evaluate(self.initial_X())
         p2 = self.evaluate(self.repaired(self.random_state.uniform(self.xl, self.xu, size=(n, p.n_var))))
         self.max_fe = self.budget(2 * n, 2 * n)
-        cv = np.concatenate([p1.cv, p2.cv])
-        finite = cv[np.isfinite(cv)]  # an undefined member's infinite CV sets no level (as CMOEMT's): inf, then NaN
-        self.var0, self.cp = epsilon_schedule(float(finite.max()) if len(finite) else 0.0)
+        self.var0, self.cp = epsilon_schedule(largest_violation(p1.cv, p2.cv))
         self.x = 0.0
         self.fit1 = spea2.fitness(p1.F, p1.cv)
         self.fit2 = spea2.fitness(p2.F, p2.cv)
