@@ -31,7 +31,7 @@ from core.optimize.problem_names import DC_DTLZ, DTLZ, KNOWN, PROBLEMS
 
 F64 = NDArray[np.float64]
 FRONTS = Path(__file__).resolve().parent / "evolve" / "fronts"
-DASCMOP_DIFFICULTY = 8  # PlatEMO's (0.5, 0.5, 0.5) for DAS-CMOP3-9 (spec §8.1)
+DASCMOP_DIFFICULTY = 8  # (0.5, 0.5, 0.5): PlatEMO's for DAS-CMOP3-9; its DAS-CMOP1-2 use (0, 0.5, 0.5) (spec §8.1)
 LATTICE = 5050  # reference points of a 3-objective DTLZ front (Das-Dennis, H = 99), before C2-DTLZ2's cut
 MAX_EVALS = 10**8
 
