@@ -175,6 +175,16 @@ def test_invalid_entries_are_named_in_the_error(path: str, value: object, messag
     assert str(e.value).startswith(message), str(e.value)
 
 
+def test_an_algorithm_name_is_read_in_any_case_as_clm_moea_reads_it() -> None:
+    # review of session 33: `clm moea --algorithm CMOES` was taken, a config's name = "CMOES" refused
+    c = parse_config(with_("algorithm.name", "CMOES"))
+    assert {s.algorithm.name for s in c.stages} == {"cmoes"}
+    c = parse_config(with_("stages.1.algorithm", {"name": "MOEAD_CMT", "pop_size": 20}))
+    assert c.stages[1].algorithm.name == "moead_cmt"
+    with pytest.raises(ValueError, match="algorithm.name: 'MOEA/D-CMT' is not one of .* did you mean 'moead_cmt'"):
+        parse_config(with_("algorithm.name", "MOEA/D-CMT"))
+
+
 def test_a_valid_config_keeps_relative_limits_for_run_time() -> None:
     c = parse_config(base())
     assert [s.name for s in c.stages] == ["predesign", "subtask1", "subtask2"]

@@ -60,11 +60,11 @@ def options(algorithm: str, given: list[str]) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     from core.cli.design import COMPILE_NOTE
     from core.kinematics.kernel_cache import CompileTimer
-    from core.optimize.algorithms import ALGORITHMS
+    from core.optimize.algorithms import registered
     from core.optimize.moea import run as run_moea
 
     # Lab rehearsal: `--algorithm CMOES` was refused with a did-you-mean while `--problem MW3` was taken.
-    args.algorithm = next((k for k in ALGORITHMS if k == args.algorithm.lower()), args.algorithm)
+    args.algorithm = registered(args.algorithm)
     timer = CompileTimer()
     with timer:
         r = run_moea(args.problem, args.algorithm, args.pop, args.evals, args.seed,

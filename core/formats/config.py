@@ -38,7 +38,7 @@ from core.kinematics.mechanisms import MECHANISMS
 from core.kinematics.model import IDENTITY, Mechanism, OutputStage
 from core.kinematics.params import Param
 from core.optimize import problem as problem_registry
-from core.optimize.algorithms import ALGORITHMS, RANGES, AlgorithmSpec, make_algorithm, suggestion, validate
+from core.optimize.algorithms import ALGORITHMS, RANGES, AlgorithmSpec, make_algorithm, registered, suggestion, validate
 from core.optimize.baselines import DP_METHODS, BaselineSettings
 from core.optimize.box import SUBTASK_STEPS
 from core.optimize.design_config import PAPER_OUTPUT, DesignConfig, StageConfig, placeholder
@@ -206,10 +206,11 @@ def algorithm_options(name: str, given: Mapping[str, Any], key: str = "options")
 
 
 def _algorithm(t: Algorithm, key: str, base: AlgorithmSpec | None) -> AlgorithmSpec:
-    if t.name is not None and t.name not in ALGORITHMS:
-        hint = suggestion(t.name)
-        raise _fail(f"{key}.name", f"{t.name!r} is not one of {', '.join(ALGORITHMS)}" + (f"; {hint}" if hint else ""))
-    name = t.name if t.name is not None else (base.name if base else "nsga2")
+    given = None if t.name is None else registered(t.name)  # "CMOES" reads as clm moea reads it
+    if given is not None and given not in ALGORITHMS:
+        hint = suggestion(given)
+        raise _fail(f"{key}.name", f"{given!r} is not one of {', '.join(ALGORITHMS)}" + (f"; {hint}" if hint else ""))
+    name = given if given is not None else (base.name if base else "nsga2")
     pop = t.pop_size if t.pop_size is not None else (base.pop_size if base else 200)
     opts = dict(base.options) if base is not None and name == base.name else {}
     opts.update(algorithm_options(name, t.options, f"{key}.options"))

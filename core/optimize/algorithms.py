@@ -61,7 +61,7 @@ class AlgorithmSpec:
         unknown = set(d) - {"name", "pop_size", "options"}
         if unknown:
             raise ValueError(f"unknown algorithm key {sorted(unknown)[0]!r}; known: name, pop_size, options")
-        return cls(str(d.get("name", DEFAULT_ALGORITHM)), int(d.get("pop_size", DEFAULT_POP_SIZE)),
+        return cls(registered(str(d.get("name", DEFAULT_ALGORITHM))), int(d.get("pop_size", DEFAULT_POP_SIZE)),
                    dict(d.get("options", {})))
 
 
@@ -282,6 +282,12 @@ ALGORITHMS: dict[str, AlgorithmInfo] = {
 
 def algorithm_names() -> tuple[str, ...]:
     return tuple(ALGORITHMS)
+
+
+def registered(name: str) -> str:
+    """The registered name a name reads in any case (``CMOES`` -> ``cmoes``), else the name unchanged (refused with
+    :func:`unknown_algorithm` later): configs, sessions and ``clm moea`` take the same spellings."""
+    return next((k for k in ALGORITHMS if k == str(name).lower()), name)
 
 
 def _plain(text: str) -> str:
