@@ -72,9 +72,9 @@ def test_tell_takes_only_the_members_ask_gave():
         alg.tell(infills=pop[:10])
     from pymoo.core.population import Population
 
-    with pytest.raises(ValueError, match="their X as given"):
+    with pytest.raises(ValueError, match="their X differ from what ask"):
         alg.tell(infills=Population.new("X", pop.get("X")[::-1], "F", pop.get("F"), "G", pop.get("G")))
-    with pytest.raises(ValueError, match="evaluated"):
+    with pytest.raises(ValueError, match=r"evaluated: F \(2 each\), G \(2 each\) missing or of another shape"):
         alg.tell(infills=Population.new("X", pop.get("X")))  # not evaluated
     alg.tell(infills=pop)  # the right ones still go through
     assert alg.n_gen == 2 and alg.evaluator.n_eval == 20

@@ -182,10 +182,14 @@ class ArrayAlgorithm(Algorithm):
         F, G, H = (_told(infills, key, n, k) for key, k in (("F", p.n_obj), ("G", p.n_ieq_constr),
                                                              ("H", p.n_eq_constr)))
         X = _told(infills, "X", n, p.n_var)
-        if F is None or G is None or H is None or X is None or not np.array_equal(X, at.pending):
-            raise ValueError("tell takes the members ask() gave, evaluated: their X as given, "
-                             f"{p.n_obj} objectives, {p.n_ieq_constr} inequality and {p.n_eq_constr} equality "
-                             "constraints each")
+        if X is None or not np.array_equal(X, at.pending):
+            raise ValueError("tell takes the members ask() gave, in that order: their X differ from what ask() gave")
+        missing = [f"{k} ({m} each)" for k, v, m in (("F", F, p.n_obj), ("G", G, p.n_ieq_constr),
+                                                       ("H", H, p.n_eq_constr)) if v is None]
+        if missing:
+            raise ValueError(f"tell takes the members ask() gave, evaluated: {', '.join(missing)} missing or of "
+                             f"another shape (the problem has {p.n_obj} objectives, {p.n_ieq_constr} inequality "
+                             f"and {p.n_eq_constr} equality constraints)")
         if self.evaluator.n_eval == at.counted:  # not counted by algorithm.evaluator.eval: by another means
             self.evaluator.n_eval += n
         at.pending = None
