@@ -190,6 +190,7 @@ class ArrayAlgorithm(Algorithm):
             raise ValueError(f"tell takes the members ask() gave, evaluated: {', '.join(missing)} missing or of "
                              f"another shape (the problem has {p.n_obj} objectives, {p.n_ieq_constr} inequality "
                              f"and {p.n_eq_constr} equality constraints)")
+        assert F is not None and G is not None and H is not None
         if self.evaluator.n_eval == at.counted:  # not counted by algorithm.evaluator.eval: by another means
             self.evaluator.n_eval += n
         at.pending = None
