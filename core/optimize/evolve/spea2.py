@@ -7,6 +7,7 @@ Used by CMOEMT, CMOES, DRLOS-EMCMO, IMTCMO, MCCMO and MOEA/D-CMT's archive. Dist
 from __future__ import annotations
 
 import math
+import threading
 from typing import NamedTuple
 
 import moocore
@@ -52,12 +53,11 @@ BLOCK = 64  # columns of a distance row computed at a time, in a buffer that sta
 
 
 @numba.njit(cache=True)
-def _distances(FT: F64) -> F64:  # pragma: no cover - compiled
-    # Row by row: the squared distances of a block of columns are summed in a small buffer, then rooted into the
-    # row, so each entry of the large matrix is written once (writing it is what costs; a symmetric fill wrote
-    # down columns).
+def _distances(FT: F64, D: F64) -> None:  # pragma: no cover - compiled
+    # Into D (n, n), row by row: the squared distances of a block of columns are summed in a small buffer, then
+    # rooted into the row, so each entry of the large matrix is written once (writing it is what costs; a
+    # symmetric fill wrote down columns).
     n = FT.shape[1]
-    D = np.empty((n, n))
     buf = np.empty(BLOCK)
     for i in range(n):
         row = D[i]
@@ -68,13 +68,28 @@ def _distances(FT: F64) -> F64:  # pragma: no cover - compiled
                 v = np.sqrt(buf[j])
                 row[j0 + j] = np.inf if np.isnan(v) else v  # inf - inf (penalised members)
         row[i] = np.inf
+
+
+def distances(F: F64, out: F64 | None = None) -> F64:
+    """``(n, n)`` Euclidean distances between members, +inf on the diagonal (and where undefined); into ``out``
+    (an ``(n, n)`` C-contiguous float64 array) if given."""
+    F = np.asarray(F, dtype=np.float64).reshape(len(F), -1)
+    n = len(F)
+    D = np.empty((n, n)) if out is None else out
+    _distances(np.ascontiguousarray(F.T), D)
     return D
 
 
-def distances(F: F64) -> F64:
-    """``(n, n)`` Euclidean distances between members, +inf on the diagonal (and where undefined)."""
-    F = np.asarray(F, dtype=np.float64).reshape(len(F), -1)
-    return _distances(np.ascontiguousarray(F.T))
+_scratch = threading.local()
+
+
+def _distance_scratch(n: int) -> F64:
+    """An ``(n, n)`` matrix for a truncation's distances, reused by the thread's later truncations: a fresh one each
+    call (7 MB at n = 950) cost the kernel's page faults, 1.5-2.5 ms of a 7-9 ms cut (session 34)."""
+    buf = getattr(_scratch, "D", None)
+    if buf is None or buf.size < n * n:
+        buf = _scratch.D = np.empty(max(n * n, 1))
+    return buf[: n * n].reshape(n, n)
 
 
 @numba.njit(cache=True)
@@ -428,7 +443,7 @@ def _truncate(D: F64, F: F64, keep: int, distinct: bool) -> tuple[B, int]:  # pr
     # mutual nearest neighbours cost a sort per row.
     r = D.shape[0]
     alive = np.ones(r, dtype=np.bool_)
-    order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_sorted_less)
+    order = np.empty((r, r), dtype=np.int64)  # rows sorted on demand (_sorted_less); pages touched only then
     sorted_ = np.zeros(r, dtype=np.bool_)
     near = np.empty((r, 2 * LEVELS))
     lv = np.empty((r, min(LISTED, r)))
@@ -546,12 +561,12 @@ def _cut(F: F64, keep: int) -> tuple[B, bool]:
         # Exact copies go first, each point's last one stays (see _truncate): the rest is truncated among the
         # distinct points alone, unless two of them are at distance 0 (a difference that underflows).
         last = np.sort(np.argsort(p.of, kind="stable")[np.cumsum(p.w) - 1])
-        alive, status = _truncate(distances(F[last]), F[last], int(keep), True)
+        alive, status = _truncate(distances(F[last], _distance_scratch(len(last))), F[last], int(keep), True)
         if status != ZERO:
             mask = np.zeros(n, dtype=bool)
             mask[last[alive]] = True
             return mask, status == FREE
-    return _truncate(distances(F), F, int(keep), False)[0], False
+    return _truncate(distances(F, _distance_scratch(n)), F, int(keep), False)[0], False
 
 
 def survivors(F: F64, n: int, cv: F64 | None = None) -> B:
