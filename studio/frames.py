@@ -160,16 +160,14 @@ def pivot_label_spots(names: tuple[str, ...], pivots: np.ndarray, links: np.ndar
     a, d = seg[:, :, 0, :], seg[:, :, 1, :] - seg[:, :, 0, :]  # (n_s, n_e, 2): start and direction
     out: list[tuple[tuple[float, float, float], str]] = []
     for name, p in zip(names, np.asarray(pivots, dtype=np.float64), strict=True):
-        w, th = text_width(name, h), text_height(name, h)
         best: tuple[tuple[float, float, float], str] = ((float(p[0]), float(p[1]), float(p[2])), "top-left")
         least = np.inf
         for sx, sy, anchor in PIVOT_SPOTS:
-            x0, y0 = p[0] + sx * off, p[1] + sy * off
-            xa, xb = (x0, x0 + w) if sx > 0 else (x0 - w, x0)
-            ya, yb = (y0 - th, y0) if sy < 0 else (y0, y0 + th)
-            crossed = int(_crosses_box(a, d, (xa, ya, xb, yb)).any(axis=1).sum())  # samples a link crosses it in
+            spot = (float(p[0] + sx * off), float(p[1] + sy * off), float(p[2]))
+            box = label_box(name, spot, anchor, h)
+            crossed = int(_crosses_box(a, d, box).any(axis=1).sum())  # samples a link crosses it in
             if crossed < least:
-                best, least = ((float(x0), float(y0), float(p[2])), anchor), crossed
+                best, least = (spot, anchor), crossed
         out.append(best)
     return tuple(out)
 
@@ -199,19 +197,17 @@ def joint_label_spots(names: tuple[str, ...], joints: np.ndarray, links: np.ndar
     boxes = list(taken)
     out: list[tuple[tuple[float, float, float], str]] = []
     for k, (name, p) in enumerate(zip(names, pts, strict=True)):
-        w, th = text_width(name, h), text_height(name, h)
         others = np.delete(pts[:, :2], k, axis=0)
         best, least = ((float(p[0]) + off, float(p[1]) - off, float(p[2])), "top-left"), np.inf
         box = (0.0, 0.0, 0.0, 0.0)
         for sx, sy, anchor in PIVOT_SPOTS:
-            x0, y0 = p[0] + sx * off, p[1] + sy * off
-            xa, xb = (x0, x0 + w) if sx > 0 else (x0 - w, x0)
-            ya, yb = (y0 - th, y0) if sy < 0 else (y0, y0 + th)
-            cost = float(_crosses_box(a, d, (xa, ya, xb, yb)).sum())
+            spot = (float(p[0] + sx * off), float(p[1] + sy * off), float(p[2]))
+            xa, ya, xb, yb = here = label_box(name, spot, anchor, h)
+            cost = float(_crosses_box(a, d, here).sum())
             cost += 3.0 * sum(xa < c and c < xb and ya < e and e < yb for c, e in others)
             cost += 3.0 * sum(xa < b[2] and b[0] < xb and ya < b[3] and b[1] < yb for b in boxes)
             if cost < least:
-                best, least, box = ((float(x0), float(y0), float(p[2])), anchor), cost, (xa, ya, xb, yb)
+                best, least, box = (spot, anchor), cost, here
         boxes.append(box)
         out.append(best)
     return tuple(out)
