@@ -109,11 +109,18 @@ class ProgressBar:
 
     def close(self) -> None:
         if self.tty and self.line is not None:
-            try:
-                self.stream.write("\n")
-                self.stream.flush()
-            except OSError:
-                pass
+            write_quietly(self.stream, "\n")
+
+
+def write_quietly(stream: TextIO, text: str) -> bool:
+    """Write and flush ``text``; False, and nothing raised, if the stream's reader went away (BrokenPipeError:
+    ``clm design ... 2>&1 | head``): a message about the run must not stop the run."""
+    try:
+        stream.write(text)
+        stream.flush()
+        return True
+    except OSError:
+        return False
 
 
 def stage_rows(res: StageResult) -> tuple[list[str], list[list[Any]]]:
@@ -339,10 +346,7 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
     def say(text: str) -> None:
         # A closed pipe (`clm design ... | head`) must not turn a graceful stop into a failed stage (review of
         # session 32: the handler's print raised BrokenPipeError inside the running stage).
-        try:
-            print(text, file=sys.stderr)
-        except OSError:
-            pass
+        write_quietly(sys.stderr, text + "\n")
 
     def on_sigint(signum: int, frame: Any) -> None:
         # First Ctrl-C: stop between generations and keep the partial result; a second one aborts.
