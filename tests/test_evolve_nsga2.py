@@ -95,3 +95,17 @@ def test_built_directly_its_options_are_checked_as_a_configs(kwargs, named):
     with pytest.raises(ValueError, match=f"nsga2 .*{named}"):
         NSGA2(**kwargs)
     assert NSGA2(crossover_eta=np.float32(10), pop_size=np.int64(20)).pop_size == 20
+
+
+def test_members_carry_rank_and_crowding_as_pymoos_do():
+    # an EMO user reads res.pop.get("rank") after pymoo's NSGA-II; ours left it None (EMO rehearsal, session 33)
+    res = minimize(get_problem("zdt1"), NSGA2(pop_size=40), ("n_gen", 15), seed=1)
+    rank, crowd, F = res.pop.get("rank"), res.pop.get("crowding"), res.pop.get("F")
+    assert rank.dtype.kind in "iu" and rank.min() == 0 and np.all(np.diff(rank) >= 0)  # best first
+    for r in np.unique(rank):  # nobody in a front dominates another member of it
+        f = F[rank == r]
+        assert not any((a <= b).all() and (a < b).any() for a in f for b in f)
+    first = F[rank == 0]
+    ends = [int(np.argmin(first[:, 0])), int(np.argmax(first[:, 0]))]
+    assert np.isinf(crowd[rank == 0][ends]).all()  # a front's extremes: infinite crowding, as pymoo's
+    assert np.array_equal(res.opt.get("rank"), np.zeros(len(res.opt), dtype=rank.dtype))

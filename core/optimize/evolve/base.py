@@ -48,12 +48,14 @@ class Arrays:
     def concat(*parts: Arrays) -> Arrays:
         return Arrays(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("X", "F", "G", "cv")))
 
-    def population(self, n_ieq: int | None = None) -> Population:
+    def population(self, n_ieq: int | None = None, extra: dict[str, F64] | None = None) -> Population:
         """The pymoo Population of these members (F, G, CV and feasibility set as pymoo reads them). With
-        ``n_ieq``, the columns of G past it are equality constraints: H gets |h| (its sign is not kept)."""
+        ``n_ieq``, the columns of G past it are equality constraints: H gets |h| (its sign is not kept). ``extra``:
+        more per-member values by name (NSGA-II's ``rank`` and ``crowding``, as pymoo's sets them)."""
         n_ieq = self.G.shape[1] if n_ieq is None else n_ieq
         G, H = self.G[:, :n_ieq], self.G[:, n_ieq:] + EQ_EPS
-        pop = Population.new("X", self.X, "F", self.F, "G", G, "H", H)
+        more = [v for k, a in (extra or {}).items() for v in (k, a)]
+        pop = Population.new("X", self.X, "F", self.F, "G", G, "H", H, *more)
         cv = self.cv[:, None]
         for ind, c in zip(pop, cv, strict=True):
             ind._CV = c
@@ -219,10 +221,14 @@ class ArrayAlgorithm(Algorithm):
         self._arrays = value
         self._pop_cache = self._opt_cache = None
 
+    def member_values(self) -> dict[str, F64]:
+        """Per-member values of the output population that pymoo's own algorithm sets on its members (none here)."""
+        return {}
+
     @property
     def pop(self) -> Population | None:
         if self._pop_cache is None and self._arrays is not None:
-            self._pop_cache = self._arrays.population(self.problem.n_ieq_constr)
+            self._pop_cache = self._arrays.population(self.problem.n_ieq_constr, self.member_values())
         return self._pop_cache
 
     @pop.setter
@@ -232,7 +238,9 @@ class ArrayAlgorithm(Algorithm):
     @property
     def opt(self) -> Population | None:
         if self._opt_cache is None and self._arrays is not None and len(self._arrays):
-            self._opt_cache = self._arrays.take(self.optimum_index()).population(self.problem.n_ieq_constr)
+            idx = self.optimum_index()
+            extra = {k: v[idx] for k, v in self.member_values().items()}
+            self._opt_cache = self._arrays.take(idx).population(self.problem.n_ieq_constr, extra)
         return self._opt_cache
 
     @opt.setter

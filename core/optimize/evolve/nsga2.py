@@ -56,6 +56,10 @@ class NSGA2(ArrayAlgorithm):
         self.rank = np.zeros(0, dtype=np.int64)
         self.crowd = np.zeros(0)
 
+    def member_values(self) -> dict[str, F64]:
+        """Each member's front (0 first) and crowding distance, as pymoo's NSGA-II sets ``rank`` and ``crowding``."""
+        return {"rank": self.rank, "crowding": self.crowd}
+
     def _survive(self, pool: Arrays) -> None:
         order, self.rank, self.crowd = rank_and_crowding(pool, self.pop_size)
         self.arrays = pool.take(order)
