@@ -97,3 +97,23 @@ def test_a_single_objective_run_returns_one_optimum_not_its_copies(name):
     res = minimize(Parabola(), make_algorithm(AlgorithmSpec(name, 12, {}), 1, 1), ("n_eval", 400), seed=1)
     assert np.shape(res.X) == (1,) and len(res.opt) == 1  # pymoo's shape for one optimum
     assert res.F[0] == res.pop.get("F")[res.pop.get("feas").ravel()].min()
+
+
+def test_a_saved_history_shares_the_trace_rows_and_keeps_each_snapshots_length():
+    # pymoo deep-copies the algorithm every generation for save_history: copying every trace row made a long run
+    # quadratic (600 generations of CMOES at pop 20: 2.9 s against 1.3 s without a history, session 34)
+    import copy
+
+    from pymoo.optimize import minimize
+
+    from core.optimize.algorithms import AlgorithmSpec, make_algorithm
+    from core.optimize.moea import problem_by_name
+
+    res = minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1), ("n_gen", 12), seed=1,
+                   save_history=True)
+    final = res.algorithm.trace
+    assert [len(h.trace) for h in res.history] == list(range(1, 13))
+    assert all(h.trace[k] is final[k] for h in res.history for k in range(len(h.trace)))  # rows shared
+    twin = copy.deepcopy(res.algorithm)
+    twin.trace.append({"gen": 99.0})  # a copy's trace is its own list
+    assert len(final) == 12 and len(twin.trace) == 13
