@@ -8,7 +8,8 @@ from cmoea_common import check_seed, logistic
 from pymoo.optimize import minimize
 
 from core.optimize.algorithms import AlgorithmSpec, make_algorithm
-from core.optimize.evolve.moead_cmt import task_probabilities
+from core.optimize.evolve.cmoemt import CMOEMT
+from core.optimize.evolve.moead_cmt import MOEADCMT, task_probabilities
 from core.optimize.moea import hv_platemo, igd, problem_by_name, reference_front
 
 
@@ -106,3 +107,16 @@ def test_converges_on_an_unconstrained_front():
     res, _ = run("zdt1", 8000, pop=100)
     pf = reference_front("zdt1")
     assert igd(res.F, pf) < 0.05 and hv_platemo(res.F, pf) > 0.65  # still converging at 8 000 (0.0045 at 20 000)
+
+
+@pytest.mark.parametrize("cls, name, pop", [(MOEADCMT, "moead_cmt", 4), (CMOEMT, "cmoemt", 10)])
+def test_a_population_smaller_than_the_objectives_is_refused(cls, name, pop):
+    # the lattice has a weight per objective at least: 5 members ran where 4 were asked (EMO rehearsal, session 33)
+    from pymoo.problems import get_problem
+
+    problem = get_problem("dtlz2", n_var=pop + 5, n_obj=pop + 1)
+    with pytest.raises(ValueError, match=rf"{name} needs a population of at least one member per objective "
+                                         rf"\({pop + 1}\), got {pop}"):
+        minimize(problem, cls(pop_size=pop), ("n_gen", 2), seed=1)
+    res = minimize(get_problem("dtlz2", n_var=pop + 4, n_obj=pop), cls(pop_size=pop), ("n_gen", 2), seed=1)
+    assert len(res.pop) == pop  # as many objectives as members: one weight each

@@ -30,7 +30,7 @@ from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import ga
-from core.optimize.evolve.weights import OnePerWeight, das_dennis, neighbours
+from core.optimize.evolve.weights import OnePerWeight, neighbours
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -88,7 +88,7 @@ class CMOEMT(OnePerWeight, ArrayAlgorithm):
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p, rng = self.problem, self.random_state
-        self.W = das_dennis(self.pop_size, p.n_obj) if p.n_obj > 1 else np.ones((self.pop_size, 1))
+        self.W = self.weights(p.n_obj, "cmoemt")
         n = len(self.W)
         self.n = n
         self.B = neighbours(self.W, max(2, math.ceil(n / 10))) if p.n_obj > 1 else \

@@ -21,7 +21,7 @@ from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, draw_pools, make_children, numbers, powers, stale
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import cmt_differences, cmt_replace, fmin_into, pbi_replace
-from core.optimize.evolve.weights import OnePerWeight, das_dennis, neighbours
+from core.optimize.evolve.weights import OnePerWeight, neighbours
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -82,7 +82,7 @@ class MOEADCMT(OnePerWeight, ArrayAlgorithm):
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:
         p = self.problem
         # One objective: N equal subproblems (the lattice would give one); DE needs two neighbours at least.
-        self.W = das_dennis(self.pop_size, p.n_obj) if p.n_obj > 1 else np.ones((self.pop_size, 1))
+        self.W = self.weights(p.n_obj, "moead_cmt")
         n = len(self.W)
         T = max(2, int(np.ceil(n / 10)))
         self.B = neighbours(self.W, T) if p.n_obj > 1 else (np.arange(n)[:, None] + np.arange(T)[None, :]) % n

@@ -25,6 +25,17 @@ class OnePerWeight:
 
     pop_size: int
 
+    def weights(self, n_obj: int, name: str) -> F64:
+        """One weight per member: the Das-Dennis lattice, or N equal ones for one objective. A population smaller
+        than the objectives is refused: the lattice has a vector per objective at least, so the algorithm ran with
+        more members than asked (EMO rehearsal, session 33)."""
+        if n_obj == 1:
+            return np.ones((self.pop_size, 1))
+        if self.pop_size < n_obj:
+            raise ValueError(f"{name} needs a population of at least one member per objective ({n_obj}), got "
+                             f"{self.pop_size}")
+        return das_dennis(self.pop_size, n_obj)
+
     def kept_size(self, n_obj: int) -> int:
         """Members the output keeps: one per weight (91 for 100 at three objectives), all for one objective."""
         return len(das_dennis(self.pop_size, n_obj)) if n_obj > 1 else self.pop_size
