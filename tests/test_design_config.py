@@ -317,6 +317,11 @@ def test_slips_a_student_makes_get_the_name_they_meant(tmp_path: Path) -> None:
         load_config(tmp_path / "x3.json")
     with pytest.raises(ValueError, match=r"^unknown preset 'X3'; did you mean stephenson1/X3\? "):
         presets.get("X3")
+    # review of session 32: a full name's last part named three other cases' auxiliary presets
+    with pytest.raises(ValueError, match=r"did you mean rtclm/case1-CMOES/auxiliary\? "):
+        presets.get("rtclm/case1-cmoes/auxiliary")
+    with pytest.raises(ValueError, match=r"did you mean rtclm/case1-CMOES/auxiliary, "):
+        presets.get("rtclm/case1-CMOES/auxillary")
 
 
 def test_a_windows_path_in_a_config_is_named_as_what_toml_made_of_it(tmp_path: Path) -> None:

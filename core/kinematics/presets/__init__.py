@@ -73,9 +73,13 @@ def get(name: str) -> Preset:
     """The preset of that name; ValueError naming the nearest names otherwise (listing all ~150 in one line read as
     noise: 'clm presets' lists them)."""
     if name not in PRESETS:
-        # The row name alone ("X3", as the paper prints it) or another case: the presets of that row first.
-        near = [k for k in PRESETS if k.split("/")[-1].lower() == name.split("/")[-1].lower()][:3] \
-            or difflib.get_close_matches(name, PRESETS, n=3, cutoff=0.6)
+        # Another case ("rtclm/case1-cmoes") first; then the row name alone ("X3", as the paper prints it), not a
+        # full name's last part (".../auxiliary" named three other cases' auxiliary presets); then the nearest.
+        lower = {k.lower(): k for k in PRESETS}
+        near = [lower[name.lower()]] if name.lower() in lower else []
+        if not near and "/" not in name:
+            near = [k for k in PRESETS if k.split("/")[-1].lower() == name.lower()][:3]
+        near = near or [lower[k] for k in difflib.get_close_matches(name.lower(), lower, n=3, cutoff=0.6)]
         hint = f"; did you mean {', '.join(near)}?" if near else ""
         raise ValueError(f"unknown preset {name!r}{hint} ('clm presets' lists all {len(PRESETS)})")
     return PRESETS[name]
