@@ -315,6 +315,12 @@ def test_slips_a_student_makes_get_the_name_they_meant(tmp_path: Path) -> None:
     (tmp_path / "x3.json").write_text('{"mechanism": "stephenson1", "params": {}}')
     with pytest.raises(ValueError, match=r"not valid TOML: .*\(this is a design JSON; clm design takes a TOML "):
         load_config(tmp_path / "x3.json")
+    # review of session 32: a run's result.json and a studio session were called "a design JSON" too
+    for text, what in (('{"format": "clm-design", "stages": [{"mechanism": "stephenson1"}]}', "a run's result.json"),
+                       ('{"format":"clm-studio-session","design":{"mechanism":"fourbar"}}', "a studio session")):
+        (tmp_path / "r.json").write_text(text)
+        with pytest.raises(ValueError, match=rf"not valid TOML: .*\(this is {what}; clm design takes a TOML "):
+            load_config(tmp_path / "r.json")
     with pytest.raises(ValueError, match=r"^unknown preset 'X3'; did you mean stephenson1/X3\? "):
         presets.get("X3")
     # review of session 32: a full name's last part named three other cases' auxiliary presets

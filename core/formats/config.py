@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
@@ -54,6 +55,11 @@ def _fail(key: str, msg: str) -> ValueError:
     return ValueError(f"{key}: {msg}")
 
 
+OUR_JSON = (("clm-design", "a run's result.json"), ("clm-studio-session", "a studio session"),
+            ("clm-stage-result", "a stage result"), ("clm-pipeline", "a pipeline record"))
+"""The JSON files clm writes, by their "format", as a config's refusal names them."""
+
+
 def load_config(path: str | Path) -> DesignConfig:
     """Read and validate a TOML configuration file.
 
@@ -76,9 +82,12 @@ def load_config(path: str | Path) -> DesignConfig:
         data = tomllib.loads(text)
     except (tomllib.TOMLDecodeError, RecursionError) as e:
         hint = ""
-        if text.lstrip().startswith("{") and '"mechanism"' in text:  # a design JSON given for a config (lab rehearsal)
-            hint = " (this is a design JSON; clm design takes a TOML configuration such as assets/configs/*.toml, " \
-                   "whose preset names the design it starts from)"
+        if text.lstrip().startswith("{"):  # a JSON of ours given for a config (lab rehearsal; review of session 32)
+            what = next((w for f, w in OUR_JSON if re.search(rf'"format"\s*:\s*"{f}"', text)),
+                        "a design JSON" if '"mechanism"' in text else None)
+            if what is not None:
+                hint = f" (this is {what}; clm design takes a TOML configuration such as assets/configs/*.toml, " \
+                       "whose preset names the design it starts from)"
         raise ValueError(f"{p}: not valid TOML: {str(e).splitlines()[0] if str(e) else 'nested too deep'}"
                          f"{hint}") from None
     return parse_config(data, p.parent, str(p))
