@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import re
 import tomllib
 from collections.abc import Mapping
@@ -166,8 +167,10 @@ def _target(t: Target, base: Path) -> str:
         # Lab rehearsal: "data\target.csv" in a TOML "..." string holds a TAB, and its repr read as typed.
         hint = ""
         if any(c in t.curve for c in "\t\n\r\b\f"):
-            hint = (" (a backslash in a TOML \"...\" string starts an escape: \\t is a tab; write the path with '/', "
-                    "or in '...' quotes)")
+            # '...' quotes keep the backslash, which is a folder separator on Windows only (review of session 32)
+            quotes = ", or in '...' quotes" if os.sep == "\\" else ""
+            hint = (" (a backslash in a TOML \"...\" string starts an escape: \\t is a tab; write the path with "
+                    f"'/'{quotes})")
         else:
             hint = backslash_hint(t.curve)
         raise _fail("target.curve", f"file {p} not found{hint}")
