@@ -59,6 +59,20 @@ def test_clm_scale_to_a_stride_writes_a_design_that_simulates_at_that_width(tmp_
     assert twice["output"]["ox"] == pytest.approx(2 * data["output"]["ox"], rel=1e-12)
 
 
+def test_clm_scale_keeps_an_existing_file_unless_overwrite(tmp_path, capsys):
+    # As `clm presets show --out`: `--design mine.json --out mine.json` replaced the design it scaled.
+    mine = tmp_path / "mine.json"
+    assert main(["presets", "show", "stephenson1/X3", "--out", str(mine)]) == 0
+    before = mine.read_text()
+    capsys.readouterr()
+    assert main(["scale", "--design", str(mine), "--factor", "2", "--out", str(mine)]) == 2
+    assert capsys.readouterr().err == (f"clm: error: --out {mine} exists; pass --overwrite to replace it, or give "
+                                       "another file\n")
+    assert mine.read_text() == before
+    assert main(["scale", "--design", str(mine), "--factor", "2", "--out", str(mine), "--overwrite"]) == 0
+    assert json.loads(mine.read_text())["params"]["r1"] == pytest.approx(2 * json.loads(before)["params"]["r1"])
+
+
 @pytest.mark.parametrize("args", [["--factor", "0"], ["--factor", "-2"], ["--stride", "nan"], ["--stride", "-5"],
                                   ["--factor", "2", "--stride", "3"], []])
 def test_clm_scale_refuses_what_is_no_size_in_one_line(args, capsys):

@@ -13,6 +13,7 @@ import json
 import os
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
@@ -32,6 +33,17 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         raise CLIError(f"{message} (see '{self.prog} --help')")
+
+
+def check_out_file(out: Path, overwrite: bool) -> None:
+    """Refuse an ``--out FILE`` that is a folder, has no folder, or exists without ``--overwrite`` (lab rehearsal:
+    a student's edited design, replaced)."""
+    if out.is_dir():
+        raise CLIError(f"--out {out} is a folder")
+    if out.exists() and not overwrite:
+        raise CLIError(f"--out {out} exists; pass --overwrite to replace it, or give another file")
+    if not out.parent.is_dir():
+        raise CLIError(f"cannot write {out}: there is no folder {out.parent}")
 
 
 def version_text() -> str:
@@ -128,4 +140,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
-__all__ = ["COMMANDS", "CLIError", "build_parser", "dumps", "jsonable", "main"]
+__all__ = ["COMMANDS", "CLIError", "build_parser", "check_out_file", "dumps", "jsonable", "main"]

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from core.cli import CLIError
+from core.cli import check_out_file
 from core.formats.design import design_to_dict
 from core.formats.files import atomic_write
 from core.kinematics import presets
@@ -53,15 +53,9 @@ def run(args: argparse.Namespace) -> int:
         if args.out is None:
             print(text)
             return 0
-        out: Path = args.out
-        if out.is_dir():
-            raise CLIError(f"--out {out} is a folder")
-        if out.exists() and not args.overwrite:  # lab rehearsal: a student's edited design, replaced
-            raise CLIError(f"--out {out} exists; pass --overwrite to replace it, or give another file")
-        if not out.parent.is_dir():
-            raise CLIError(f"cannot write {out}: there is no folder {out.parent}")
-        atomic_write(out, text + "\n")
-        print(f"wrote {out}")
+        check_out_file(args.out, args.overwrite)
+        atomic_write(args.out, text + "\n")
+        print(f"wrote {args.out}")
         return 0
     items = sorted(presets.PRESETS.values(), key=lambda p: p.name)
     if args.json or getattr(args, "list_json", False):

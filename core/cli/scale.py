@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from core.cli import CLIError
+from core.cli import CLIError, check_out_file
 from core.formats.design import design_to_dict
 from core.formats.files import atomic_write
 
@@ -29,7 +29,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     size = p.add_mutually_exclusive_group(required=True)
     size.add_argument("--factor", type=float, metavar="F", help="multiply every length by F (> 0)")
     size.add_argument("--stride", type=float, metavar="MM", help="scale so that the leg-frame path is MM wide")
-    p.add_argument("--out", type=Path, metavar="FILE", help="write the design JSON here instead of printing it")
+    p.add_argument("--out", type=Path, metavar="FILE",
+                   help="write the design JSON here instead of printing it (an existing FILE is kept unless "
+                        "--overwrite)")
+    p.add_argument("--overwrite", action="store_true", help="with --out: replace an existing FILE")
     p.set_defaults(func=run)
 
 
@@ -76,10 +79,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is None:
         sys.stdout.write(text)
         return 0
-    if args.out.is_dir():
-        raise CLIError(f"{args.out} is a folder")
-    if not args.out.parent.is_dir():
-        raise CLIError(f"cannot write {args.out}: there is no folder {args.out.parent}")
+    check_out_file(args.out, args.overwrite)  # `--design mine.json --out mine.json` replaced the design
     atomic_write(args.out, text)
     print(f"wrote {args.out}: {data['source']}")
     return 0
