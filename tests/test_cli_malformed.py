@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -193,6 +194,13 @@ def test_a_windows_path_is_shown_as_typed_with_a_word_on_its_separator(capsys):
     assert main(["simulate", "--design", "C:\\Users\\student\\x3.json"]) == 2
     assert capsys.readouterr().err == ("clm: error: design file C:\\Users\\student\\x3.json not found ('\\' is not a "
                                        "folder separator here: use '/')\n")
+
+
+def test_the_docs_write_a_preset_with_out_not_a_redirect():
+    # 'presets show NAME > my.json' empties my.json before the name is read; --out writes only a name it knows.
+    root = Path(__file__).resolve().parents[1]
+    for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        assert not re.search(r"presets show [^`\n]*> ", doc.read_text()), doc.name
 
 
 def test_presets_show_writes_a_file_only_for_a_name_it_knows_and_keeps_an_existing_one(tmp_path, capsys):
