@@ -103,6 +103,19 @@ def test_export_refuses_what_it_cannot_draw(tmp_path, capsys):
     assert "--dxf and --svg name the same file" in capsys.readouterr().err and not same.exists()
 
 
+def test_an_export_to_a_folder_or_a_misnamed_file_is_one_plain_line(tmp_path, capsys):
+    folder = tmp_path / "legs"
+    folder.mkdir()
+    assert main(["export", "--preset", "stephenson1/X3", "--svg", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"clm: error: --svg {folder} is a folder; give a file in it, e.g. {folder}/leg.svg\n"
+    # The name suggested ends in .svg once: "a.svg.bak" read "give e.g. a.svg.svg".
+    for name in ("a.svg.bak", "a.svg."):
+        assert main(["export", "--preset", "stephenson1/X3", "--svg", str(tmp_path / name)]) == 2
+        assert capsys.readouterr().err.endswith("; give e.g. a.svg\n")
+    assert list(folder.iterdir()) == [] and not (tmp_path / "a.svg").exists()
+
+
 def test_an_export_never_replaces_the_design_or_a_run_it_draws(tmp_path, capsys):
     # Lab rehearsal: `--svg mine.json` (a tab-completion slip) replaced the design drawn with an SVG, and
     # `--svg runs/a/result.json` destroyed the run; both printed "wrote ...".
@@ -113,8 +126,9 @@ def test_an_export_never_replaces_the_design_or_a_run_it_draws(tmp_path, capsys)
     for kind in ("--svg", "--dxf"):
         assert main(["export", "--design", str(design), kind, str(design)]) == 2
         err = capsys.readouterr().err
-        assert err.startswith(f"clm: error: {kind} {design}: a {kind[2:].upper()} file's name ends in .{kind[2:]}")
-        assert "give e.g. mine." + kind[2:] in err
+        article = "an" if kind == "--svg" else "a"
+        assert err == (f"clm: error: {kind} {design}: {article} {kind[2:].upper()} file's name ends in .{kind[2:]}; "
+                       f"give e.g. mine.{kind[2:]}\n")
     assert design.read_text() == before
     odd = tmp_path / "mine.SVG"  # the case of the suffix is the user's
     assert main(["export", "--design", str(design), "--svg", str(odd)]) == 0 and odd.read_text().startswith("<svg")

@@ -61,8 +61,6 @@ def run(args: argparse.Namespace) -> int:
         if out is None:
             continue
         _check_output(out, kind, args.design)
-        if out.is_dir():
-            raise CLIError(f"{out} is a folder")
         folder = out.parent
         if not folder.is_dir():
             raise CLIError(f"cannot write {out}: there is no folder {folder}")
@@ -82,9 +80,20 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_output(out: Path, kind: str, design: Path | None) -> None:
     """Refuse an output that would replace what the user made (lab rehearsal: ``--svg mine.json`` overwrote the
-    design drawn, ``--svg runs/a/result.json`` the run): a name that is not ``.{kind}``, or the ``--design`` file."""
+    design drawn, ``--svg runs/a/result.json`` the run): a folder, a name that is not ``.{kind}``, or the ``--design``
+    file."""
+    if out.is_dir():
+        raise CLIError(f"--{kind} {out} is a folder; give a file in it, e.g. {out / ('leg.' + kind)}")
     if out.suffix.lower() != f".{kind}":
-        raise CLIError(f"--{kind} {out}: a {kind.upper()} file's name ends in .{kind} (this would replace "
-                       f"{out.name!r} with a drawing); give e.g. {out.with_suffix('.' + kind).name}")
+        raise CLIError(f"--{kind} {out}: {KINDS[kind]} file's name ends in .{kind}; give e.g. {_named(out, kind)}")
     if design is not None and str(design) != "-" and out.resolve() == design.resolve():
         raise CLIError(f"--{kind} {out} is the design drawn; give another file")
+
+
+KINDS = {"dxf": "a DXF", "svg": "an SVG"}
+
+
+def _named(out: Path, kind: str) -> str:
+    """``out``'s name ending in .{kind}: mine.json -> mine.svg, and a.svg.bak -> a.svg (not a.svg.svg)."""
+    stem = out.name.removesuffix(out.suffix).rstrip(".")
+    return stem if Path(stem).suffix.lower() == f".{kind}" else f"{stem}.{kind}"
