@@ -196,6 +196,22 @@ def test_a_windows_path_is_shown_as_typed_with_a_word_on_its_separator(capsys):
                                        "folder separator here: use '/')\n")
 
 
+@pytest.mark.parametrize("command", [["presets", "show", S1], ["scale", "--preset", S1, "--factor", "2"]])
+def test_an_empty_out_or_a_lone_overwrite_is_one_line_and_out_dash_prints(tmp_path, capsys, monkeypatch, command):
+    # '--out ""' read as the folder '.', '--out -' wrote a file named '-', and '--overwrite' alone was ignored.
+    monkeypatch.chdir(tmp_path)
+    for extra, said in ((["--out", ""], "--out is empty; name the output file, or leave --out out to print"),
+                        (["--overwrite"], "--overwrite replaces an existing --out FILE; without --out FILE the JSON "
+                                          "is printed"),
+                        (["--out", "-", "--overwrite"], "--overwrite replaces")):
+        assert main([*command, *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"clm: error: {said}") and err.count("\n") == 1
+    assert main([*command, "--out", "-"]) == 0
+    assert json.loads(capsys.readouterr().out)["mechanism"] == "stephenson1"
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_the_docs_write_a_preset_with_out_not_a_redirect():
     # 'presets show NAME > my.json' empties my.json before the name is read; --out writes only a name it knows.
     root = Path(__file__).resolve().parents[1]

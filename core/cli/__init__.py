@@ -35,15 +35,24 @@ class _Parser(argparse.ArgumentParser):
         raise CLIError(f"{message} (see '{self.prog} --help')")
 
 
-def check_out_file(out: Path, overwrite: bool) -> None:
-    """Refuse an ``--out FILE`` that is a folder, has no folder, or exists without ``--overwrite`` (lab rehearsal:
-    a student's edited design, replaced)."""
+def out_file(text: str | None, overwrite: bool) -> Path | None:
+    """The ``--out FILE`` to write, or None to print (no ``--out``, or ``-``: standard output, as ``--design -`` reads
+    standard input). Refused: an empty name, a folder, a file in no folder, an existing file without ``--overwrite``
+    (lab rehearsal: a student's edited design, replaced), and ``--overwrite`` with nothing to replace."""
+    if text is None or text == "-":
+        if overwrite:
+            raise CLIError("--overwrite replaces an existing --out FILE; without --out FILE the JSON is printed")
+        return None
+    if not text.strip():
+        raise CLIError("--out is empty; name the output file, or leave --out out to print")
+    out = Path(text)
     if out.is_dir():
         raise CLIError(f"--out {out} is a folder")
     if out.exists() and not overwrite:
         raise CLIError(f"--out {out} exists; pass --overwrite to replace it, or give another file")
     if not out.parent.is_dir():
         raise CLIError(f"cannot write {out}: there is no folder {out.parent}")
+    return out
 
 
 def version_text() -> str:
@@ -140,4 +149,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
-__all__ = ["COMMANDS", "CLIError", "build_parser", "check_out_file", "dumps", "jsonable", "main"]
+__all__ = ["COMMANDS", "CLIError", "build_parser", "dumps", "jsonable", "main", "out_file"]

@@ -6,10 +6,9 @@ import argparse
 import json
 import shutil
 import sys
-from pathlib import Path
 from typing import Any
 
-from core.cli import check_out_file
+from core.cli import out_file
 from core.formats.design import design_to_dict
 from core.formats.files import atomic_write
 from core.kinematics import presets
@@ -40,9 +39,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     show.add_argument("name", help="preset name, e.g. stephenson1/X3")
     # Taken, as every other command takes --json after its arguments (rehearsal 8): show prints JSON anyway.
     show.add_argument("--json", dest="show_json", action="store_true", help="print it as JSON (always does)")
-    show.add_argument("--out", type=Path, metavar="FILE",
+    show.add_argument("--out", metavar="FILE",
                       help="write it to FILE (only once the name is found; an existing FILE is kept unless "
-                           "--overwrite): 'show NAME > FILE' empties FILE first, even for a mistyped name")
+                           "--overwrite; '-' prints it): 'show NAME > FILE' empties FILE first, even for a mistyped "
+                           "name")
     show.add_argument("--overwrite", action="store_true", help="with --out: replace an existing FILE")
     p.set_defaults(func=run)
 
@@ -50,12 +50,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.action == "show":
         text = json.dumps(preset_dict(presets.get(args.name)), indent=2)
-        if args.out is None:
+        out = out_file(args.out, args.overwrite)
+        if out is None:
             print(text)
             return 0
-        check_out_file(args.out, args.overwrite)
-        atomic_write(args.out, text + "\n")
-        print(f"wrote {args.out}")
+        atomic_write(out, text + "\n")
+        print(f"wrote {out}")
         return 0
     items = sorted(presets.PRESETS.values(), key=lambda p: p.name)
     if args.json or getattr(args, "list_json", False):

@@ -6,9 +6,8 @@ import argparse
 import json
 import math
 import sys
-from pathlib import Path
 
-from core.cli import CLIError, check_out_file
+from core.cli import CLIError, out_file
 from core.formats.design import design_to_dict
 from core.formats.files import atomic_write
 
@@ -29,9 +28,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     size = p.add_mutually_exclusive_group(required=True)
     size.add_argument("--factor", type=float, metavar="F", help="multiply every length by F (> 0)")
     size.add_argument("--stride", type=float, metavar="MM", help="scale so that the leg-frame path is MM wide")
-    p.add_argument("--out", type=Path, metavar="FILE",
+    p.add_argument("--out", metavar="FILE",
                    help="write the design JSON here instead of printing it (an existing FILE is kept unless "
-                        "--overwrite)")
+                        "--overwrite; '-' prints it)")
     p.add_argument("--overwrite", action="store_true", help="with --out: replace an existing FILE")
     p.set_defaults(func=run)
 
@@ -76,10 +75,10 @@ def run(args: argparse.Namespace) -> int:
             "source": f"{label} scaled by {factor:.6g}"
                       + (f" (leg-frame path width {_mm(width)} -> {_mm(new)} mm)" if width and new else "")}
     text = json.dumps(data, indent=2) + "\n"
-    if args.out is None:
+    out = out_file(args.out, args.overwrite)  # `--design mine.json --out mine.json` replaced the design
+    if out is None:
         sys.stdout.write(text)
         return 0
-    check_out_file(args.out, args.overwrite)  # `--design mine.json --out mine.json` replaced the design
-    atomic_write(args.out, text)
-    print(f"wrote {args.out}: {data['source']}")
+    atomic_write(out, text)
+    print(f"wrote {out}: {data['source']}")
     return 0
