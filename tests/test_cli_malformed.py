@@ -181,6 +181,14 @@ def test_a_run_that_outgrows_the_memory_is_one_line(capsys, monkeypatch):
      "Expecting property name enclosed in double quotes at line 1 column 51 (a decimal comma? JSON numbers take '.': "
      "128.33)"),
     ('{"mechanism": "stephenson1", "params": {"r1": "12', "Unterminated string starting at line 1 column 47"),
+    # A trailing comma read "(a decimal comma? ...)" after a number; after a string or a list it had no word.
+    ('{"mechanism": "stephenson1", "params": {"r1": 128,}}',
+     "Expecting property name enclosed in double quotes at line 1 column 51 (a trailing comma? JSON takes none after "
+     "the last item)"),
+    ('{"mechanism": "stephenson1",\n}', "Expecting property name enclosed in double quotes at line 2 column 1 (a "
+     "trailing comma? JSON takes none after the last item)"),
+    ('{"mechanism": "stephenson1", "params": [1, 2,]}',
+     "Expecting value at line 1 column 46 (a trailing comma? JSON takes none after the last item)"),
 ])
 def test_a_broken_design_json_is_said_in_plain_words(tmp_path, capsys, text, said):
     # Lab rehearsal: "Unterminated string starting at at line 17", Python's words for a decimal comma.

@@ -137,9 +137,12 @@ def _load(args: argparse.Namespace) -> tuple[Design, str | None]:
 
 def json_message(e: json.JSONDecodeError) -> str:
     """Where and what, in words: "Unterminated string starting at" read "... at at line 17" (lab rehearsal); a
-    decimal comma ("r4": 128,33) is said to be one."""
+    decimal comma ("r4": 128,33) and a trailing comma ({"r4": 128,}) are said to be one."""
     hint = ""
-    if e.msg.startswith("Expecting property name") and e.pos > 0 and e.doc[e.pos - 1:e.pos] == ",":
+    if e.doc[:e.pos].rstrip().endswith(",") and e.doc[e.pos:e.pos + 1] in ("}", "]"):
+        hint = " (a trailing comma? JSON takes none after the last item)"
+    elif e.msg.startswith("Expecting property name") and e.pos > 0 and e.doc[e.pos - 1:e.pos] == "," \
+            and e.doc[e.pos:e.pos + 1].isdigit():  # digits on both sides of the comma
         before = e.doc[max(0, e.pos - 12):e.pos - 1].rstrip()
         if before[-1:].isdigit():
             hint = " (a decimal comma? JSON numbers take '.': 128.33)"
