@@ -103,6 +103,15 @@ def test_a_bad_out_folder_is_refused_before_any_work(tmp_path, capsys, case):
     assert not (tmp_path / "out" / "0_subtask1.csv").is_file()
 
 
+def test_a_refused_out_folder_leaves_no_folder_it_made_behind(tmp_path, capsys):
+    # 'new/a/<a name too long>' was refused after new/a had been made, and new/a stayed.
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(SMALL)
+    assert main(["design", str(cfg), "--out", str(tmp_path / "new" / "a" / ("x" * 300)), "--quiet"]) == 2
+    assert "cannot write there (File name too long)" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml"]
+
+
 def children(pid: int) -> set[int]:
     out = set()
     for d in Path("/proc").iterdir():

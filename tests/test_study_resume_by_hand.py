@@ -384,6 +384,9 @@ def test_a_study_refused_at_its_start_leaves_no_directory_behind(tmp_path: Path,
     assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--quiet"]) == 2
     assert "the cluster's workers run other code" in capsys.readouterr().err
     assert not out.exists()
+    deep = tmp_path / "new2" / "a" / "b"  # the folders made above it go too
+    assert main(["study", str(tmp_path / "s.toml"), "--out", str(deep), "--quiet"]) == 2
+    assert not (tmp_path / "new2").exists()
     there = tmp_path / "there"
     there.mkdir()
     assert main(["study", str(tmp_path / "s.toml"), "--out", str(there), "--quiet"]) == 2

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from core.cli import CLIError
-from core.formats.files import check_out_dir
+from core.formats.files import check_out_dir, new_folders, remove_empty
 
 MAX_WORKERS = 256
 
@@ -48,8 +48,9 @@ def _check_out(out: str | None) -> Path:
     return check_out_dir(out, ["study.sqlite", "report.md", "report.html"])
 
 
-def _remove_if_unused(out: Path) -> None:
-    """Remove a study directory this command made when no run finished in it (a refused or failed start)."""
+def _remove_if_unused(out: Path, made: list[Path]) -> None:
+    """Remove a study directory this command made, and the folders it made above it (``made``, innermost first),
+    when no run finished in it (a refused or failed start)."""
     import shutil
     import sqlite3
 
@@ -63,6 +64,7 @@ def _remove_if_unused(out: Path) -> None:
         used = any(p.name not in {".lock", "study.sqlite"} for p in out.iterdir()) if out.is_dir() else True
     if not used and not (out / "runs").exists():
         shutil.rmtree(out, ignore_errors=True)
+        remove_empty(made[1:])  # a refused --out new/a/b left new/a behind
 
 
 def run(args: argparse.Namespace) -> int:
@@ -102,7 +104,7 @@ def _run(args: argparse.Namespace) -> int:
             connect(args.scheduler).close()
         except ValueError as exc:
             raise CLIError(str(exc)) from None
-    made = args.out is not None and not Path(args.out).exists()
+    made = new_folders(Path(args.out)) if args.out is not None else []
     out = _check_out(args.out)
     try:
         summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
@@ -110,7 +112,7 @@ def _run(args: argparse.Namespace) -> int:
                             mixed_code=args.mixed_code)
     except BaseException:
         if made:
-            _remove_if_unused(out)
+            _remove_if_unused(out, made)
         raise
     md, page = write_report(out)
     print(f"{study.name}: {summary.total} cells, {summary.skipped} already done, {summary.ran} run now "

@@ -43,17 +43,38 @@ def check_out_dir(out: str | Path, files: Iterable[str] = ()) -> Path:
     d = Path(out)
     if d.exists() and not d.is_dir():
         raise ValueError(f"--out {str(d)!r} exists and is not a folder")
+    made = new_folders(d)
     try:
         d.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(dir=d, prefix=".clm-probe-")
         os.close(fd)
         os.unlink(probe)
     except OSError as e:
+        remove_empty(made)  # a refused new/a/<too long> left new/a behind
         raise ValueError(f"--out {str(d)!r}: cannot write there ({e.strerror})") from None
     for name in files:
         if (d / name).is_dir():
             raise ValueError(f"--out {str(d)!r}: {name} is a folder; it would be overwritten by a file")
     return d
+
+
+def new_folders(d: Path) -> list[Path]:
+    """The folders ``d.mkdir(parents=True)`` would make, ``d`` first: what to remove again after a refusal."""
+    made = []
+    for p in [d, *d.parents]:
+        if p.exists():
+            break
+        made.append(p)
+    return made
+
+
+def remove_empty(folders: Iterable[Path]) -> None:
+    """Remove ``folders`` (innermost first) that are empty: rmdir leaves one that anything was put in since."""
+    for p in folders:
+        try:
+            p.rmdir()
+        except OSError:  # not empty, never made (a name too long), or gone
+            pass
 
 
 def backslash_hint(path: str | Path) -> str:
