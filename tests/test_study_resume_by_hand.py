@@ -406,3 +406,17 @@ def test_an_unreachable_scheduler_is_refused_before_the_study_directory_is_made(
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("clm: error: no Dask scheduler answers at tcp://127.0.0.1:1 ")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("address", ["", "  "])
+def test_an_empty_scheduler_is_one_plain_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                              address: str) -> None:
+    # It read Dask's "missing port number in address ''", as clm design's did before it was checked.
+    from core.cli import main
+
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "o"
+    assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--scheduler", address]) == 2
+    assert capsys.readouterr().err == ("clm: error: --scheduler is empty; give a Dask scheduler address such as "
+                                       "tcp://127.0.0.1:8786\n")
+    assert not out.exists()

@@ -91,6 +91,8 @@ def _run(args: argparse.Namespace) -> int:
         raise CLIError("give one study file (or 'report DIR')")
     if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
         raise CLIError(f"--workers must be between 1 and {MAX_WORKERS}, got {args.workers}")
+    if args.scheduler is not None and not args.scheduler.strip():  # Dask said "missing port number in address ''"
+        raise CLIError("--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786")
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sets up a local cluster; a --scheduler's cluster has its own workers")
     from core.formats.study import load_study
