@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import io
+import os
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -137,6 +138,13 @@ def test_a_second_study_into_the_same_directory_is_refused_while_the_first_runs(
     assert client.sent == []
     runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)  # once it has ended
     assert len(client.sent) == 6
+    # the message names the holder, not the command refused (review of session 32: "another clm study" for a
+    # clm design still writing there)
+    from core.formats.files import dir_lock
+
+    with dir_lock(out, "clm design"), pytest.raises(ValueError, match=r"another clm design is writing into it "
+                                                                       rf"\(process {os.getpid()}\)"):
+        runner.run_study(load_study(tmp_path / "s.toml"), str(out), stream=None, task=fake_task)
 
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage"])

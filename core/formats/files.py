@@ -97,10 +97,10 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             f.seek(0)
-            pid = f.read().strip() or "?"
+            pid, _, holder = f.read().strip().partition(" ")  # "4242 clm study": the holder, not this command
             f.close()
-            raise ValueError(f"{d}: another {what} is writing into it (process {pid}); wait for it to end, or "
-                             "choose another --out") from None
+            raise ValueError(f"{d}: another {holder or what} is writing into it (process {pid or '?'}); wait for it "
+                             "to end, or choose another --out") from None
         try:
             held = os.fstat(f.fileno()).st_ino == os.stat(path).st_ino
         except FileNotFoundError:
@@ -111,7 +111,7 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
     try:
         f.seek(0)
         f.truncate()
-        f.write(str(os.getpid()))
+        f.write(f"{os.getpid()} {what}")
         f.flush()
         yield
     finally:
