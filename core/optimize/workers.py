@@ -141,6 +141,9 @@ def connect(scheduler: str, timeout: str = "20s") -> Any:
         return Client(scheduler, timeout=timeout)
     except OSError as e:  # distributed's "Timed out trying to connect ..." and refused connections
         raise ValueError(f"no Dask scheduler answers at {scheduler} ({e})") from None
+    except ValueError as e:  # "missing port number in address 'foo'", in Dask's words only (review of session 33)
+        raise ValueError(f"{scheduler!r} is not a Dask scheduler address ({e}); one reads like "
+                         "tcp://127.0.0.1:8786") from None
 
 
 def run_on_cluster(fn: Job, jobs: Sequence[Any], scheduler: str, cancel: threading.Event | None = None) -> list[Any]:
