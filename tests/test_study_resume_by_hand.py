@@ -416,29 +416,21 @@ def test_an_unreachable_scheduler_is_refused_before_the_study_directory_is_made(
     assert not out.exists()
 
 
-@pytest.mark.parametrize("address", ["", "  "])
-def test_an_empty_scheduler_is_one_plain_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                              address: str) -> None:
-    # It read Dask's "missing port number in address ''", as clm design's did before it was checked.
+@pytest.mark.parametrize(("address", "said"), [
+    # Dask's "missing port number in address ''" (as clm design's before it was checked), and for "foo" alone
+    ("", "--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786"),
+    ("  ", "--scheduler is empty; give a Dask scheduler address such as tcp://127.0.0.1:8786"),
+    ("foo", "'foo' is not a Dask scheduler address (missing port number in address 'foo'); one reads like "
+            "tcp://127.0.0.1:8786"),
+    ("tcp://localhost", "'tcp://localhost' is not a Dask scheduler address (missing port number in address "
+                        "'localhost'); one reads like tcp://127.0.0.1:8786"),
+])
+def test_a_scheduler_that_is_no_address_is_one_plain_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                          address: str, said: str) -> None:
     from core.cli import main
 
     (tmp_path / "s.toml").write_text(STUDY)
     out = tmp_path / "o"
     assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--scheduler", address]) == 2
-    assert capsys.readouterr().err == ("clm: error: --scheduler is empty; give a Dask scheduler address such as "
-                                       "tcp://127.0.0.1:8786\n")
+    assert capsys.readouterr().err == f"clm: error: {said}\n"
     assert not out.exists()
-
-
-@pytest.mark.parametrize("address", ["foo", "tcp://localhost"])
-def test_a_scheduler_that_is_no_address_is_said_to_be_none(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                                           address: str) -> None:
-    # Dask's "missing port number in address 'foo'" alone did not say what was wrong with the option
-    from core.cli import main
-
-    (tmp_path / "s.toml").write_text(STUDY)
-    out = tmp_path / "o"
-    assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--scheduler", address]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith(f"clm: error: {address!r} is not a Dask scheduler address (missing port number")
-    assert err.endswith("one reads like tcp://127.0.0.1:8786\n") and err.count("\n") == 1 and not out.exists()
