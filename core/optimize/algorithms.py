@@ -15,7 +15,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from math import comb, inf
+from math import comb
 from typing import Any
 
 import numpy as np
@@ -26,6 +26,7 @@ from pymoo.operators.crossover.sbx import SBX
 from pymoo.operators.mutation.pm import PM
 from pymoo.operators.selection.tournament import TournamentSelection
 
+from core.optimize.evolve.ranges import RANGES
 from core.optimize.evolve.weights import simplex_lattice
 
 DEFAULT_ALGORITHM = "nsga2"
@@ -40,9 +41,6 @@ GA_OPTIONS = ("crossover_prob", "crossover_eta", "mutation_prob", "mutation_prob
 REF_OPTIONS = ("n_partitions",)
 DE_OPTIONS = ("variant", "CR", "F")
 DE_VARIANT = r"DE/(rand|best|target-to-best)/[12]/(bin|exp|line|hypercube)"  # what pymoo's DE parses
-# Numeric options and their closed ranges (checked however the spec was made: config, CLI, studio or Python).
-RANGES = {"crossover_prob": (0.0, 1.0), "mutation_prob": (0.0, 1.0), "mutation_prob_var": (0.0, 1.0),
-          "CR": (0.0, 1.0), "crossover_eta": (0.0, inf), "mutation_eta": (0.0, inf), "F": (0.0, inf)}
 
 
 @dataclass(frozen=True)

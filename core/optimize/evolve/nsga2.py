@@ -15,6 +15,7 @@ import numpy as np
 
 from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.duplicates import fresh_rows
+from core.optimize.evolve.ranges import RANGES
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.sorting import cdp_ranks, crowding
 from core.optimize.evolve.variation import polynomial_mutation, sbx_bounded
@@ -38,8 +39,6 @@ class NSGA2(ArrayAlgorithm):
     def __init__(self, pop_size: int = 100, crossover_prob: float = 0.9, crossover_eta: float = 15.0,
                  mutation_prob: float = 0.9, mutation_prob_var: float | None = None, mutation_eta: float = 20.0,
                  eliminate_duplicates: bool = True, **kwargs: Any) -> None:
-        from core.optimize.algorithms import RANGES  # the ranges a config's options are checked on
-
         given = {"crossover_prob": crossover_prob, "crossover_eta": crossover_eta, "mutation_prob": mutation_prob,
                  "mutation_prob_var": mutation_prob_var, "mutation_eta": mutation_eta}
         for key, v in given.items():  # built directly, as from a config (crossover_eta=-1 divided by zero)
