@@ -9,6 +9,7 @@ import time
 import numpy as np
 import pytest
 from pymoo.core.evaluator import Evaluator
+from pymoo.core.problem import Problem
 from pymoo.core.termination import TerminateIfAll, TerminateIfAny
 from pymoo.optimize import minimize
 from pymoo.termination.default import DefaultMultiObjectiveTermination
@@ -117,3 +118,28 @@ def test_a_time_termination_runs_the_schedule_to_its_end():
     res = minimize(problem_by_name("mw3"), make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1), ("time", 3.0), seed=1)
     taus = [r["tau"] for r in res.algorithm.trace]
     assert taus[-1] > 0.7 and res.algorithm.max_fe < 3 * res.algorithm.evaluator.n_eval, (taus[-5:], len(taus))
+
+
+class Watching(Problem):
+    """MW3, noting the algorithm pymoo hands a problem's _evaluate that asks for it (``requires_kwargs``:
+    kwargs["algorithm"], as pymoo's own algorithms pass it)."""
+
+    def __init__(self) -> None:
+        self.inner = problem_by_name("mw3")
+        super().__init__(n_var=self.inner.n_var, n_obj=2, n_ieq_constr=self.inner.n_ieq_constr, xl=self.inner.xl,
+                         xu=self.inner.xu, requires_kwargs=True)
+        self.seen: list[object] = []
+
+    def _evaluate(self, x, out, *args, **kwargs):
+        self.seen.append(kwargs.get("algorithm"))
+        o = self.inner.evaluate(x, return_as_dictionary=True)
+        out["F"], out["G"] = o["F"], o["G"]
+
+
+@pytest.mark.parametrize("own", [False, True])
+@pytest.mark.parametrize("name", PAPER)
+def test_the_problem_is_told_the_algorithm_as_pymoo_tells_it(name, own):
+    problem = Watching()
+    kwargs = {"evaluator": Counting()} if own else {}
+    res = minimize(problem, make_algorithm(AlgorithmSpec(name, 20), 2, 1), ("n_gen", 3), seed=1, **kwargs)
+    assert problem.seen and all(a is res.algorithm for a in problem.seen)

@@ -304,13 +304,13 @@ class ArrayAlgorithm(Algorithm):
             return _arrays(X, *at.to_worker.get())
         ev = self.evaluator
         if type(ev) is not Evaluator or ev.callback is not None:  # a user's evaluator (spec §1.8): through it
-            pop = ev.eval(self.problem, Population.new("X", X))
+            pop = ev.eval(self.problem, Population.new("X", X), algorithm=self)
             p = self.problem
             told = [_told(pop, k, n, m) for k, m in (("F", p.n_obj), ("G", p.n_ieq_constr), ("H", p.n_eq_constr))]
             if any(v is None for v in told):
                 raise ValueError(f"{type(ev).__name__}.eval left members without F, G or H of the problem's shapes")
             return _arrays(X, *told)  # type: ignore[arg-type]
-        out = self.problem.evaluate(X, return_as_dictionary=True)
+        out = self.problem.evaluate(X, return_as_dictionary=True, algorithm=self)  # as pymoo's algorithms pass it
         F = np.asarray(out["F"], dtype=np.float64).reshape(n, -1)
         G = np.asarray(out.get("G", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
         H = np.asarray(out.get("H", np.zeros((n, 0))), dtype=np.float64).reshape(n, -1)
