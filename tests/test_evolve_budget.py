@@ -88,6 +88,10 @@ def test_the_budget_under_every_kind_of_termination():
     assert budget_of(DefaultMultiObjectiveTermination(n_max_evals=5000)) == 5000
     assert budget_of(DefaultMultiObjectiveTermination(n_max_gen=50)) == gens(50)
     assert budget_of(DefaultMultiObjectiveTermination()) == min(100_000, gens(1000))
+    # pymoo's unlimited defaults (inf) limit nothing (int(inf) raised; review of session 34)
+    assert budget_of(TerminateIfAny(MaximumFunctionCallTermination(), MaximumGenerationTermination(30))) == gens(30)
+    assert budget_of(DefaultMultiObjectiveTermination(n_max_gen=np.inf, n_max_evals=2000)) == 2000
+    assert budget_of(MaximumFunctionCallTermination()) == gens(101)
     # nothing that limits evaluations: 100 generations after the first (a time in it: estimated as it runs)
     assert budget_of(TerminateIfAll(MaximumGenerationTermination(30), TimeBasedTermination(60))) == gens(101)
 

@@ -407,10 +407,11 @@ def _arrays(X: F64, F: F64, G: F64, H: F64) -> Arrays:
 def _evaluations(t: Any, per_generation: int, initial: int) -> int | None:
     """The evaluations termination ``t`` allows (generations counted as ``initial`` then ``per_generation`` each),
     None if it sets no such limit (a time, a tolerance)."""
-    if getattr(t, "n_max_evals", None) is not None:
-        return int(t.n_max_evals)
-    if getattr(t, "n_max_gen", None) is not None:
-        return int(initial + (int(t.n_max_gen) - 1) * per_generation)
+    evals, gens = getattr(t, "n_max_evals", None), getattr(t, "n_max_gen", None)
+    if evals is not None:  # pymoo's defaults are inf: no limit (int(inf) raised)
+        return int(evals) if np.isfinite(evals) else None
+    if gens is not None:
+        return int(initial + (int(gens) - 1) * per_generation) if np.isfinite(gens) else None
     inner = getattr(t, "termination", None)  # RobustTermination: its inner one's limit
     if inner is not None:
         return _evaluations(inner, per_generation, initial)
