@@ -117,3 +117,5 @@ def test_a_saved_history_shares_the_trace_rows_and_keeps_each_snapshots_length()
     twin = copy.deepcopy(res.algorithm)
     twin.trace.append({"gen": 99.0})  # a copy's trace is its own list
     assert len(final) == 12 and len(twin.trace) == 13
+    pair = copy.deepcopy([final, final])  # one trace reached twice stays one (memo)
+    assert pair[0] is pair[1] and pair[0] is not final

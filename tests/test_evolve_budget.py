@@ -83,7 +83,9 @@ def test_the_budget_under_every_kind_of_termination():
     assert budget_of(MaximumGenerationTermination(30)) == gens(30)
     assert budget_of(TerminateIfAny(MaximumGenerationTermination(30), MaximumFunctionCallTermination(900))) == 900
     assert budget_of(TerminateIfAll(MaximumGenerationTermination(30), MaximumFunctionCallTermination(900))) == gens(30)
-    assert budget_of(RobustTermination(MaximumFunctionCallTermination(1200))) == 1200
+    # a RobustTermination ends period - 1 generations after its inner limit (review of session 34: 29 short)
+    assert budget_of(RobustTermination(MaximumFunctionCallTermination(1200), period=5)) == 1200 + 4 * 60
+    assert budget_of(RobustTermination(MaximumGenerationTermination(10))) == gens(10 + 29)
     # pymoo's default termination ends at its caps at the latest: 1000 generations or 100 000 evaluations
     assert budget_of(DefaultMultiObjectiveTermination(n_max_evals=5000)) == 5000
     assert budget_of(DefaultMultiObjectiveTermination(n_max_gen=50)) == gens(50)
@@ -147,3 +149,10 @@ def test_the_problem_is_told_the_algorithm_as_pymoo_tells_it(name, own):
     kwargs = {"evaluator": Counting()} if own else {}
     res = minimize(problem, make_algorithm(AlgorithmSpec(name, 20), 2, 1), ("n_gen", 3), seed=1, **kwargs)
     assert problem.seen and all(a is res.algorithm for a in problem.seen)
+
+
+def test_a_robust_termination_runs_as_long_as_its_budget_says():
+    alg = make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1)
+    res = minimize(problem_by_name("mw3"), alg, RobustTermination(MaximumGenerationTermination(10), period=6),
+                   seed=1, copy_algorithm=False)
+    assert res.algorithm.n_iter - 1 == 15 and alg.max_fe == 40 + 14 * 60  # CMOES's n_eval counts its real members

@@ -69,7 +69,8 @@ class Trace(list[dict[str, float]]):
     (which made a 600-generation run with its history ~2x slower: quadratic in the generations)."""
 
     def __deepcopy__(self, memo: dict[int, Any]) -> Trace:
-        return Trace(self)
+        twin = memo[id(self)] = Trace(self)
+        return twin
 
 
 class Initialization:
@@ -412,9 +413,11 @@ def _evaluations(t: Any, per_generation: int, initial: int) -> int | None:
         return int(evals) if np.isfinite(evals) else None
     if gens is not None:
         return int(initial + (int(gens) - 1) * per_generation) if np.isfinite(gens) else None
-    inner = getattr(t, "termination", None)  # RobustTermination: its inner one's limit
+    inner = getattr(t, "termination", None)  # RobustTermination: its inner one's limit, held for its window
     if inner is not None:
-        return _evaluations(inner, per_generation, initial)
+        b = _evaluations(inner, per_generation, initial)
+        window = getattr(getattr(t, "history", None), "size", None) or 1
+        return None if b is None else b + (int(window) - 1) * per_generation
     parts = getattr(t, "terminations", None) or getattr(t, "criteria", None)
     if not parts:
         return None
