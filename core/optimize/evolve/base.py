@@ -418,7 +418,7 @@ def _evaluations(t: Any, per_generation: int, initial: int) -> int | None:
         b = _evaluations(inner, per_generation, initial)
         window = getattr(getattr(t, "history", None), "size", None) or 1
         return None if b is None else b + (int(window) - 1) * per_generation
-    parts = getattr(t, "terminations", None) or getattr(t, "criteria", None)
+    parts = _parts(t)
     if not parts:
         return None
     known = [b for b in (_evaluations(c, per_generation, initial) for c in parts) if b is not None]
@@ -432,6 +432,11 @@ def _clock(t: Any) -> float | None:
     if getattr(t, "max_time", None) is not None:
         return float(t.max_time)
     inner = getattr(t, "termination", None)
-    parts = [inner] if inner is not None else (getattr(t, "terminations", None) or getattr(t, "criteria", None) or [])
-    times = [s for s in (_clock(c) for c in parts) if s is not None]
+    times = [s for s in (_clock(c) for c in ([inner] if inner is not None else _parts(t))) if s is not None]
     return min(times) if times else None
+
+
+def _parts(t: Any) -> list[Any]:
+    """The terminations a combined one holds: a TerminationCollection's, TerminateIfAny/All's and pymoo's default
+    termination's criteria; none for a single one."""
+    return list(getattr(t, "terminations", None) or getattr(t, "criteria", None) or [])
