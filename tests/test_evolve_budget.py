@@ -117,6 +117,35 @@ def test_a_time_budget_is_estimated_from_the_evaluations_per_second_so_far(name)
     assert n_eval < alg.max_fe <= 4 * n_eval
 
 
+def rebudgeted(termination, used: float) -> tuple[int, int]:
+    """CMOES at N = 20 under ``termination`` after two generations, its time termination(s) ``used`` x 100 s
+    along: the budget estimated again, and the evaluations so far."""
+    alg = make_algorithm(AlgorithmSpec("cmoes", 20), 2, 1)
+    alg.setup(problem_by_name("mw3"), termination=termination, seed=1)
+    alg.next()
+    alg.next()
+    alg.start_time = time.time() - 100.0 * used
+    alg.rebudget()
+    assert alg.max_gen == math.ceil(alg.max_fe / 20)
+    return alg.max_fe, alg.evaluator.n_eval
+
+
+def test_a_time_with_a_generation_count_ends_where_either_or_both_would():
+    # review of session 34: under TerminateIfAny the time was never estimated, under TerminateIfAll only the time
+    gens = lambda g: 40 + (g - 1) * 60  # noqa: E731
+    t = TimeBasedTermination(100.0)
+    fe, n_eval = rebudgeted(TerminateIfAny(MaximumGenerationTermination(1000), t), 0.25)
+    assert 3.9 * n_eval <= fe <= 4 * n_eval < gens(1000)  # the time ends first
+    fe, n_eval = rebudgeted(TerminateIfAny(MaximumGenerationTermination(3), t), 0.25)
+    assert fe == gens(3)  # the generations end first
+    fe, n_eval = rebudgeted(TerminateIfAll(MaximumGenerationTermination(1000), t), 0.25)
+    assert fe == gens(1000)  # both must end: the later
+    fe, n_eval = rebudgeted(TerminateIfAll(MaximumGenerationTermination(3), t), 0.25)
+    assert 3.9 * n_eval <= fe <= 4 * n_eval
+    fe, n_eval = rebudgeted(RobustTermination(TimeBasedTermination(100.0), period=3), 0.5)
+    assert 1.9 * n_eval + 2 * 60 <= fe <= 2 * n_eval + 2 * 60  # its window after the time
+
+
 def test_a_time_termination_runs_the_schedule_to_its_end():
     # CMOES's tau (its epsilon's progress) reaches most of the way by the end of a 3-second run (compiled first:
     # a first compile inside the run is a slow start the estimate only catches up with)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -321,25 +322,30 @@ class ArrayAlgorithm(Algorithm):
     def budget(self, per_generation: int, initial: int) -> int:
         """The evaluations this run may spend, which schedules such as an epsilon need: the ``n_eval``
         termination's, or generations x ``per_generation`` plus the ``initial`` population(s) for an ``n_gen`` one;
-        of several (a collection, ``TerminateIfAny``, pymoo's default termination's caps) the first to end. Under a
-        time termination it is estimated again before each generation from the evaluations per second so far
-        (:meth:`rebudget`); with none of these, 100 generations."""
+        of several, the first to end (a collection, ``TerminateIfAny``, pymoo's default termination's caps) or the
+        last (``TerminateIfAll``). A time termination in it is estimated again before each generation from the
+        evaluations per second so far (:meth:`rebudget`); with nothing to go by, 100 generations."""
         self._per_generation, self._initial = per_generation, initial
         known = _evaluations(self.termination, per_generation, initial)
         return int(initial + 100 * per_generation) if known is None else known
 
     def rebudget(self) -> None:
-        """Under a time termination: the budget estimated from the time left at the evaluations per second so far
-        (a schedule spans the run's time), then :meth:`budget_changed`."""
-        clock = _clock(self.termination)
+        """Under a termination with a time in it: the budget estimated again, each time counted as the evaluations
+        it allows at the evaluations per second so far (a schedule spans the run's time; with ``TerminateIfAny``
+        of a time and a generation count, whichever ends first), then :meth:`budget_changed`."""
         per = getattr(self, "_per_generation", None)
-        if clock is None or per is None or self.start_time is None or \
-                _evaluations(self.termination, per, self._initial) is not None:
+        if per is None or self.start_time is None or not _timed(self.termination):
             return
-        used = min(max((time.time() - self.start_time) / clock, 1e-9), 1.0)
         n_eval = int(self.evaluator.n_eval)
-        self.max_fe = max(int(n_eval / used), n_eval + per)
-        self.budget_changed()
+        spent = time.time() - self.start_time
+
+        def at(seconds: float) -> int:  # the evaluations by then; all spent once the time is up
+            return int(n_eval / min(max(spent / seconds, 1e-9), 1.0))
+
+        est = _evaluations(self.termination, per, self._initial, at)
+        if est is not None:
+            self.max_fe = max(est, n_eval + per)
+            self.budget_changed()
 
     def budget_changed(self) -> None:
         """Recompute what a subclass derives from ``max_fe`` (CMOES's generations, CMOEMT's Tc)."""
@@ -405,35 +411,36 @@ def _arrays(X: F64, F: F64, G: F64, H: F64) -> Arrays:
     return Arrays(X, F, G, cv)
 
 
-def _evaluations(t: Any, per_generation: int, initial: int) -> int | None:
+def _evaluations(t: Any, per_generation: int, initial: int, at: Callable[[float], int] | None = None) -> int | None:
     """The evaluations termination ``t`` allows (generations counted as ``initial`` then ``per_generation`` each),
-    None if it sets no such limit (a time, a tolerance)."""
+    None if it sets no such limit (a tolerance; a time unless ``at`` converts seconds into evaluations)."""
     evals, gens = getattr(t, "n_max_evals", None), getattr(t, "n_max_gen", None)
     if evals is not None:  # pymoo's defaults are inf: no limit (int(inf) raised)
         return int(evals) if np.isfinite(evals) else None
     if gens is not None:
         return int(initial + (int(gens) - 1) * per_generation) if np.isfinite(gens) else None
+    if getattr(t, "max_time", None) is not None:
+        return at(float(t.max_time)) if at is not None else None
     inner = getattr(t, "termination", None)  # RobustTermination: its inner one's limit, held for its window
     if inner is not None:
-        b = _evaluations(inner, per_generation, initial)
+        b = _evaluations(inner, per_generation, initial, at)
         window = getattr(getattr(t, "history", None), "size", None) or 1
         return None if b is None else b + (int(window) - 1) * per_generation
     parts = _parts(t)
     if not parts:
         return None
-    known = [b for b in (_evaluations(c, per_generation, initial) for c in parts) if b is not None]
+    known = [b for b in (_evaluations(c, per_generation, initial, at) for c in parts) if b is not None]
     if type(t).__name__ == "TerminateIfAll":  # the last to end: every part must have a limit
         return max(known) if len(known) == len(parts) else None
     return min(known) if known else None  # the first to end
 
 
-def _clock(t: Any) -> float | None:
-    """Seconds of a time termination in ``t`` (the shortest, if several), else None."""
+def _timed(t: Any) -> bool:
+    """Whether a time termination is in ``t``."""
     if getattr(t, "max_time", None) is not None:
-        return float(t.max_time)
+        return True
     inner = getattr(t, "termination", None)
-    times = [s for s in (_clock(c) for c in ([inner] if inner is not None else _parts(t))) if s is not None]
-    return min(times) if times else None
+    return any(_timed(c) for c in ([inner] if inner is not None else _parts(t)))
 
 
 def _parts(t: Any) -> list[Any]:
