@@ -317,7 +317,11 @@ def test_slips_a_student_makes_get_the_name_they_meant(tmp_path: Path) -> None:
         load_config(tmp_path / "x3.json")
     # review of session 32: a run's result.json and a studio session were called "a design JSON" too
     for text, what in (('{"format": "clm-design", "stages": [{"mechanism": "stephenson1"}]}', "a run's result.json"),
-                       ('{"format":"clm-studio-session","design":{"mechanism":"fourbar"}}', "a studio session")):
+                       ('{"format":"clm-studio-session","design":{"mechanism":"fourbar"}}', "a studio session"),
+                       # review of session 34: a pipeline record (stage results inside) read "a stage result"
+                       ('{"stages": [{"format": "clm-stage-result"}], "format": "clm-pipeline"}',
+                        "a pipeline record"),
+                       ('{"format": "clm-stage-result", "X": [[1.0, 2', "a stage result")):
         (tmp_path / "r.json").write_text(text)
         with pytest.raises(ValueError, match=rf"not valid TOML: .*\(this is {what}; clm design takes a TOML "):
             load_config(tmp_path / "r.json")

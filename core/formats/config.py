@@ -8,6 +8,7 @@ configuration is ``core.optimize.run``.
 from __future__ import annotations
 
 import inspect
+import json
 import math
 import os
 import re
@@ -84,14 +85,27 @@ def load_config(path: str | Path) -> DesignConfig:
     except (tomllib.TOMLDecodeError, RecursionError) as e:
         hint = ""
         if text.lstrip().startswith("{"):  # a JSON of ours given for a config (lab rehearsal; review of session 32)
-            what = next((w for f, w in OUR_JSON if re.search(rf'"format"\s*:\s*"{f}"', text)),
-                        "a design JSON" if '"mechanism"' in text else None)
+            what = _our_json(text)
             if what is not None:
                 hint = f" (this is {what}; clm design takes a TOML configuration such as assets/configs/*.toml, " \
                        "whose preset names the design it starts from)"
         raise ValueError(f"{p}: not valid TOML: {str(e).splitlines()[0] if str(e) else 'nested too deep'}"
                          f"{hint}") from None
     return parse_config(data, p.parent, str(p))
+
+
+def _our_json(text: str) -> str | None:
+    """What a JSON file of ours is, by its top-level "format" (a pipeline record holds stage results, whose formats
+    named it "a stage result": review of session 34); a cut-off file by its first one."""
+    try:
+        d = json.loads(text)
+    except (ValueError, RecursionError):
+        m = re.search(r'"format"\s*:\s*"([^"]*)"', text)
+        fmt, design = (m.group(1) if m else None), '"mechanism"' in text
+    else:
+        fmt, design = (d.get("format"), "mechanism" in d) if isinstance(d, dict) else (None, False)
+    return dict(OUR_JSON).get(fmt) if isinstance(fmt, str) and fmt in dict(OUR_JSON) else \
+        ("a design JSON" if design else None)
 
 
 def _mechanism(f: ConfigFile) -> tuple[Mechanism, Design | None]:
