@@ -161,6 +161,17 @@ def test_spea2_truncation_with_copies_equals_its_definition(keep):
     assert spea2._truncate(spea2.distances(base), base, min(keep, 9), True)[1] != spea2.ZERO
 
 
+def test_spea2_keeps_its_scratch_matrix_for_pools_up_to_its_limit_only(monkeypatch):
+    # review of session 34: the per-thread distance matrix only grew (one cut of a huge pool kept it for good)
+    monkeypatch.setattr(spea2, "SCRATCH_KEPT", 30 * 30)
+    monkeypatch.setattr(spea2._scratch, "D", None, raising=False)
+    rng = np.random.default_rng(3)
+    for n, kept in ((20, 20 * 20), (50, 20 * 20), (30, 30 * 30), (25, 30 * 30)):
+        F = rng.normal(size=(n, 2))
+        assert spea2.truncate(F, 5).tolist() == truncate_by_definition(F, 5).tolist()
+        assert spea2._scratch.D.size == kept
+
+
 def test_spea2_truncation_drops_the_most_crowded_member():
     F = np.array([[0, 3], [1, 2], [1.1, 1.9], [3, 0]], dtype=float)
     # (1,2) and (1.1,1.9) are nearest each other; (1,2) is also nearer its next neighbour (sqrt 2 < 1.556).

@@ -81,11 +81,15 @@ def distances(F: F64, out: F64 | None = None) -> F64:
 
 
 _scratch = threading.local()
+SCRATCH_KEPT = 2048 * 2048  # entries (32 MB): a CMOEA's pools at pop 400 and below
 
 
 def _distance_scratch(n: int) -> F64:
     """An ``(n, n)`` matrix for a truncation's distances, reused by the thread's later truncations: a fresh one each
-    call (7 MB at n = 950) cost the kernel's page faults, 1.5-2.5 ms of a 7-9 ms cut (session 34)."""
+    call (7 MB at n = 950) cost the kernel's page faults, 1.5-2.5 ms of a 7-9 ms cut (session 34). Matrices larger
+    than ``SCRATCH_KEPT`` entries are made fresh and not kept (one cut of 10 000 points would hold 800 MB)."""
+    if n * n > SCRATCH_KEPT:
+        return np.empty((n, n))
     buf = getattr(_scratch, "D", None)
     if buf is None or buf.size < n * n:
         buf = _scratch.D = np.empty(max(n * n, 1))
