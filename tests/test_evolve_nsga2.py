@@ -109,3 +109,21 @@ def test_members_carry_rank_and_crowding_as_pymoos_do():
     ends = [int(np.argmin(first[:, 0])), int(np.argmax(first[:, 0]))]
     assert np.isinf(crowd[rank == 0][ends]).all()  # a front's extremes: infinite crowding, as pymoo's
     assert np.array_equal(res.opt.get("rank"), np.zeros(len(res.opt), dtype=rank.dtype))
+
+
+@pytest.mark.parametrize(("name", "smallest", "even"), [("nsga2", 2, False), ("cmoemt", 10, False),
+                                                        ("cmoes", 4, False), ("drlos_emcmo", 4, True),
+                                                        ("imtcmo", 12, True), ("mccmo", 4, True),
+                                                        ("moead_cmt", 2, False)])
+def test_a_population_size_is_a_whole_number_whatever_its_type(name, smallest, even):
+    # review of session 34: NSGA2(pop_size=20.0) (as JSON writes 20) was refused; 20.5 ran the CMOEAs at 20
+    import importlib
+
+    classes = {"nsga2": "NSGA2", "cmoemt": "CMOEMT", "cmoes": "CMOES", "drlos_emcmo": "DRLOSEMCMO",
+               "imtcmo": "IMTCMO", "mccmo": "MCCMO", "moead_cmt": "MOEADCMT"}
+    cls = getattr(importlib.import_module(f"core.optimize.evolve.{name}"), classes[name])
+    assert cls(pop_size=20.0).pop_size == 20 and cls(pop_size=np.int32(20)).pop_size == 20
+    for bad in (20.5, "20", True, float("nan"), float("inf"), smallest - 1) + ((smallest + 1,) if even else ()):
+        with pytest.raises(ValueError, match=rf"^{name} needs {'an even' if even else 'a'} population of at least "
+                                             rf"{smallest}, got "):
+            cls(pop_size=bad)

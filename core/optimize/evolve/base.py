@@ -8,6 +8,7 @@ Python objects. Evaluations are counted on pymoo's evaluator, so ``("n_eval", k)
 
 from __future__ import annotations
 
+import numbers
 import queue
 import threading
 import time
@@ -141,7 +142,7 @@ class ArrayAlgorithm(Algorithm):
         self._pop_cache: Population | None = None
         self._opt_cache: Population | None = None
         super().__init__(**kwargs)
-        self.pop_size = int(pop_size)
+        self.pop_size = population_size(type(self).__name__.lower(), pop_size, 1)
         self.repair = repair
         self.initialization = Initialization()
         self.initialization.sampling = sampling
@@ -379,6 +380,17 @@ class ArrayAlgorithm(Algorithm):
 
     def _infill(self) -> None:
         return None
+
+
+def population_size(name: str, value: Any, minimum: int, even: bool = False) -> int:
+    """``value`` as an algorithm's population size: a whole number (20.0, as JSON may write it, is 20) of at least
+    ``minimum``, even if asked; anything else (20.5, "20", True, nan) refused, naming the algorithm."""
+    whole = not isinstance(value, bool) and isinstance(value, numbers.Real) and float(value).is_integer()
+    n = int(value) if whole else None
+    if n is None or n < minimum or (even and n % 2):
+        raise ValueError(f"{name} needs {'an even population' if even else 'a population'} of at least {minimum}, "
+                         f"got {value!r}")
+    return n
 
 
 def largest_violation(*cvs: F64) -> float:

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, Ahead, draw_pools, make_children, numbers, stale
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation, population_size
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import ga
@@ -81,8 +81,7 @@ class CMOEMT(OnePerWeight, ArrayAlgorithm):
     def __init__(self, pop_size: int = 100, variant: str = "platemo", ahead: bool = True, **kwargs: Any) -> None:
         if variant not in VARIANTS:
             raise ValueError(f"cmoemt variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
-        if pop_size < 10:
-            raise ValueError(f"cmoemt needs a population of at least 10, got {pop_size}")
+        pop_size = population_size("cmoemt", pop_size, 10)
         super().__init__(pop_size=pop_size, **kwargs)
         self.variant, self.ahead = variant, ahead
 

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
 from core.optimize.evolve.qnet import QNet
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -58,8 +58,7 @@ class DRLOSEMCMO(ArrayAlgorithm):
         for key, value in (("reward", reward), ("replay", replay), ("success", success)):
             if value not in OPTIONS[key]:
                 raise ValueError(f"drlos_emcmo {key} must be one of {', '.join(OPTIONS[key])}, got {value!r}")
-        if pop_size < 4 or pop_size % 2:
-            raise ValueError(f"drlos_emcmo needs an even population of at least 4, got {pop_size}")
+        pop_size = population_size("drlos_emcmo", pop_size, 4, even=True)
         super().__init__(pop_size=pop_size, **kwargs)
         self.reward_kind, self.replay_kind, self.success_kind = reward, replay, success
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation, population_size
 from core.optimize.evolve.variation import polynomial_mutation
 
 F64 = NDArray[np.float64]
@@ -140,8 +140,7 @@ class IMTCMO(ArrayAlgorithm):
     """IMTCMO; the output population is the main task's (P1). ``pop_size`` must be even and >= 12."""
 
     def __init__(self, pop_size: int = 100, **kwargs: Any) -> None:
-        if pop_size % 2 or pop_size < 12:
-            raise ValueError(f"imtcmo needs an even population of at least 12, got {pop_size}")
+        pop_size = population_size("imtcmo", pop_size, 12, even=True)
         super().__init__(pop_size=pop_size, **kwargs)
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.sorting import nd_ranks
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -71,8 +71,7 @@ class MCCMO(ArrayAlgorithm):
     def __init__(self, pop_size: int = 100, operator: str = "ga", **kwargs: Any) -> None:
         if operator not in ("ga", "de"):
             raise ValueError(f"mccmo operator must be 'ga' or 'de', got {operator!r}")
-        if pop_size < 4 or pop_size % 2:
-            raise ValueError(f"mccmo needs an even population of at least 4, got {pop_size}")
+        pop_size = population_size("mccmo", pop_size, 4, even=True)
         super().__init__(pop_size=pop_size, **kwargs)
         self.operator = operator
 

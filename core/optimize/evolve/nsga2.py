@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
 from core.optimize.evolve.duplicates import fresh_rows
 from core.optimize.evolve.ranges import RANGES
 from core.optimize.evolve.selection import tournament
@@ -45,8 +45,7 @@ class NSGA2(ArrayAlgorithm):
             lo, hi = RANGES[key]
             if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Real) or not lo <= v <= hi):
                 raise ValueError(f"nsga2 {key} must be a number in [{lo:g}, {hi:g}], got {v!r}")
-        if isinstance(pop_size, bool) or not isinstance(pop_size, (int, np.integer)) or pop_size < 2:
-            raise ValueError(f"nsga2 needs a population of at least 2, got {pop_size!r}")
+        pop_size = population_size("nsga2", pop_size, 2)
         super().__init__(pop_size=pop_size, **kwargs)
         self.crossover_prob, self.crossover_eta = float(crossover_prob), float(crossover_eta)
         self.mutation_prob, self.mutation_eta = float(mutation_prob), float(mutation_eta)
