@@ -113,6 +113,9 @@ def test_an_export_to_a_folder_or_a_misnamed_file_is_one_plain_line(tmp_path, ca
     for name in ("a.svg.bak", "a.svg."):
         assert main(["export", "--preset", "stephenson1/X3", "--svg", str(tmp_path / name)]) == 2
         assert capsys.readouterr().err.endswith("; give e.g. a.svg\n")
+    for name in (".svg", ".SVG"):  # the extension alone (review of session 34: "give e.g. .svg.svg")
+        assert main(["export", "--preset", "stephenson1/X3", "--svg", str(tmp_path / name)]) == 2
+        assert capsys.readouterr().err.endswith("; give e.g. leg.svg\n")
     assert list(folder.iterdir()) == [] and not (tmp_path / "a.svg").exists()
 
 

@@ -94,6 +94,9 @@ KINDS = {"dxf": "a DXF", "svg": "an SVG"}
 
 
 def _named(out: Path, kind: str) -> str:
-    """``out``'s name ending in .{kind}: mine.json -> mine.svg, and a.svg.bak -> a.svg (not a.svg.svg)."""
+    """``out``'s name ending in .{kind}: mine.json -> mine.svg, a.svg.bak -> a.svg (not a.svg.svg), and a name that
+    is only the extension (.svg, a hidden file to the system) -> leg.svg."""
     stem = out.name.removesuffix(out.suffix).rstrip(".")
+    if stem.lower() in ("", f".{kind}"):
+        return f"leg.{kind}"
     return stem if Path(stem).suffix.lower() == f".{kind}" else f"{stem}.{kind}"
