@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 import os
 from pathlib import Path
 from typing import IO
 
+from core.formats.files import holder, try_lock, unlock
 from core.formats.session import MAX_SESSION_BYTES, parse_json
 from studio.state import Session
 
@@ -64,17 +64,14 @@ class SessionLock:
         except OSError:  # no writable cache (a read-only home): the studio still runs, unguarded
             self._file = None
             return
-        try:
-            fcntl.flock(self._file, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            self._file.seek(0)
-            who = self._file.read().strip() or "?"
+        if not try_lock(self._file):
+            who = holder(self._file) or "?"
             self._file.close()
             self._file = None
             pid, _, url = who.partition(" ")
             at = f", {url}" if url else ""
             raise ValueError(f"{path} is open in another clm-studio (process {pid}{at}); use that one, stop it "
-                             "first, or give another --session") from None
+                             "first, or give another --session")
         self.note("")
 
     def note(self, url: str) -> None:
@@ -87,6 +84,6 @@ class SessionLock:
 
     def release(self) -> None:
         if self._file is not None:
-            fcntl.flock(self._file, fcntl.LOCK_UN)
+            unlock(self._file)
             self._file.close()
             self._file = None

@@ -3,15 +3,20 @@ one), and into an output folder checked writable before any work starts."""
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import re
+import sys
 import tempfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
+
+if sys.platform == "win32":  # no fcntl there: importing it stopped every clm command on Windows
+    import msvcrt
+else:
+    import fcntl
 
 
 def atomic_write(path: Path, text: str | bytes) -> None:
@@ -82,6 +87,45 @@ def backslash_hint(path: str | Path) -> str:
     return " ('\\' is not a folder separator here: use '/')" if "\\" in str(path) and os.sep == "/" else ""
 
 
+def try_lock(f: IO[Any]) -> bool:
+    """Lock the open file ``f`` for this process without waiting: False when another process holds it. The lock
+    goes with the process, however it ends: ``flock``, or on Windows a lock on the file's first byte."""
+    if sys.platform == "win32":
+        at = f.tell()
+        f.seek(0)
+        try:
+            msvcrt.locking(f.fileno(), msvcrt.LK_NBLCK, 1)
+        except OSError:
+            return False
+        finally:
+            f.seek(at)
+        return True
+    try:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    return True
+
+
+def unlock(f: IO[Any]) -> None:
+    """Give up :func:`try_lock`'s lock on ``f``."""
+    if sys.platform == "win32":
+        f.seek(0)
+        msvcrt.locking(f.fileno(), msvcrt.LK_UNLCK, 1)
+    else:
+        fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def holder(f: IO[str]) -> str:
+    """What the process holding ``f``'s lock wrote into it ("4242 clm study"), "" if unreadable (Windows refuses
+    to read a locked byte)."""
+    try:
+        f.seek(0)
+        return f.read().strip()
+    except OSError:
+        return ""
+
+
 @contextmanager
 def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator[None]:
     """Hold ``DIR/.lock`` while ``what`` ("clm design") writes into ``DIR``: a second command into the same folder
@@ -93,14 +137,11 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
     path = d / ".lock"
     while True:
         f = open(path, "a+")
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            f.seek(0)
-            pid, _, holder = f.read().strip().partition(" ")  # "4242 clm study": the holder, not this command
+        if not try_lock(f):
+            pid, _, who = holder(f).partition(" ")  # "4242 clm study": the holder, not this command
             f.close()
-            raise ValueError(f"{d}: another {holder or what} is writing into it (process {pid or '?'}); wait for it "
-                             "to end, or choose another --out") from None
+            raise ValueError(f"{d}: another {who or what} is writing into it (process {pid or '?'}); wait for it "
+                             "to end, or choose another --out")
         try:
             held = os.fstat(f.fileno()).st_ino == os.stat(path).st_ino
         except FileNotFoundError:
@@ -117,7 +158,7 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
     finally:
         if remove:
             path.unlink(missing_ok=True)
-        fcntl.flock(f, fcntl.LOCK_UN)
+        unlock(f)
         f.close()
 
 
