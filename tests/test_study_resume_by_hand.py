@@ -401,6 +401,37 @@ def test_a_study_refused_at_its_start_leaves_no_directory_behind(tmp_path: Path,
     assert there.is_dir()
 
 
+def test_a_refused_study_leaves_the_folder_to_a_command_that_took_it_since(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    # Review of session 33: the cleanup of a refused start ran after the folder's lock was let go, so a clm design
+    # that took the folder in between lost it to the removal.
+    import contextlib
+
+    import core.study.runner as study_runner
+    from core.cli import main
+    from core.formats.files import dir_lock
+
+    (tmp_path / "s.toml").write_text(STUDY)
+    out = tmp_path / "new"
+    other = contextlib.ExitStack()
+
+    def refused(study, directory, **kwargs):
+        with dir_lock(directory, "clm study"):
+            pass
+        other.enter_context(dir_lock(directory, "clm design"))  # the next command, as soon as the lock is free,
+        raise ValueError("refused")  # before it has written anything
+
+    monkeypatch.setattr(study_runner, "run_study", refused)
+    with other:
+        assert main(["study", str(tmp_path / "s.toml"), "--out", str(out), "--quiet"]) == 2
+        assert "refused" in capsys.readouterr().err
+        assert (out / ".lock").read_text().endswith(" clm design")  # the folder is the other command's
+    monkeypatch.setattr(study_runner, "run_study", lambda study, directory, **kw: (_ for _ in ()).throw(
+        ValueError("refused")))
+    assert main(["study", str(tmp_path / "s.toml"), "--out", str(tmp_path / "fresh"), "--quiet"]) == 2
+    assert not (tmp_path / "fresh").exists()  # nobody else there: removed, lock and all
+
+
 def test_an_unreachable_scheduler_is_refused_before_the_study_directory_is_made(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
     import core.optimize.workers as workers

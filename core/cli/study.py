@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from core.cli import CLIError
-from core.formats.files import check_out_dir, new_folders, remove_empty
+from core.formats.files import check_out_dir, dir_lock, new_folders, remove_empty
 
 MAX_WORKERS = 256
 
@@ -50,21 +50,27 @@ def _check_out(out: str | None) -> Path:
 
 def _remove_if_unused(out: Path, made: list[Path]) -> None:
     """Remove a study directory this command made, and the folders it made above it (``made``, innermost first),
-    when no run finished in it (a refused or failed start)."""
+    when no run finished in it (a refused or failed start). Under the folder's lock: another command that took the
+    folder once this one let it go keeps it (the removal raced with it; review of session 33)."""
     import shutil
     import sqlite3
 
     try:
-        db = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
-        try:
-            used = db.execute("SELECT count(*) FROM runs").fetchone()[0] > 0
-        finally:
-            db.close()
-    except sqlite3.Error:
-        used = any(p.name not in {".lock", "study.sqlite"} for p in out.iterdir()) if out.is_dir() else True
-    if not used and not (out / "runs").exists():
-        shutil.rmtree(out, ignore_errors=True)
-        remove_empty(made[1:])  # a refused --out new/a/b left new/a behind
+        with dir_lock(out, "clm study", remove=True):
+            try:
+                db = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
+                try:
+                    used = db.execute("SELECT count(*) FROM runs").fetchone()[0] > 0
+                finally:
+                    db.close()
+            except sqlite3.Error:
+                used = any(p.name not in {".lock", "study.sqlite"} for p in out.iterdir())
+            if used or (out / "runs").exists():
+                return
+            shutil.rmtree(out, ignore_errors=True)
+    except ValueError:  # held by another command now: its folder
+        return
+    remove_empty(made[1:])  # a refused --out new/a/b left new/a behind
 
 
 def run(args: argparse.Namespace) -> int:
