@@ -16,6 +16,7 @@ from typing import Any, Literal
 
 import numpy as np
 import viser
+from viser import _messages
 
 from core.formats.drawing import Plates
 from core.formats.files import slug
@@ -72,6 +73,9 @@ REQUEST_HOLD_MAX = 2.0
 # is framed again: a demo moved to a projector's resolution cut the mechanism and slid the inset under the panel.
 RESIZE = 0.02
 FIT_LATEST = 4.0  # s after connecting: a page not framed yet is framed with the aspect it last reported
+# viser's notice on a page drawing with software WebGL (its client's BrowserWarning.tsx), closed this many seconds
+# after the page has drawn (Studio.notice_seconds): it never closes by itself and covers the scene's top-left.
+VIEWER_NOTICE, NOTICE_SECONDS = "webgl-software-rendering", 10.0
 
 
 def later(delay: float, fn: Any, *args: Any) -> None:
@@ -118,6 +122,7 @@ class Studio:
     ) -> None:
         self.session = session
         self.session_path = session_path
+        self.notice_seconds = NOTICE_SECONDS
         self._render_lock = threading.RLock()
         self._save_lock = threading.Lock()
         self._shown: DesignView | None = None
@@ -346,27 +351,38 @@ class Studio:
             if self._requested:  # the oldest page requested has connected (its own hold follows)
                 self._requested.popleft()
 
+        def framed() -> None:
+            fitted.set()
+            self._loading.pop(client.client_id, None)
+            self._fit_client(client)
+            later(self.notice_seconds, self._hide_viewer_notice, client)
+
         def on_camera(cam: viser.CameraHandle) -> None:
             if fitted.is_set():
                 if self._resized(client.client_id, cam):
                     self._fit_client(client)
                 return
             if np.allclose(cam.position, self.server.initial_camera.position, atol=1e-4):
-                fitted.set()
-                self._loading.pop(client.client_id, None)
-                self._fit_client(client)
+                framed()
                 # The page has drawn: now its charts (and with them plotly.js) can follow without holding it up.
                 later(PLOTLY_AFTER, self._attach_charts, client)
 
         def unfitted() -> None:  # a page whose reports never showed the initial camera is framed all the same
             if not fitted.is_set() and client.client_id in self.server.get_clients():
-                fitted.set()
-                self._loading.pop(client.client_id, None)
-                self._fit_client(client)
+                framed()
 
         client.camera.on_update(on_camera)
         later(PLOTLY_LATEST, self._attach_charts, client)  # a page that reports no camera
         later(FIT_LATEST, unfitted)
+
+    def _hide_viewer_notice(self, client: viser.ClientHandle) -> None:
+        """Close viser's "Software WebGL rendering detected" notice on this page: it never closes by itself and
+        covers the scene's top-left corner (the joint labels and the design's name), while the studio already
+        paces its frames to such a page (studio/pacer.py). Shown for ``notice_seconds`` after the page has drawn;
+        a page on a GPU never gets it."""
+        if client.client_id in self.server.get_clients():
+            client._websock_connection.queue_message(_messages.RemoveNotificationMessage(uuid=VIEWER_NOTICE))
+            client.flush()
 
     def _attach_charts(self, client: viser.ClientHandle) -> None:
         """Give a page that has drawn its plotly charts (studio/panels/_lazy.py); once per page."""

@@ -137,6 +137,19 @@ def test_two_pages_stay_consistent_and_a_reload_gets_the_current_state(
     expect_design_of(b, view)
 
 
+def test_the_viewers_software_rendering_notice_goes_after_a_while(open_page: Any, studio: Any) -> None:
+    # viser's "Software WebGL rendering detected" never closed by itself and covered the scene's top-left (the
+    # design's name, the joint labels) on every machine without a GPU, as this headless chromium is
+    studio.notice_seconds = 2.0
+    try:
+        b = open_page()
+        notice = b.locator(".mantine-Notification-root").filter(has_text="Software WebGL rendering detected")
+        expect(notice).to_be_visible()
+        expect(notice).to_have_count(0, timeout=15_000)
+    finally:
+        studio.notice_seconds = 10.0
+
+
 def test_choosing_another_preset_loads_it(page: Any, studio: Any) -> None:
     expect_design_of(page, studio.session.view)
     choose(page, "Preset", "X0")
