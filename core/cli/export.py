@@ -94,9 +94,13 @@ KINDS = {"dxf": "a DXF", "svg": "an SVG"}
 
 
 def _named(out: Path, kind: str) -> str:
-    """``out``'s name ending in .{kind}: mine.json -> mine.svg, a.svg.bak -> a.svg (not a.svg.svg), and a name that
-    is only the extension (.svg, a hidden file to the system) -> leg.svg."""
+    """``out``'s name ending in .{kind}: mine.json -> mine.svg, a.svg.bak -> a.svg (not a.svg.svg); a name that is
+    only an extension (.svg, .dxf: a hidden file to the system) -> leg.svg, another hidden one .mine -> mine.svg."""
     stem = out.name.removesuffix(out.suffix).rstrip(".")
-    if stem.lower() in ("", f".{kind}"):
-        return f"leg.{kind}"
+    if stem.startswith("."):
+        bare = stem.lstrip(".")
+        stem = "leg" if not bare or bare.lower() in EXTENSIONS else bare
     return stem if Path(stem).suffix.lower() == f".{kind}" else f"{stem}.{kind}"
+
+
+EXTENSIONS = {"svg", "dxf", "json", "png", "csv", "html", "toml", "txt", "pdf"}
