@@ -540,3 +540,15 @@ def test_ctrl_c_of_a_piped_clm_design_whose_reader_went_away_still_keeps_the_pic
         proc.kill()
     stages = json.loads((out / "result.json").read_text())["pipeline"]["results"]
     assert stages[0]["status"] == "cancelled" and stages[0]["picked"] is not None
+
+
+def test_a_lock_file_that_cannot_be_made_is_refused_not_retried_forever(tmp_path: Path) -> None:
+    # dir_lock makes the folder again when its lock file's folder vanished (a refused study's cleanup); a .lock
+    # that can never be opened (a link into a missing folder) must end in a message, not a loop
+    from core.formats.files import dir_lock
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / ".lock").symlink_to(tmp_path / "gone" / "lock")
+    with pytest.raises(ValueError, match=r"its lock file \.lock keeps going away"), dir_lock(out, "clm design"):
+        pass

@@ -1,6 +1,7 @@
-"""The folder and session locks on a system without fcntl (Windows): importing fcntl at the top of core.formats.files
-stopped every clm command and the studio there (review of session 34). Windows is simulated in a child process: no
-fcntl, sys.platform "win32", and an msvcrt whose byte locks are flocks, so two opens of one file conflict."""
+"""clm's locks and files on a system without fcntl (Windows), simulated on Linux by tests/windows_sim.py: importing
+fcntl at the top of core.formats.files stopped every clm command and the studio there, and once past that, a run's
+lock file was removed while still open, os.fchmod, os.O_NONBLOCK and ctypes.CDLL(None) failed, and the byte locked
+hid the holder's note from the message naming it (reviews of sessions 34 and 35)."""
 
 from __future__ import annotations
 
@@ -9,42 +10,80 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+from test_design_cli import TINY
+
 ROOT = Path(__file__).resolve().parents[1]
+SIM = [sys.executable, str(ROOT / "tests" / "windows_sim.py")]
+LOCK_AT = "locking at [1073741824]"  # every lock and unlock on the byte past the note (core.formats.files.LOCK_AT)
 
-CHILD = r"""
-import fcntl as posix, sys, types
-calls = []
-msvcrt = types.ModuleType("msvcrt")
-msvcrt.LK_NBLCK, msvcrt.LK_UNLCK = 2, 0
-def locking(fd, mode, n):
-    calls.append((mode, n))
-    posix.flock(fd, posix.LOCK_EX | posix.LOCK_NB if mode == msvcrt.LK_NBLCK else posix.LOCK_UN)
-msvcrt.locking = locking
-sys.modules["msvcrt"], sys.modules["fcntl"] = msvcrt, None  # import fcntl now raises ImportError
-sys.platform = "win32"
-from core.formats.files import dir_lock
-folder = sys.argv[1]
-with dir_lock(folder, "clm design"):
+
+@pytest.fixture(autouse=True)
+def lock_notes(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the simulated processes note the bytes they lock (see tests/windows_sim.py)."""
+    monkeypatch.setenv("WINSIM_LOCKS", str(tmp_path_factory.mktemp("locks")))
+
+
+def sim(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*SIM, *args], cwd=cwd, capture_output=True, text=True, timeout=300)
+
+
+def test_a_design_runs_and_leaves_its_outputs_only(tmp_path: Path) -> None:
+    (tmp_path / "t.toml").write_text(TINY)
+    done = sim("design", "t.toml", "--out", "o", "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    names = sorted(p.name for p in (tmp_path / "o").iterdir())
+    assert ".lock" not in names and "result.json" in names and not any(n.endswith(".tmp") for n in names)
+    assert done.stderr.strip().endswith(LOCK_AT)
+
+
+def test_a_second_command_is_refused_naming_the_one_that_holds_the_folder(tmp_path: Path) -> None:
+    (tmp_path / "t.toml").write_text(TINY)
+    holder = subprocess.Popen([*SIM, "-c", "import time\nwith files.dir_lock('o', 'clm design', remove=True):\n"
+                               "    print('held', flush=True); time.sleep(60)"], cwd=tmp_path, stdout=subprocess.PIPE,
+                              text=True)
     try:
-        with dir_lock(folder, "clm study"):
-            print("second lock taken")
-    except ValueError as e:
-        print(e)
-with dir_lock(folder, "clm study"):  # given up when the first ended
-    print("taken again")
-print(calls)
-"""
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        done = sim("design", "t.toml", "--out", "o", "--quiet", cwd=tmp_path)
+        assert done.returncode == 2
+        assert done.stderr.startswith(f"clm: error: o: another clm design is writing into it (process {holder.pid}); ")
+    finally:
+        holder.kill()
+        holder.wait()
 
 
-def test_a_folder_lock_works_without_fcntl(tmp_path: Path) -> None:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(tmp_path / "run")], cwd=ROOT, capture_output=True,
-                         text=True, timeout=60)
-    assert out.returncode == 0, out.stderr
-    lines = out.stdout.splitlines()
-    # Windows refuses to read a locked byte; here the holder's note is readable, as it is on POSIX
-    assert lines[0].startswith(f"{tmp_path / 'run'}: another clm design is writing into it (process ")
-    assert lines[1] == "taken again"
-    assert lines[2] == "[(2, 1), (2, 1), (0, 1), (2, 1), (0, 1)]"  # lock, refused lock, unlock, lock, unlock
+def test_a_refused_studys_folder_goes_unless_another_command_holds_it(tmp_path: Path) -> None:
+    code = ("from core.cli.study import _remove_if_unused\nfrom core.formats.files import new_folders\n"
+            "made = new_folders(Path('new/a'))\nPath('new/a').mkdir(parents=True)\n"
+            "with files.dir_lock('new/a', 'clm study'):\n    Path('new/a/study.sqlite').write_text('')\n"
+            "_remove_if_unused(Path('new/a'), made)\nprint(sorted(str(p) for p in Path('.').rglob('*')))")
+    done = sim("-c", code, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+    holder = subprocess.Popen([*SIM, "-c", "import time\nwith files.dir_lock('kept', 'clm design'):\n"
+                               "    print('held', flush=True); time.sleep(60)"], cwd=tmp_path, stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        done = sim("-c", "from core.cli.study import _remove_if_unused\n_remove_if_unused(Path('kept'), "
+                   "[Path('kept')])", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / "kept" / ".lock").read_text().endswith(" clm design")
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_worker_process_starts() -> None:
+    done = sim("-c", "import os\nworkers.die_with_parent(os.getppid())\nprint('started')", cwd=ROOT)
+    assert done.returncode == 0 and done.stdout.strip() == "started", done.stderr
+
+
+def test_the_file_module_imports_without_fcntl() -> None:
+    code = ("import sys\nsys.modules['fcntl'] = None\nsys.modules['msvcrt'] = type(sys)('msvcrt')\n"
+            "sys.platform = 'win32'\nimport core.formats.files as f\nprint(f.LOCK_AT)")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and done.stdout.strip() == "1073741824", done.stderr
 
 
 def test_only_the_lock_helpers_import_fcntl() -> None:

@@ -221,7 +221,9 @@ def read_user_file(path: str | Path, max_bytes: int = MAX_CURVE_FILE_BYTES, what
     try:
         if not stat.S_ISREG(os.stat(p).st_mode):
             raise ValueError(f"cannot read {what} {str(p)!r}: not a regular file")
-        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+        # No blocking on a FIFO swapped in since the stat; on Windows (no O_NONBLOCK) bytes as they are (O_BINARY)
+        flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+        fd = os.open(p, flags)
         try:
             st = os.fstat(fd)  # the file opened, not the one stat'ed (it may have been swapped)
             if not stat.S_ISREG(st.st_mode):

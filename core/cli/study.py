@@ -50,11 +50,12 @@ def _check_out(out: str | None) -> Path:
 
 def _remove_if_unused(out: Path, made: list[Path]) -> None:
     """Remove a study directory this command made, and the folders it made above it (``made``, innermost first),
-    when no run finished in it (a refused or failed start). Under the folder's lock: another command that took the
-    folder once this one let it go keeps it (the removal raced with it; review of session 33)."""
-    import shutil
+    when no run finished in it and nothing else was put in it (a refused or failed start). Under the folder's
+    lock: another command that took the folder once this one let it go keeps it (review of session 33); the lock
+    file goes last, by ``dir_lock`` while still held, so no newer one is removed with it (review of session 35)."""
     import sqlite3
 
+    ours = {".lock", "study.sqlite", "study.sqlite-journal", "study.sqlite-wal", "study.sqlite-shm"}
     try:
         with dir_lock(out, "clm study", remove=True):
             try:
@@ -64,13 +65,15 @@ def _remove_if_unused(out: Path, made: list[Path]) -> None:
                 finally:
                     db.close()
             except sqlite3.Error:
-                used = any(p.name not in {".lock", "study.sqlite"} for p in out.iterdir())
-            if used or (out / "runs").exists():
+                used = False
+            if used or any(p.name not in ours for p in out.iterdir()):  # a user's file put there meanwhile too
                 return
-            shutil.rmtree(out, ignore_errors=True)
-    except ValueError:  # held by another command now: its folder
+            for p in out.iterdir():
+                if p.name != ".lock":  # the database and its journals; the lock goes last (above)
+                    p.unlink(missing_ok=True)
+    except (ValueError, OSError):  # held by another command now (its folder), or not ours to remove
         return
-    remove_empty(made[1:])  # a refused --out new/a/b left new/a behind
+    remove_empty(made)  # the folder itself, then a refused --out new/a/b's new/a: unless something came since
 
 
 def run(args: argparse.Namespace) -> int:

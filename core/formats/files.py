@@ -9,7 +9,7 @@ import re
 import sys
 import tempfile
 from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import IO, Any
 
@@ -29,8 +29,15 @@ def atomic_write(path: Path, text: str | bytes) -> None:
         raise OSError(e.errno, e.strerror, str(path)) from None
     data = text.encode("utf-8") if isinstance(text, str) else text
     try:
-        os.fchmod(fd, 0o644)
-        with os.fdopen(fd, "wb") as f:
+        if hasattr(os, "fchmod"):  # mkstemp's 0600 made readable as any file written (no fchmod on Windows < 3.13)
+            os.fchmod(fd, 0o644)
+        f = os.fdopen(fd, "wb")
+    except BaseException:
+        os.close(fd)  # before the removal: Windows removes no open file
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    try:
+        with f:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
@@ -87,12 +94,17 @@ def backslash_hint(path: str | Path) -> str:
     return " ('\\' is not a folder separator here: use '/')" if "\\" in str(path) and os.sep == "/" else ""
 
 
+LOCK_TRIES = 100  # takes of a folder's lock file before giving up (it was removed under each one)
+LOCK_AT = 1 << 30  # Windows: the byte locked, far past the holder's note (another process cannot read a locked byte)
+
+
 def try_lock(f: IO[Any]) -> bool:
     """Lock the open file ``f`` for this process without waiting: False when another process holds it. The lock
-    goes with the process, however it ends: ``flock``, or on Windows a lock on the file's first byte."""
+    goes with the process, however it ends: ``flock``, or on Windows a lock on byte ``LOCK_AT`` (locking reads from
+    the file's position; past its end is allowed, and leaves the note before it readable)."""
     if sys.platform == "win32":
         at = f.tell()
-        f.seek(0)
+        f.seek(LOCK_AT)
         try:
             msvcrt.locking(f.fileno(), msvcrt.LK_NBLCK, 1)
         except OSError:
@@ -110,18 +122,17 @@ def try_lock(f: IO[Any]) -> bool:
 def unlock(f: IO[Any]) -> None:
     """Give up :func:`try_lock`'s lock on ``f``."""
     if sys.platform == "win32":
-        f.seek(0)
+        f.seek(LOCK_AT)
         msvcrt.locking(f.fileno(), msvcrt.LK_UNLCK, 1)
     else:
         fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def holder(f: IO[str]) -> str:
-    """What the process holding ``f``'s lock wrote into it ("4242 clm study"), "" if unreadable (Windows refuses
-    to read a locked byte)."""
+    """What the process holding ``f``'s lock wrote into it ("4242 clm study"), "" if unreadable."""
     try:
         f.seek(0)
-        return f.read().strip()
+        return f.read(4096).strip()
     except OSError:
         return ""
 
@@ -133,22 +144,24 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
     process, however it ends. ``remove``: take the file away at the end (a run's folder lists its outputs only);
     a command that opened the file as it went locks the new one instead."""
     d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
     path = d / ".lock"
-    while True:
-        f = open(path, "a+")
+    for _ in range(LOCK_TRIES):
+        d.mkdir(parents=True, exist_ok=True)
+        try:
+            f = open(path, "a+")  # noqa: SIM115 - held until the end
+        except FileNotFoundError:  # the folder was removed since (a refused study's cleanup): make it again
+            continue
         if not try_lock(f):
             pid, _, who = holder(f).partition(" ")  # "4242 clm study": the holder, not this command
             f.close()
-            raise ValueError(f"{d}: another {who or what} is writing into it (process {pid or '?'}); wait for it "
-                             "to end, or choose another --out")
-        try:
-            held = os.fstat(f.fileno()).st_ino == os.stat(path).st_ino
-        except FileNotFoundError:
-            held = False
-        if held:
+            raise ValueError(f"{d}: another {who or 'command'} is writing into it (process {pid or '?'}); wait for "
+                             "it to end, or choose another --out")
+        if _names(f, path):
             break
         f.close()  # removed by the holder that just finished: lock the file there now
+    else:
+        raise ValueError(f"{d}: its lock file {path.name} keeps going away (removed by another program?); "
+                         "choose another --out")
     try:
         f.seek(0)
         f.truncate()
@@ -156,10 +169,25 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
         f.flush()
         yield
     finally:
-        if remove:
-            path.unlink(missing_ok=True)
-        unlock(f)
-        f.close()
+        if sys.platform == "win32":  # an open file cannot be removed there: let it go first
+            unlock(f)
+            f.close()
+            if remove:
+                with suppress(OSError):  # opened by another command since: its lock now
+                    path.unlink()
+        else:
+            if remove and _names(f, path):  # still ours (never another command's newer lock)
+                path.unlink(missing_ok=True)
+            unlock(f)
+            f.close()
+
+
+def _names(f: IO[Any], path: Path) -> bool:
+    """Whether ``path`` is the file ``f`` has open (not removed, nor replaced by another)."""
+    try:
+        return os.fstat(f.fileno()).st_ino == os.stat(path).st_ino
+    except FileNotFoundError:
+        return False
 
 
 MAX_RESULT_BYTES = 512 * 2**20

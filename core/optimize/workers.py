@@ -17,6 +17,7 @@ import multiprocessing as mp
 import os
 import queue
 import signal
+import sys
 import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -69,13 +70,14 @@ def die_with_parent(parent: int) -> None:
     Linux sends SIGTERM through ``prctl(PR_SET_PDEATHSIG)``; a daemon thread also polls the parent pid
     (any platform, and the moment between fork and prctl).
     """
-    try:
-        import ctypes
+    if sys.platform.startswith("linux"):  # ctypes.CDLL(None) is a TypeError on Windows
+        try:
+            import ctypes
 
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
 
     def watch() -> None:
         while True:
