@@ -86,6 +86,8 @@ def test_the_budget_under_every_kind_of_termination():
     # a RobustTermination ends period - 1 generations after its inner limit (review of session 34: 29 short)
     assert budget_of(RobustTermination(MaximumFunctionCallTermination(1200), period=5)) == 1200 + 4 * 60
     assert budget_of(RobustTermination(MaximumGenerationTermination(10))) == gens(10 + 29)
+    # period=None keeps the whole run in its window, whose first value never lets it end (review of session 35)
+    assert budget_of(RobustTermination(MaximumGenerationTermination(10), period=None)) == gens(101)
     # pymoo's default termination ends at its caps at the latest: 1000 generations or 100 000 evaluations
     assert budget_of(DefaultMultiObjectiveTermination(n_max_evals=5000)) == 5000
     assert budget_of(DefaultMultiObjectiveTermination(n_max_gen=50)) == gens(50)

@@ -436,7 +436,10 @@ def _evaluations(t: Any, per_generation: int, initial: int, at: Callable[[float]
     inner = getattr(t, "termination", None)  # RobustTermination: its inner one's limit, held for its window
     if inner is not None:
         b = _evaluations(inner, per_generation, initial, at)
-        window = getattr(getattr(t, "history", None), "size", None) or 1
+        history = getattr(t, "history", None)
+        window = getattr(history, "size", 1) if history is not None else 1
+        if window is None:  # period=None: the minimum over the whole run, which never reaches the end
+            return None
         return None if b is None else b + (int(window) - 1) * per_generation
     parts = _parts(t)
     if not parts:
