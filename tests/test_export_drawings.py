@@ -115,7 +115,7 @@ def test_an_export_to_a_folder_or_a_misnamed_file_is_one_plain_line(tmp_path, ca
         assert capsys.readouterr().err.endswith("; give e.g. a.svg\n")
     # an extension alone, a hidden name to the system (reviews of sessions 34-35: "give e.g. .svg.svg", ".dxf.svg")
     for name, hint in ((".svg", "leg.svg"), (".SVG", "leg.svg"), (".dxf", "leg.svg"), (".json", "leg.svg"),
-                       (".mine", "mine.svg"), (".mine.json", "mine.svg")):
+                       (".mine", "mine.svg"), (".mine.json", "mine.svg"), ("..json", "leg.svg")):
         assert main(["export", "--preset", "stephenson1/X3", "--svg", str(tmp_path / name)]) == 2
         assert capsys.readouterr().err.endswith(f"; give e.g. {hint}\n"), name
     assert list(folder.iterdir()) == [] and not (tmp_path / "a.svg").exists()

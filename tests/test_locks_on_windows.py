@@ -35,6 +35,9 @@ def test_a_design_runs_and_leaves_its_outputs_only(tmp_path: Path) -> None:
     names = sorted(p.name for p in (tmp_path / "o").iterdir())
     assert ".lock" not in names and "result.json" in names and not any(n.endswith(".tmp") for n in names)
     assert done.stderr.strip().endswith(LOCK_AT)
+    again = sim("design", "t.toml", "--out", "o", "--quiet", "--overwrite", cwd=tmp_path)  # reads its result.json
+    assert again.returncode == 0, again.stderr
+    assert ".lock" not in [p.name for p in (tmp_path / "o").iterdir()]
 
 
 def test_a_second_command_is_refused_naming_the_one_that_holds_the_folder(tmp_path: Path) -> None:

@@ -4,10 +4,11 @@ tests/test_locks_on_windows.py.
 The modules that ask which system they run on (core.formats.files, core.optimize.workers,
 core.kinematics.memory) are given Windows's
 answer, "win32", and what Windows has in place of fcntl: ``msvcrt.locking``, which locks from the file's current
-position (an flock here, so two opens of one file conflict; each call's position is printed at exit), and reads
+position (an flock here, so two opens of one file conflict; an unlock must match a lock's position and size; each
+call's position is printed at exit), and reads
 that fail over a byte another process has locked (``WINSIM_LOCKS`` notes who locked what). For every
 module: no ``os.fchmod`` (Windows before Python 3.13), no ``os.O_NONBLOCK``, ``ctypes.CDLL(None)`` a TypeError, and
-no removal of a file that a handle still has open (Python's ``open`` does not share delete: WinError 32). The
+no removal of a file that any process still has open (Python's ``open`` does not share delete: WinError 32). The
 standard library stays this system's (it cannot import as Windows's here); that core.formats.files imports on
 Windows is checked apart.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import atexit
 import ctypes
+import glob
 import hashlib
 import os
 import sys
@@ -44,14 +46,22 @@ def registry(fd: int) -> Path:
     return LOCKS / f"{name}.{os.getpid()}"
 
 
+held: dict[int, tuple[int, int]] = {}  # fd -> (position, bytes) it locked
+
+
 def locking(fd: int, mode: int, n: int) -> None:
     at = os.lseek(fd, 0, os.SEEK_CUR)
     positions.append(at)
-    posix.flock(fd, posix.LOCK_EX | posix.LOCK_NB if mode == msvcrt.LK_NBLCK else posix.LOCK_UN)
     LOCKS.mkdir(parents=True, exist_ok=True)
     if mode == msvcrt.LK_NBLCK:
+        posix.flock(fd, posix.LOCK_EX | posix.LOCK_NB)  # BlockingIOError, an OSError, when another holds it
+        held[fd] = (at, n)
         registry(fd).write_text(str(at))
     else:
+        if held.get(fd) != (at, n):  # Windows unlocks only a region locked as such, else EACCES
+            raise PermissionError(13, "Permission denied")
+        del held[fd]
+        posix.flock(fd, posix.LOCK_UN)
         real_unlink(registry(fd))
 
 
@@ -80,13 +90,19 @@ def guarded_open(*args: Any, **kwargs: Any) -> Any:
 
 
 def is_open(path: object) -> bool:
+    """Whether any process has the file open."""
     target = os.path.realpath(os.fspath(path))  # type: ignore[arg-type]
-    for fd in os.listdir("/proc/self/fd"):
+    for fds in glob.glob("/proc/[0-9]*/fd"):
         try:
-            if os.readlink(f"/proc/self/fd/{fd}") == target:
-                return True
+            names = os.listdir(fds)
         except OSError:
-            pass
+            continue
+        for fd in names:
+            try:
+                if os.readlink(f"{fds}/{fd}") == target:
+                    return True
+            except OSError:
+                pass
     return False
 
 

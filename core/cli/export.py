@@ -97,7 +97,7 @@ def _named(out: Path, kind: str) -> str:
     """``out``'s name ending in .{kind}: mine.json -> mine.svg, a.svg.bak -> a.svg (not a.svg.svg); a name that is
     only an extension (.svg, .dxf: a hidden file to the system) -> leg.svg, another hidden one .mine -> mine.svg."""
     stem = out.name.removesuffix(out.suffix).rstrip(".")
-    if stem.startswith("."):
+    if not stem or stem.startswith("."):  # ..json leaves nothing
         bare = stem.lstrip(".")
         stem = "leg" if not bare or bare.lower() in EXTENSIONS else bare
     return stem if Path(stem).suffix.lower() == f".{kind}" else f"{stem}.{kind}"

@@ -8,6 +8,7 @@ import os
 import re
 import sys
 import tempfile
+import time
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -95,6 +96,7 @@ def backslash_hint(path: str | Path) -> str:
 
 
 LOCK_TRIES = 100  # takes of a folder's lock file before giving up (it was removed under each one)
+LOCK_WAIT = 0.05  # s between takes on Windows while the file is held by another program
 LOCK_AT = 1 << 30  # Windows: the byte locked, far past the holder's note (another process cannot read a locked byte)
 
 
@@ -150,6 +152,11 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
         try:
             f = open(path, "a+")  # noqa: SIM115 - held until the end
         except FileNotFoundError:  # the folder was removed since (a refused study's cleanup): make it again
+            continue
+        except PermissionError:
+            if sys.platform != "win32":
+                raise
+            time.sleep(LOCK_WAIT)  # being removed while a scanner or indexer held it open: it goes in a moment
             continue
         if not try_lock(f):
             pid, _, who = holder(f).partition(" ")  # "4242 clm study": the holder, not this command
