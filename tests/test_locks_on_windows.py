@@ -61,6 +61,16 @@ def test_a_run_ends_well_when_another_program_has_its_lock_file_open(tmp_path: P
     assert taken.stdout.strip() == "taken", taken.stderr
 
 
+def test_a_lock_file_being_removed_is_waited_for(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Windows refuses to open a file whose removal another process has begun (review of session 35)
+    monkeypatch.setenv("WINSIM_BUSY", "3")
+    taken = sim("-c", "with files.dir_lock('o', 'clm study'):\n    print('taken')", cwd=tmp_path)
+    assert taken.stdout.strip() == "taken", taken.stderr
+    monkeypatch.setenv("WINSIM_BUSY", "1000")
+    refused = sim("-c", "with files.dir_lock('o', 'clm study'):\n    print('taken')", cwd=tmp_path)
+    assert refused.returncode == 1 and "could not be taken in 100 tries" in refused.stderr
+
+
 def test_a_second_command_is_refused_naming_the_one_that_holds_the_folder(tmp_path: Path) -> None:
     (tmp_path / "t.toml").write_text(TINY)
     holder = subprocess.Popen([*SIM, "-c", "import time\nwith files.dir_lock('o', 'clm design', remove=True):\n"

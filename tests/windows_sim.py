@@ -6,7 +6,8 @@ core.kinematics.memory) are given Windows's
 answer, "win32", and what Windows has in place of fcntl: ``msvcrt.locking``, which locks from the file's current
 position (an flock here, so two opens of one file conflict; an unlock must match a lock's position and size; each
 call's position is printed at exit), and reads
-that fail over a byte another process has locked (``WINSIM_LOCKS`` notes who locked what). For every
+that fail over a byte another process has locked (``WINSIM_LOCKS`` notes who locked what; ``WINSIM_BUSY=n``: the
+first n opens of a lock file are refused, as while another process removes it). For every
 module: no ``os.fchmod`` (Windows before Python 3.13), no ``os.O_NONBLOCK``, ``ctypes.CDLL(None)`` a TypeError, and
 no removal of a file that any process still has open (Python's ``open`` does not share delete: WinError 32). The
 standard library stays this system's (it cannot import as Windows's here); that core.formats.files imports on
@@ -85,8 +86,14 @@ class Guarded:
         return self._f.read(n)
 
 
-def guarded_open(*args: Any, **kwargs: Any) -> Any:
-    return Guarded(open(*args, **kwargs))
+busy = [int(os.environ.get("WINSIM_BUSY", "0"))]  # opens of a .lock refused first, as while it is being removed
+
+
+def guarded_open(file: Any, *args: Any, **kwargs: Any) -> Any:
+    if busy[0] > 0 and os.fspath(file).endswith(".lock"):
+        busy[0] -= 1
+        raise PermissionError(13, "Permission denied", os.fspath(file))
+    return Guarded(open(file, *args, **kwargs))
 
 
 def is_open(path: object) -> bool:

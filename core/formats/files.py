@@ -167,8 +167,8 @@ def dir_lock(directory: str | Path, what: str, remove: bool = False) -> Iterator
             break
         f.close()  # removed by the holder that just finished: lock the file there now
     else:
-        raise ValueError(f"{d}: its lock file {path.name} keeps going away (removed by another program?); "
-                         "choose another --out")
+        raise ValueError(f"{d}: its lock file {path.name} could not be taken in {LOCK_TRIES} tries (removed or held "
+                         "open by another program?); choose another --out")
     try:
         f.seek(0)
         f.truncate()
