@@ -19,6 +19,12 @@ from studio.spots import Box, covers, first_clear, spill
 
 F64 = NDArray[np.float64]
 
+# Tick labels are drawn as they are ("allow"): plotly's default for numeric axes ("hide past div") measures every
+# label's box after each redraw, which forces a layout of the whole page; in software rendering that was the
+# largest script cost of a run's first second (66 of ~100 ms of forced layouts, the page's worst lag; session 35).
+# automargin keeps the labels inside the chart.
+KEEP_TICKS = "allow"
+
 
 def _axis_range(values: F64, focus: F64) -> list[float] | None:
     """A range covering the focus values (the feasible ones) with a margin, and the rest within one span of them."""
@@ -392,6 +398,7 @@ def make_pareto_figure(
             text = titles[k] if axis == "xaxis" else _two_lines(titles[k])
             fig.update_layout({axis: {"title": {"text": text, "standoff": 4}, "showgrid": True,
                                       "gridcolor": "#e5e5e5", "zeroline": False, "nticks": 7, "automargin": True,
+                                      "ticklabeloverflow": KEEP_TICKS,
                                       **({"range": rng} if rng else {}), **_one_tick(coords[drawable, k])}})
     return fig
 
@@ -489,6 +496,7 @@ def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> 
         step = {"dtick": max(1, math.ceil(decades / 5)), "tick0": 0} if decades >= 1 else {}
         fig.update_layout(yaxis2={"title": {"text": "epsilon", "standoff": 2}, "type": "log", "overlaying": "y",
                                   "side": "right", "exponentformat": "e", "tickformat": ".0e", "automargin": True,
+                                  "ticklabeloverflow": KEEP_TICKS,
                                   "showgrid": False, "tickfont": {"size": 10}, **step})
         margin_r = 50
     note = _eps_note(trace)
@@ -498,8 +506,10 @@ def make_trace_figure(trace: Sequence[Mapping[str, float]], title: str = "") -> 
     fig.update_layout(title=top_title(text, 14, font={"size": 12}),
                       font={"size": 11}, height=250 + (14 if note else 0), showlegend=True,
                       margin={"l": 45, "r": margin_r, "t": 50 if note else 34,
-                      "b": 10}, xaxis={"title": {"text": "evaluations", "standoff": 4}, "automargin": True},
-                      yaxis={"range": [0, 1.02], "title": {"text": "ratio"}, "automargin": True},
+                      "b": 10}, xaxis={"title": {"text": "evaluations", "standoff": 4}, "automargin": True,
+                                       "ticklabeloverflow": KEEP_TICKS},
+                      yaxis={"range": [0, 1.02], "title": {"text": "ratio"}, "automargin": True,
+                             "ticklabeloverflow": KEEP_TICKS},
                       # Below the axis title, outside the plot, as the Pareto chart's (items wrap on a narrow panel).
                       legend={"orientation": "h", "yanchor": "top", "y": -0.3, "x": 0.0, "font": {"size": 10}})
     return fig

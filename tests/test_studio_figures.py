@@ -290,6 +290,7 @@ def test_the_trace_chart_shows_feasible_ratios_and_epsilon_on_a_log_axis():
     assert fig.layout.yaxis2.type == "log" and list(fig.data[0].x) == [40.0, 80.0]
     assert fig.layout.title.text == "imtcmo trace"  # epsilon is positive throughout: all of it is drawn
     assert "dtick" not in fig.layout.yaxis2.to_plotly_json()  # under a decade: plotly's own ticks
+    assert {fig.layout[a].ticklabeloverflow for a in ("xaxis", "yaxis", "yaxis2")} == {"allow"}  # no forced layouts
     # One line still gets a legend (plotly hides a lone trace's), and the title says there is no epsilon.
     nsga = make_trace_figure([{"gen": 1.0, "n_eval": 20.0, "feasible_ratio": 0.5}], "nsga2 trace")
     assert [d.name for d in nsga.data] == ["feasible"] and "yaxis2" not in nsga.layout.to_plotly_json()

@@ -11,6 +11,7 @@ import viser
 
 from core.study.report import LABELS
 from studio import palette
+from studio.figures import KEEP_TICKS
 from studio.panels._inputs import set_value
 from studio.panels._lazy import LazyPlotly
 from studio.panels.pareto import CONFIG
@@ -42,7 +43,7 @@ def box_figure(runs: list[StudyRun], case: str, metric: str) -> go.Figure:
     label = LABELS.get(metric, metric)  # with its unit, as the study's report writes it
     fig.update_layout(title={"text": f"{case}: {label}", "font": {"size": 13}, "x": 0.0},
                       margin={"l": 50, "r": 10, "t": 40, "b": 40}, plot_bgcolor="white")
-    fig.update_yaxes(showgrid=True, gridcolor="#e5e5e5", title_text=label)
+    fig.update_yaxes(showgrid=True, gridcolor="#e5e5e5", title_text=label, ticklabeloverflow=KEEP_TICKS)
     return fig
 
 
