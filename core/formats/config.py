@@ -104,8 +104,8 @@ def _our_json(text: str) -> str | None:
         fmt, design = (m.group(1) if m else None), '"mechanism"' in text
     else:
         fmt, design = (d.get("format"), "mechanism" in d) if isinstance(d, dict) else (None, False)
-    return dict(OUR_JSON).get(fmt) if isinstance(fmt, str) and fmt in dict(OUR_JSON) else \
-        ("a design JSON" if design else None)
+    named = dict(OUR_JSON).get(fmt) if isinstance(fmt, str) else None
+    return named or ("a design JSON" if design else None)
 
 
 def _mechanism(f: ConfigFile) -> tuple[Mechanism, Design | None]:

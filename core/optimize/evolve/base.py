@@ -125,6 +125,8 @@ class ArrayAlgorithm(Algorithm):
     """Base of the array-based algorithms. ``self.arrays`` is the current (output) population."""
 
     is_initialized: bool
+    # Its registry name (in messages) and the population it needs: checked once, here, for every subclass.
+    NAME, MIN_POP, EVEN_POP = "array algorithm", 1, False
     max_fe: int  # the budget a subclass schedules over (see budget())
 
     def __init__(self, pop_size: int = 100, repair: Any = None, sampling: F64 | None = None, **kwargs: Any) -> None:
@@ -142,7 +144,7 @@ class ArrayAlgorithm(Algorithm):
         self._pop_cache: Population | None = None
         self._opt_cache: Population | None = None
         super().__init__(**kwargs)
-        self.pop_size = population_size(type(self).__name__.lower(), pop_size, 1)
+        self.pop_size = population_size(self.NAME, pop_size, self.MIN_POP, self.EVEN_POP)
         self.repair = repair
         self.initialization = Initialization()
         self.initialization.sampling = sampling

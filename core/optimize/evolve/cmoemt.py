@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, Ahead, draw_pools, make_children, numbers, stale
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.moead import fmin_into, tchebycheff_replace
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import ga
@@ -78,10 +78,11 @@ class CMOEMT(OnePerWeight, ArrayAlgorithm):
             results (:mod:`core.optimize.evolve.ahead`); False evaluates them one at a time.
     """
 
+    NAME, MIN_POP, EVEN_POP = "cmoemt", 10, False
+
     def __init__(self, pop_size: int = 100, variant: str = "platemo", ahead: bool = True, **kwargs: Any) -> None:
         if variant not in VARIANTS:
             raise ValueError(f"cmoemt variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
-        pop_size = population_size("cmoemt", pop_size, 10)
         super().__init__(pop_size=pop_size, **kwargs)
         self.variant, self.ahead = variant, ahead
 

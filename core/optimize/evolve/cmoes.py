@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.nsga2 import rank_and_crowding
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -86,10 +86,11 @@ class CMOES(ArrayAlgorithm):
             (type 2: DE/rand/1, F 0.5, CR 1, then polynomial mutation).
     """
 
+    NAME, MIN_POP, EVEN_POP = "cmoes", 4, False
+
     def __init__(self, pop_size: int = 100, operator: str = "ga", **kwargs: Any) -> None:
         if operator not in ("ga", "de"):
             raise ValueError(f"cmoes operator must be 'ga' or 'de', got {operator!r}")
-        pop_size = population_size("cmoes", pop_size, 4)
         super().__init__(pop_size=pop_size, **kwargs)
         self.variant = 1 if operator == "ga" else 2
 

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.qnet import QNet
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -53,12 +53,13 @@ def reward(s: F64, s_next: F64, kind: str = "platemo") -> float:
 class DRLOSEMCMO(ArrayAlgorithm):
     """DRLOS-EMCMO; the output population is the main task's (P1). Options: see the module doc."""
 
+    NAME, MIN_POP, EVEN_POP = "drlos_emcmo", 4, True
+
     def __init__(self, pop_size: int = 100, reward: str = "platemo", replay: str = "platemo",
                  success: str = "platemo", **kwargs: Any) -> None:
         for key, value in (("reward", reward), ("replay", replay), ("success", success)):
             if value not in OPTIONS[key]:
                 raise ValueError(f"drlos_emcmo {key} must be one of {', '.join(OPTIONS[key])}, got {value!r}")
-        pop_size = population_size("drlos_emcmo", pop_size, 4, even=True)
         super().__init__(pop_size=pop_size, **kwargs)
         self.reward_kind, self.replay_kind, self.success_kind = reward, replay, success
 

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays, largest_violation
 from core.optimize.evolve.variation import polynomial_mutation
 
 F64 = NDArray[np.float64]
@@ -139,8 +139,9 @@ def pbest_de(a: Arrays, fit: F64, n: int, xl: F64, xu: F64, rng: np.random.Gener
 class IMTCMO(ArrayAlgorithm):
     """IMTCMO; the output population is the main task's (P1). ``pop_size`` must be even and >= 12."""
 
+    NAME, MIN_POP, EVEN_POP = "imtcmo", 12, True
+
     def __init__(self, pop_size: int = 100, **kwargs: Any) -> None:
-        pop_size = population_size("imtcmo", pop_size, 12, even=True)
         super().__init__(pop_size=pop_size, **kwargs)
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.selection import tournament
 from core.optimize.evolve.sorting import nd_ranks
 from core.optimize.evolve.variation import de_rand_1, ga
@@ -68,10 +68,11 @@ class MCCMO(ArrayAlgorithm):
     """MCCMO; the output population is the archive A. ``operator``: ``ga`` (PlatEMO's choice for MW, C-DTLZ and
     the CLM problems) or ``de`` (its choice for DAS-CMOP, LIR-CMOP, DOC)."""
 
+    NAME, MIN_POP, EVEN_POP = "mccmo", 4, True
+
     def __init__(self, pop_size: int = 100, operator: str = "ga", **kwargs: Any) -> None:
         if operator not in ("ga", "de"):
             raise ValueError(f"mccmo operator must be 'ga' or 'de', got {operator!r}")
-        pop_size = population_size("mccmo", pop_size, 4, even=True)
         super().__init__(pop_size=pop_size, **kwargs)
         self.operator = operator
 

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from core.optimize.evolve import spea2
 from core.optimize.evolve.ahead import DE, GA_HALF, Ahead, draw_pools, make_children, numbers, powers, stale
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.moead import cmt_differences, cmt_replace, fmin_into, pbi_replace
 from core.optimize.evolve.weights import OnePerWeight, neighbours
 
@@ -75,8 +75,10 @@ class MOEADCMT(OnePerWeight, ArrayAlgorithm):
             same results (:mod:`core.optimize.evolve.ahead`); False evaluates them one at a time.
     """
 
+    NAME, MIN_POP, EVEN_POP = "moead_cmt", 2, False
+
     def __init__(self, pop_size: int = 100, ahead: bool = True, **kwargs: Any) -> None:
-        super().__init__(pop_size=population_size("moead_cmt", pop_size, 2), **kwargs)
+        super().__init__(pop_size=pop_size, **kwargs)
         self.ahead = ahead
 
     def _initialize_advance(self, infills: Any = None, **kwargs: Any) -> None:

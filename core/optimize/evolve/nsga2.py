@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from core.optimize.evolve.base import ArrayAlgorithm, Arrays, population_size
+from core.optimize.evolve.base import ArrayAlgorithm, Arrays
 from core.optimize.evolve.duplicates import fresh_rows
 from core.optimize.evolve.ranges import RANGES
 from core.optimize.evolve.selection import tournament
@@ -36,6 +36,8 @@ def rank_and_crowding(a: Arrays, n: int) -> tuple[np.ndarray, np.ndarray, np.nda
 class NSGA2(ArrayAlgorithm):
     """NSGA-II; the output population is the survivors, best first (front, then crowding)."""
 
+    NAME, MIN_POP, EVEN_POP = "nsga2", 2, False
+
     def __init__(self, pop_size: int = 100, crossover_prob: float = 0.9, crossover_eta: float = 15.0,
                  mutation_prob: float = 0.9, mutation_prob_var: float | None = None, mutation_eta: float = 20.0,
                  eliminate_duplicates: bool = True, **kwargs: Any) -> None:
@@ -45,7 +47,6 @@ class NSGA2(ArrayAlgorithm):
             lo, hi = RANGES[key]
             if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Real) or not lo <= v <= hi):
                 raise ValueError(f"nsga2 {key} must be a number in [{lo:g}, {hi:g}], got {v!r}")
-        pop_size = population_size("nsga2", pop_size, 2)
         super().__init__(pop_size=pop_size, **kwargs)
         self.crossover_prob, self.crossover_eta = float(crossover_prob), float(crossover_eta)
         self.mutation_prob, self.mutation_eta = float(mutation_prob), float(mutation_eta)
