@@ -107,6 +107,20 @@ def test_a_page_that_left_is_forgotten_and_the_others_still_get_the_figure(serve
     assert chart.figure is fig and chart.visible
 
 
+def test_a_page_that_leaves_while_its_chart_is_made_gets_none_and_no_error(server):
+    # CI, session 35: a page closed as its charts were attached raised "Cannot assign to 'aspect' on a removed
+    # GuiPlotlyHandle" in the attaching thread
+    class Leaving(FakeClient):
+        class gui:  # noqa: N801 - the client's gui API, as viser names it
+            @staticmethod
+            def add_plotly(*args, **kwargs):
+                return Handle(removed=True).__setattr__("aspect", 1.0)
+
+    chart = LazyPlotly(server, server.gui.add_folder("charts"), 1.0, 0.7, {})
+    chart.attach(Leaving(5))
+    assert not chart.attached(Leaving(5))
+
+
 def test_the_animation_holds_while_a_page_loads(monkeypatch):
     # A page that has connected but not yet drawn (no camera report) gets no scene frames and the crank stands
     # still for everyone; it goes on once the page has drawn, or LOAD_HOLD_MAX s after it connected.

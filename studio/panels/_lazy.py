@@ -46,9 +46,13 @@ class LazyPlotly:
             if client.client_id in self._handles:
                 return
             with self._folder:
-                self._handles[client.client_id] = client.gui.add_plotly(
-                    self._figure if self._figure is not None else go.Figure(), aspect=self._aspect,
-                    config=self._config, order=self._order, visible=self._visible)
+                try:
+                    handle = client.gui.add_plotly(
+                        self._figure if self._figure is not None else go.Figure(), aspect=self._aspect,
+                        config=self._config, order=self._order, visible=self._visible)
+                except RuntimeError:  # the page left while its chart was made (as write(): viser removed it)
+                    return
+            self._handles[client.client_id] = handle
 
     def attached(self, client: viser.ClientHandle) -> bool:
         return client.client_id in self._handles
