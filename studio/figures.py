@@ -52,6 +52,10 @@ NEAR = ("top center", "bottom center", "middle right", "middle left", "top right
 FAR = ("far top center", "far bottom center", "far middle right", "far middle left")
 POSITIONS = NEAR + FAR
 PAD_SPACES = 4  # no-break spaces of a far label: ~3.3 px each in plotly's 12 px type
+NO_LABEL = " "
+"""The text of a candidate whose label is left to the hover. Not "": plotly.js's Plotly.react (how viser updates a
+chart) never draws a point's label again once it has been drawn empty, so K1 stayed blank on a live chart after
+a redraw that had hidden it or moved it onto the pick's ring."""
 FAR_PX = 13.0
 DOT_PX = 4.5  # half a front or dominated member's marker (9 px)
 FAR_COST = 25.0  # px² of dots a label may hide rather than stand a step off its marker (a dot is ~81 px²)
@@ -324,7 +328,7 @@ def make_pareto_figure(
                 common.update(text=text, mode="markers+text", textposition="top center")
             else:  # labels that would cover another are left to the hover
                 where = [placed.get(int(i)) for i in idx]
-                common.update(text=[label_text(t, w) if w else "" for t, w in zip(text, where, strict=True)],
+                common.update(text=[label_text(t, w) if w else NO_LABEL for t, w in zip(text, where, strict=True)],
                               mode="markers+text",
                               textposition=[(w or "top center").removeprefix("far ") for w in where])
         else:

@@ -11,7 +11,7 @@ from core.kinematics import presets
 from core.optimize import decision
 from core.optimize.box import search_box
 from studio.candidates import candidates, front_order, history_rows
-from studio.figures import compact_3d, make_pareto_figure
+from studio.figures import NO_LABEL, compact_3d, make_pareto_figure
 from studio.geometry import compose, inset_positions, layout
 from studio.tables import box_html, history_html
 
@@ -54,7 +54,7 @@ def test_pareto_chart_tells_feasible_infeasible_front_and_knees_apart_with_unit_
     assert 5 not in {i for tr in fig.data for i in tr.customdata}  # undefined members are not drawn
     assert list(t["knee candidates"].customdata) == list(sl.knees)
     # K1 is the picked member: its label is on the ring around it (set off by the ring's size), not beside it.
-    assert list(t["knee candidates"].text) == [""] + [f"K{j + 1}" for j in range(1, len(sl.knees))]
+    assert list(t["knee candidates"].text) == [NO_LABEL] + [f"K{j + 1}" for j in range(1, len(sl.knees))]
     picked = t["picked"]
     assert list(picked.customdata) == [sl.knees[0]] and list(picked.text) == ["K1"]
     assert (picked.x[0], picked.y[0]) == tuple(F[sl.knees[0]])
@@ -246,7 +246,7 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
         assert [h.split(":")[0] for h in tr.hovertext] == ([f"K{j + 1}" for j in range(5)] if name.startswith("knee")
                                                           else ["best fd", "best f1"])
         for x, y, text, pos in zip(tr.x, tr.y, tr.text, tr.textposition, strict=True):
-            if text:
+            if text != NO_LABEL:
                 px = ((x - ranges[0][0]) / np.ptp(ranges[0]) * 240.0, (y - ranges[1][0]) / np.ptp(ranges[1]) * 190.0)
                 shown.append((text, _label_box(*px, text, pos)))
     assert t["knee candidates"].text[0] == "K1"
@@ -260,7 +260,7 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
     ringed = traces(make_pareto_figure(F, cv, objectives=("fd", "f1"), front=tuple(range(8)), knees=knees, best=best,
                                        shown=3, passed=0))
     k1 = list(t["knee candidates"].customdata).index(3)
-    assert ringed["knee candidates"].text[k1] == "" and ringed["best per objective"].text[0] == ""
+    assert ringed["knee candidates"].text[k1] == NO_LABEL and ringed["best per objective"].text[0] == NO_LABEL
     assert list(ringed["picked"].text) == ["K1"]
     assert ringed["picked"].textposition[0] == t["knee candidates"].textposition[k1]
     assert list(ringed["passed on"].text) == ["best fd"]
