@@ -473,10 +473,11 @@ class Session:
             return self.view, self.playback, self.version
 
     def _commit(self, view: DesignView, keep_assembly: bool = False, into: list[Step] | None = None,
-                selection: Selection | None = None, cause: str = "") -> DesignView:
+                selection: Selection | None = None, cause: str = "", left: Branch | None = None) -> DesignView:
         """Make ``view`` current; with ``keep_assembly``, refuse to lose the assembly of the current design.
-        The replaced view, with the branch a topology switch kept, goes onto ``into``: by default the Undo history
-        (and what was undone is forgotten); Undo and Redo pass each other's."""
+        The replaced view, with the branch a topology switch kept (or ``left``, the pipeline a branch restore just
+        kept as a branch), goes onto ``into``: by default the Undo history (and what was undone is forgotten); Undo
+        and Redo pass each other's."""
         if keep_assembly and self.view.assembles and not view.assembles:
             raise ValueError(assembly_reason(view))
         old, new = self.view.design.mechanism, view.design.mechanism
@@ -486,8 +487,8 @@ class Session:
             raise ValueError(f"a stage is running, and its pick replaces the design when it ends; stop it or wait "
                              f"before {what}")
         pipe = self.study.pipeline
-        kept = None
-        if (new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name
+        kept = left
+        if (left is None and new.name != old.name and pipe is not None and pipe.start.mechanism.name != new.name
                 and not other_mode(pipe.start.mechanism, new)):  # the RTCLM's other mode: the same leg's stages
             kept = self.study.start_over(f"before switching to {new.title}")
         if view is not self.view:
@@ -516,8 +517,8 @@ class Session:
     def undo(self) -> DesignView:
         """Bring back the editor as it was before its last change (design, preset, target, walking view: a
         parameter, a preset, a topology, a pick, a run's end); ValueError if there is none or a stage runs.
-        The study is not rewound, except that undoing a topology switch restores the branch the switch kept
-        (whatever ran on the other topology since is kept as a branch in turn)."""
+        The study is not rewound, except that undoing a topology switch restores the branch the switch kept, and
+        undoing a branch restore the pipeline the restore left (whatever ran since is kept as a branch in turn)."""
         with self.lock:
             return self._step(self.undone, self.redone, "undo")
 
@@ -531,15 +532,16 @@ class Session:
             raise ValueError(f"nothing to {what}")
         step, study = source[-1], self.study
         kept = [j for j, b in enumerate(study.branches) if b is step.branch]
-        if kept:  # the branch a topology switch kept (not deleted since): its stages come back with the design
-            study.restore_branch(kept[0])
+        # The branch a topology switch or a restore kept (not deleted since): its stages come back with the design,
+        # and the pipeline they replace is the branch the step back restores.
+        left = study.restore_branch(kept[0]) if kept else None
         before = study.selection()
         if step.view is self.view:  # a pass-on: only the study's selection moves
             if study.status.running:
                 raise ValueError(f"a stage is running; stop it or wait before you {what} a pass-on")
-            self._remember(Step(self.view, None, before), sink)
+            self._remember(Step(self.view, left, before), sink)
         else:
-            self._commit(step.view, into=sink, selection=before, cause=step.cause)
+            self._commit(step.view, into=sink, selection=before, cause=step.cause, left=left)
         if step.selection is not None:
             study.reselect(step.selection)
         source.pop()
@@ -833,7 +835,7 @@ class Session:
         with the target its stages ran against (an older session's branch, which did not keep it: its
         mechanism's target when it is another topology's, as switching topology does)."""
         with self.lock:
-            self.study.restore_branch(j)
+            left = self.study.restore_branch(j)
             design = self.study.branch_design()
             if design is None:
                 return self.view
@@ -841,7 +843,7 @@ class Session:
             if target is None:
                 name = design.mechanism.name
                 target = self._target_for(name, opening_preset(name)) if presets_for(name) else None
-            return self._commit(self._rebuild(design, None, target), cause="branch restore")
+            return self._commit(self._rebuild(design, None, target), cause="branch restore", left=left)
 
     def holds_work(self) -> bool:
         """True when replacing this session would lose something the designer made: a stage result, a branch, an

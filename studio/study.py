@@ -503,8 +503,9 @@ class Study:
         del self.branches[labels.index(label)]
         self.touch()
 
-    def restore_branch(self, j: int) -> None:
-        """Make branch j the current pipeline; the current one is kept as a branch in its place."""
+    def restore_branch(self, j: int) -> Branch | None:
+        """Make branch j the current pipeline; the current one is kept as a branch in its place, which is returned
+        (None if it had no result)."""
         if self.status.running:
             raise ValueError("a stage is running; stop it first")
         if not 0 <= j < len(self.branches):
@@ -515,7 +516,7 @@ class Study:
             if r is not None:
                 result_json(r, d)
         del self.branches[j]
-        self.keep_branch("left for a branch")
+        left = self.keep_branch("left for a branch")
         self.pipeline = pipe
         self.target = None if chosen.target is None else TargetSpec.from_dict(chosen.target)
         last = pipe.lineage[-1] if pipe.lineage else None
@@ -538,6 +539,7 @@ class Study:
         # The Stages panel's "Last run" line describes the branch's last stage, not what ran before the restore.
         self.status = last_run(last)
         self.touch()
+        return left
 
     def branch_design(self) -> Design | None:
         """The design a restored pipeline stands for: its last stage's shown member (what the editor showed

@@ -188,6 +188,39 @@ def test_undoing_a_topology_switch_brings_the_stages_it_kept_as_a_branch_back() 
     assert [b.pipeline == json.loads(jansen_work.to_json(indent=None)) for b in s.study.branches] == [True]
 
 
+def test_undoing_a_branch_restore_brings_back_the_stages_it_left_on_either_topology() -> None:
+    # QA walk (session 36): Jansen stages run, the Stephenson-I branch restored, then Undo: the Jansen design came
+    # back with "No stage has run yet", its run left in the branch list as if lost.
+    from tests.stage_runs import run_stage
+
+    s = Session.default()
+    run_stage(s, "subtask1")
+    stephenson = s.study.pipeline
+    s.select_mechanism("jansen")
+    run_stage(s, "predesign", pop=8, gens=1)
+    jansen, jansen_design = s.study.pipeline, s.view.design
+    assert stephenson is not None and jansen is not None and len(s.study.branches) == 1
+    s.restore_branch(0)
+    assert s.view.design.mechanism.name == "stephenson1" and s.study.pipeline is not None
+    assert s.study.pipeline.to_json() == stephenson.to_json() and len(s.study.branches) == 1
+    assert s.change_names("undo") == "branch restore"
+    s.undo()
+    assert s.view.design == jansen_design and s.study.pipeline is not None
+    assert s.study.pipeline.to_json() == jansen.to_json() and s.study.viewing == "predesign"
+    assert len(s.study.branches) == 1  # the Stephenson-I stages, kept again
+    s.redo()
+    assert s.view.design.mechanism.name == "stephenson1" and s.study.pipeline is not None
+    assert s.study.pipeline.to_json() == stephenson.to_json() and len(s.study.branches) == 1
+    # On one topology too: Undo takes the restore back, pipeline and design.
+    run_stage(s, "subtask1", seed=6)  # a second run of the stage: the first one's pipeline becomes a branch
+    again, design = s.study.pipeline, s.view.design
+    assert again is not None and len(s.study.branches) == 2
+    s.restore_branch([b.pipeline == json.loads(stephenson.to_json(indent=None)) for b in s.study.branches].index(True))
+    assert s.study.pipeline is not None and s.study.pipeline.to_json() == stephenson.to_json()
+    s.undo()
+    assert s.view.design == design and s.study.pipeline is not None and s.study.pipeline.to_json() == again.to_json()
+
+
 def test_a_deleted_branch_is_not_brought_back_and_the_design_still_is() -> None:
     from tests.stage_runs import run_stage
 
