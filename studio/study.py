@@ -421,7 +421,8 @@ class Study:
         pipe = self.pipeline
         if pipe is None or not pipe.lineage:
             return None
-        done = branch_stages(pipe.lineage, self.shown)
+        # The leg first: branches of two topologies read alike ("2: predesign #0 by NSGA-II ...", QA walk).
+        done = f"{pipe.lineage[-1].mechanism.title} · {branch_stages(pipe.lineage, self.shown)}"
         # Past every number in use: after a restore took one out, len + 1 repeated a number still listed.
         used = [int(b.label.split(":", 1)[0]) for b in self.branches if b.label.split(":", 1)[0].isdigit()]
         text = (f"{done}{_values(pipe.lineage[-1], self.shown)}{_against(pipe.lineage[-1], self.target)} "

@@ -160,7 +160,8 @@ def test_a_branch_label_names_the_member_restore_brings_back_and_the_algorithm(s
     label = session.study.branches[0].label
     values = ", ".join(f"{o} {v:.3g}" for o, v in zip(r.objectives, r.F[other], strict=True))
     # It used to name the pick and its values while Restore showed the browsed member.
-    assert f"subtask1 #{r.picked} showing #{other} by NSGA-II · {values} (before a new start" in label
+    assert label.startswith(f"1: {r.mechanism.title} · subtask1 #{r.picked} showing #{other} by NSGA-II · {values} "
+                            "(before a new start")
     assert session.study.branches[0].shown == {"subtask1": other}
 
 
