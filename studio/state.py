@@ -51,7 +51,7 @@ from studio.metrics import (
 from studio.session_pack import pack_study, unpack_study
 from studio.study import Branch, Selection, Study
 from studio.target import Curve, TargetSpec
-from studio.walking import WalkFrames, WalkSpec, build_walk
+from studio.walking import PAPER_STEP, WalkFrames, WalkSpec, build_walk, resized, sizes_for
 
 F64 = NDArray[np.float64]
 
@@ -137,6 +137,15 @@ def preset_label(name: str) -> str:
 # Mechanisms the paper designs against its compound cycloid (L 300 mm, H 100 mm); the others (the walkers,
 # the four-bar example, RTCLM) get a cycloid scaled to their own path, so MSE compares shapes, not sizes.
 PAPER_TARGET = ("stephenson1", "stephenson3", "watt1")
+
+
+def walk_sizes(mechanism: str, target: TargetSpec) -> tuple[float, float, float]:
+    """The obstacle (a, b) and trunk (mm) the walking view starts with for a leg of ``mechanism`` against
+    ``target``: sized with its step (``sizes_for``), but the paper's for the RTCLM, whose stages aim at crossing
+    heights (h6, h4), not at its fitted curve."""
+    if is_rtclm(mechanism):
+        return sizes_for(PAPER_STEP)
+    return sizes_for((float(target.length), float(target.height)))
 
 
 def preset_target(name: str, period: float = 2.0) -> TargetSpec:
@@ -465,7 +474,13 @@ class Session:
     def _rebuild(self, design: Design, preset: str | None, target: TargetSpec | None = None,
                  walk: WalkSpec | None = None) -> DesignView:
         v = self.view
-        return build_view(design, preset, target or v.target, v.n_samples, walk or v.walk)
+        t = target or v.target
+        if walk is None:
+            walk = v.walk
+            if design.mechanism.name != v.design.mechanism.name and "uploaded" not in (t.origin, v.target.origin):
+                walk = resized(walk, walk_sizes(v.design.mechanism.name, v.target),  # another leg's size
+                               walk_sizes(design.mechanism.name, t))
+        return build_view(design, preset, t, v.n_samples, walk)
 
     def snapshot(self) -> tuple[DesignView, Playback, int]:
         """The current view, playback and version, read together."""

@@ -12,7 +12,7 @@ or ψ4 (quadruped).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,6 +34,18 @@ from core.analysis.metrics import blocked_intervals
 F64 = NDArray[np.float64]
 
 LAYOUTS = ("biped", "quadruped")
+
+
+PAPER_STEP = (300.0, 100.0)  # mm: the paper's target cycloid (length, height), which the default obstacle and
+# trunk go with
+
+
+def sizes_for(step: tuple[float, float]) -> tuple[float, float, float]:
+    """The obstacle (a, b) and trunk (mm) the walking view starts with for a target step (length, height) mm: the
+    paper's (25 x 25 mm, 450 mm at its 300 x 100 mm cycloid), a and the trunk scaled with the length, b with the
+    height, to 0.1 mm."""
+    kx, ky = step[0] / PAPER_STEP[0], step[1] / PAPER_STEP[1]
+    return (round(DEFAULT_OBSTACLE[0] * kx, 1), round(DEFAULT_OBSTACLE[1] * ky, 1), round(DEFAULT_TRUNK * kx, 1))
 
 
 @dataclass(frozen=True)
@@ -193,3 +205,13 @@ def build_walk(leg: F64, dleg: F64 | None, period: float, spec: WalkSpec) -> Wal
     bounds = np.concatenate([pts.min(0), pts.max(0)])
     return WalkFrames(hip=hip, feet=feet, trunk=trunk, legs=legs, trails=trails, ground=ground, obstacle=rect,
                       hit=is_hit(x0, lo, hi, period_x), stride=stride, bounds=bounds, leg_names=robot.legs)
+
+
+def resized(walk: WalkSpec, old: tuple[float, float, float], new: tuple[float, float, float]) -> WalkSpec:
+    """The walking view for another leg: an obstacle and trunk (a, b, trunk mm) at the sizes the old leg started
+    with (``old``, e.g. :func:`sizes_for` its step) take the new leg's (``new``); sizes the designer set stay. The
+    paper's 25 x 25 mm obstacle stood as tall as a Theo Jansen leg's 22 mm step, whose ψ read 0 % (QA walk,
+    session 36)."""
+    if (float(walk.a), float(walk.b), float(walk.trunk)) != old:
+        return walk
+    return replace(walk, a=new[0], b=new[1], trunk=new[2])

@@ -106,6 +106,28 @@ def test_the_obstacle_size_is_psis(x3: Session) -> None:
     assert row.value == pytest.approx(100.0 * float(ev.psi2[0]))
 
 
+def test_the_obstacle_and_trunk_go_with_the_leg_s_size_unless_the_designer_set_them() -> None:
+    # QA walk (session 36): a Theo Jansen leg (68 x 22 mm step) faced the paper's 25 x 25 mm obstacle, as tall as
+    # its step: ψ2 = ψ4 = 0 % read as a property of the leg.
+    s = Session.default()
+    assert (s.view.walk.a, s.view.walk.b, s.view.walk.trunk) == (25.0, 25.0, 450.0)  # the paper's, at 300 x 100 mm
+    s.select_mechanism("jansen")
+    t, w = s.view.target, s.view.walk
+    assert (w.a, w.b, w.trunk) == (round(25.0 * t.length / 300.0, 1), round(25.0 * t.height / 100.0, 1),
+                                   round(450.0 * t.length / 300.0, 1))
+    assert w.b < 0.5 * t.height
+    psi = {r.key: r for r in s.view.rows}["psi2"]
+    assert psi.label == f"ψ₂({w.a:g}, {w.b:g})" and psi.value > 0.0
+    s.select_mechanism("rtclm_primary")  # the paper's leg for crossing heights: the paper's obstacle
+    assert (s.view.walk.a, s.view.walk.b, s.view.walk.trunk) == (25.0, 25.0, 450.0)
+    s.select_mechanism("klann")
+    mine = s.set_walk(b=30.0).walk  # the designer's obstacle stays as set on the next switch
+    s.select_mechanism("stephenson1")
+    assert s.view.walk == mine
+    s.undo()
+    assert s.view.design.mechanism.name == "klann" and s.view.walk == mine
+
+
 # Target curves ----------------------------------------------------------------------------------------
 
 
