@@ -23,7 +23,7 @@ from core.formats.files import slug
 from core.optimize.lineage import next_feasible, unmet_by
 from studio.address import url_for
 from studio.candidates import candidates
-from studio.chains import ChainStage, chain_for, find, stage_spec, takes_target
+from studio.chains import ChainStage, chain_for, find, sized_where, stage_spec, takes_target
 from studio.charts import png, stop_png_browser
 from studio.exports import design_json, drawing_export, drawing_warnings, figure_html, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS, INSET_EXPORT_TITLE, INSET_NOTE, INSET_TITLE, SceneFrames, inset_caption
@@ -46,7 +46,8 @@ from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
 from studio.session_file import read_session_bytes, save_session
 from studio.state import DesignView, Session, same_leg
-from studio.study_view import StudyView, study_view
+from studio.study import result_labels
+from studio.study_view import StudyView, constraint_text, study_view
 
 BRAND = (31, 119, 180)
 # While a stage runs, the study panels (Pareto chart, progress) are redrawn at most this often.
@@ -571,6 +572,20 @@ class Studio:
                 return "", [], False
             missed = unmet_by(r, i, spec.problem.constraints, spec.problem.labels)
             return nxt.name, missed, bool(missed) and bool(next_feasible(r, spec.problem).any())
+
+    def pick_limits(self, stage: str) -> list[str]:
+        """The limits ``stage``'s automatic pick keeps to first (its chain's ``pick_where``, sized for the leg), in
+        words (``I (mm/s) ≤ 1``); [] if none or the stage is not in the chain."""
+        session = self.session
+        with session.lock:
+            study = session.study
+            k, r, pipe = study.index(stage), study.result(stage), study.pipeline
+            st = next((c for c in self.chain() if c.name == stage), None)
+            if k is None or r is None or pipe is None or st is None or not st.pick_where:
+                return []
+            labels = result_labels(r)
+            return [constraint_text(c, labels) for c in sized_where(st.pick_where, pipe.stages[k].problem.scale)
+                    if c.metric in r.metrics]
 
     def view_stage(self, stage: str, client: viser.ClientHandle | None) -> None:
         """Show a stage of the lineage again (its front, candidates, and its shown member animated)."""

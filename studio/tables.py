@@ -130,18 +130,24 @@ def off_screen_html(i: int) -> str:
             "back.</div>")
 
 
-def next_verdict_html(i: int, nxt: str, missed: list[str], stage: str = "", avoidable: bool = True) -> str:
+def next_verdict_html(i: int, nxt: str, missed: list[str], stage: str = "", avoidable: bool = True,
+                      kept_to: list[str] | None = None) -> str:
     """A line under the verdict when member i misses the next stage's constraints (``h_s 7.91 > 6.5``): a warning
     when another feasible member of its stage meets them (a pick that met its own stage's read fine until "Use for
     next stage" asked about it), else a plain note that the next stage searches for them (rtclm2's auxiliary mode,
-    which rtclm1 does not model); empty when it meets them."""
+    which rtclm1 does not model); empty when it meets them. ``kept_to``: the limits the stage's automatic pick keeps
+    to first, when i is that pick (the studio's own choice, warned about without a reason, read as a bug)."""
     if not missed:
         return ""
     if not avoidable:
         text = (f"No member of {html.escape(stage or 'this stage')} meets {html.escape(nxt)}'s constraints "
                 f"({html.escape('; '.join(missed))} for #{i}): {html.escape(nxt)} searches for them around the pick.")
         return f'<div class="clm-next-verdict" style="{VERDICT}color:#4b5563">{text}</div>'
-    text = (f"⚠ #{i} misses {html.escape(nxt)}'s constraints: {html.escape('; '.join(missed))} "
+    why = ""
+    if kept_to:
+        why = (f"; the automatic pick keeps to {html.escape(', '.join(kept_to))} first, and no member within "
+               f"{'it' if len(kept_to) == 1 else 'them'} meets {html.escape(nxt)}'s, which other members do")
+    text = (f"⚠ #{i} misses {html.escape(nxt)}'s constraints: {html.escape('; '.join(missed))}{why} "
             f"(if passed on, {html.escape(nxt)} starts around it all the same)")
     return f'<div class="clm-next-verdict" style="{VERDICT}color:#b45309">{text}</div>'
 
