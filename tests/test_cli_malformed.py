@@ -35,6 +35,8 @@ def files(tmp: Path) -> dict[str, str]:
         "binary.json": "\udcff",
         "empty.json": "",
         "nan.json": json.dumps({"mechanism": "stephenson1", "params": [float("nan")] * 16}),
+        # An integer past 1e308: float() raised OverflowError, a traceback (QA, session 36)
+        "bigint.json": json.dumps({"mechanism": "stephenson1", "params": [10**400] + [1.0] * 15}),
         "bad.toml": "mechanism = [\n",
         "deep.toml": "a = " + "[" * 3000 + "]" * 3000 + "\n",
         "good.toml": GOOD_CFG,
@@ -77,6 +79,9 @@ CASES: list[list[str]] = [
     ["simulate", "--design", "{text.json}"], ["simulate", "--design", "{binary.json}"],
     ["simulate", "--design", "{empty.json}"], ["simulate", "--design", "{nan.json}"],
     ["simulate", "--preset", S1, "--design", "{list.json}"],
+    ["simulate", "--design", "{bigint.json}"], ["evaluate", "--design", "{bigint.json}"],
+    ["scale", "--design", "{bigint.json}", "--factor", "2", "--out", "-"],
+    ["export", "--design", "{bigint.json}", "--svg", "{tmp}/a.svg"],
     # evaluate
     ["evaluate"], ["evaluate", "--preset", "nope"], ["evaluate", "--preset", S1, "--samples", "0"],
     ["evaluate", "--preset", S1, "--samples", "1"], ["evaluate", "--preset", S1, "--samples", "-4"],

@@ -64,7 +64,11 @@ def _number(label: str, unit: str, value: object) -> float:
     """``value`` as a float, or a ValueError naming ``label``; bools are not numbers here."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ValueError(f"{label} must be a number ({unit}), got {value!r}")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:  # an integer past 1e308, which float() refuses with a traceback (QA, session 36)
+        raise ValueError(f"{label} ({unit}) must be finite, got an integer of about "
+                         f"{int(int(value).bit_length() * 0.30103) + 1} digits") from None
 
 
 def check_params(mechanism: Mechanism, params: ArrayLike) -> F64:
