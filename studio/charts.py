@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import html
 import math
+import os
 import sys
 import threading
 import warnings
@@ -161,11 +162,19 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         written = run_charts(args.run_dir)
-    except (OSError, ValueError) as exc:
+    except ValueError as exc:
         print(f"clm-charts: error: {exc}", file=sys.stderr)
         return 2
-    for path in written:
-        print(f"wrote {path}")
+    except OSError as exc:  # "[Errno 13] Permission denied: 'run/pareto-0_predesign.png'" read as Python's (QA)
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"clm-charts: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 2
+    try:
+        for path in written:
+            print(f"wrote {path}", flush=True)
+    except BrokenPipeError:  # the reader (head) went away: quietly, as clm (the charts are written)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     return 0
 
 

@@ -169,3 +169,38 @@ def test_the_studio_keeps_one_png_browser_and_stops_it_on_close():
         charts.stop_png_browser()
     assert not charts._kaleido_kept
     assert charts.png(fig, 300, 200)[:4] == b"\x89PNG"  # and without it, as clm-charts draws
+
+
+def test_clm_charts_stops_quietly_when_its_reader_goes_and_words_a_refused_file(run_dir, monkeypatch, capsys):
+    # QA (session 36): 'clm-charts run | head' ended in a BrokenPipeError traceback and exit 1, and a read-only run
+    # folder in "[Errno 13] Permission denied: '...'".
+    drawn(monkeypatch)
+
+    class Gone:
+        def write(self, text: str) -> int:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self) -> None:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def fileno(self) -> int:
+            return fd
+
+    import os
+    import sys
+
+    fd = os.dup(1)
+    try:
+        monkeypatch.setattr(sys, "stdout", Gone())
+        assert charts.main([str(run_dir)]) == 141
+    finally:
+        os.close(fd)
+    assert (run_dir / "pareto-0_subtask2.png").read_bytes() == b"png"  # the charts are written all the same
+
+    def refused(path, data):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(charts, "atomic_write", refused)
+    monkeypatch.setattr(sys, "stdout", sys.__stdout__)
+    assert charts.main([str(run_dir)]) == 2
+    assert capsys.readouterr().err == f"clm-charts: error: Permission denied: {run_dir / 'pareto-0_subtask2.png'}\n"
