@@ -80,6 +80,8 @@ CASES: list[list[str]] = [
     ["simulate", "--design", "{empty.json}"], ["simulate", "--design", "{nan.json}"],
     ["simulate", "--preset", S1, "--design", "{list.json}"],
     ["simulate", "--design", "{bigint.json}"], ["evaluate", "--design", "{bigint.json}"],
+    ["export", "--preset", S1, "--svg", ""], ["export", "--preset", S1, "--dxf", " "], ["simulate", "--design", ""],
+    ["study", "{good.toml}", "--out", "{tmp}/st"],
     ["scale", "--design", "{bigint.json}", "--factor", "2", "--out", "-"],
     ["export", "--design", "{bigint.json}", "--svg", "{tmp}/a.svg"],
     # evaluate
@@ -250,3 +252,27 @@ def test_presets_show_writes_a_file_only_for_a_name_it_knows_and_keeps_an_existi
     empty.write_text("")
     assert main(["simulate", "--design", str(empty)]) == 2
     assert capsys.readouterr().err == f"clm: error: {empty} is empty: not a design JSON\n"
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    # QA (session 36): "'.' is a folder" for an empty name; the factor twice; a design config given to clm study read
+    # "mechanism: unknown key"; "a design file file".
+    (["export", "--preset", S1, "--svg", ""], "argument --svg: is empty; name a file (see 'clm export --help')"),
+    (["scale", "--preset", S1, "--factor", "0"], "--factor: a scale factor must be a positive number, got 0.0"),
+    (["study", "{good.toml}", "--out", "{tmp}/st"], "this is a design configuration ([[stages]]), not a study: run it "
+     "with clm design, or name it in a study's [[cases]] config"),
+    (["simulate", "--design", "{huge.json}"], "cannot read design file '{huge.json}': 1.0 MB is more than the 1 MB "
+     "such a file may have"),
+])
+def test_refusals_read_plainly(tmp_path, capsys, argv, said):
+    names = files(tmp_path)
+    (tmp_path / "huge.json").write_bytes(b" " * (2**20 + 10))
+    names["huge.json"] = str(tmp_path / "huge.json")
+
+    def filled(text: str) -> str:
+        for k, v in names.items():
+            text = text.replace("{" + k + "}", v)
+        return text
+
+    assert main([filled(a) for a in argv]) == 2
+    assert capsys.readouterr().err == f"clm: error: {filled(said)}\n"

@@ -230,7 +230,7 @@ def read_user_file(path: str | Path, max_bytes: int = MAX_CURVE_FILE_BYTES, what
                 raise ValueError(f"cannot read {what} {str(p)!r}: not a regular file")
             if st.st_size > max_bytes:
                 raise ValueError(f"cannot read {what} {str(p)!r}: {st.st_size / 2**20:.1f} MB is more than the "
-                                 f"{max_bytes / 2**20:.0f} MB a {what} file may have")
+                                 f"{max_bytes / 2**20:.0f} MB such a file may have")  # 'a design file file' (QA)
             with os.fdopen(os.dup(fd), "rb") as f:
                 data = f.read(max_bytes + 1)
         finally:

@@ -35,6 +35,14 @@ class _Parser(argparse.ArgumentParser):
         raise CLIError(f"{message} (see '{self.prog} --help')")
 
 
+def path_arg(text: str) -> Path:
+    """A file or folder named on the command line (argparse ``type``); refused when empty: ``Path("")`` is the
+    current folder, and ``--svg ""`` read ". is a folder" (QA, session 36)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("is empty; name a file")
+    return Path(text)
+
+
 def out_file(text: str | None, overwrite: bool) -> Path | None:
     """The ``--out FILE`` to write, or None to print (no ``--out``, or ``-``: standard output, as ``--design -`` reads
     standard input). Refused: an empty name, a folder, a file in no folder, an existing file without ``--overwrite``

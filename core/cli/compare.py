@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from core.cli import CLIError
+from core.cli import CLIError, path_arg
 from core.cli.design import COMPILE_NOTE, table
 from core.formats.files import read_design_result
 from core.optimize.result import decode_float
@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "chosen designs' MSE, S and I (Appendix B-5 style). The time is compute time, every chain of a multi-start "
         "counted, as the paper's one-core times are; the run's wall time is result.json's wall_time.",
     )
-    p.add_argument("runs", nargs="+", type=Path, metavar="DIR", help="output directories (or result.json files)")
+    p.add_argument("runs", nargs="+", type=path_arg, metavar="DIR", help="output directories (or result.json files)")
     p.add_argument("--paper", action="store_true", help="append the paper's printed rows: Appendix B-5's, or for "
                    "RTCLM runs (rows with h6 and h4) Appendix C-1's five cases")
     p.set_defaults(func=run)

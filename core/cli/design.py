@@ -24,7 +24,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from core.cli import CLIError
+from core.cli import CLIError, path_arg
 from core.formats.config import load_config
 from core.formats.files import atomic_write, chart_file, check_out_dir, dir_lock, read_design_result, stage_file
 from core.formats.typed import MAX_SEED
@@ -50,7 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Run the stages of a design configuration (see docs/optimization.md and assets/configs/), "
         "print a summary table and write result.json and one CSV per stage into --out.",
     )
-    p.add_argument("config", type=Path, help="configuration file (TOML)")
+    p.add_argument("config", type=path_arg, help="configuration file (TOML)")
     p.add_argument("--out", dest="out_text", required=True, metavar="DIR", help="output directory (created if missing)")
     p.add_argument("--seed", type=int, default=None, metavar="N", help="override the configuration's seed")
     p.add_argument("--workers", type=int, default=None, metavar="N",

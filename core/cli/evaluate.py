@@ -29,7 +29,7 @@ from core.analysis.evaluate import (
 from core.analysis.features import DEFAULT_PERIOD, FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
 from core.analysis.targets import cycloid_params, load_curve, parse_target, path_note, scale_note
-from core.cli import CLIError, dumps
+from core.cli import CLIError, dumps, path_arg
 from core.kinematics.checks import MAX_SAMPLES
 from core.kinematics.presets import PAPER_PANTOGRAPH
 from core.kinematics.solver import MU_DEAD, MU_USUAL
@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     from core.cli.simulate import add_source
 
     src = add_source(p)
-    src.add_argument("--curve", metavar="FILE", type=Path, help="a CSV curve: x,y or x,y,t per line (design frame)")
+    src.add_argument("--curve", metavar="FILE", type=path_arg, help="a CSV curve: x,y or x,y,t per line (design frame)")
     p.add_argument(
         "--leg-frame",
         action="store_true",

@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from core.cli import CLIError
+from core.cli import CLIError, path_arg
 from core.formats.drawing import HOLE, PLATE, Plates, cutting_warnings, drawing, dxf, svg
 from core.formats.files import atomic_write
 
@@ -25,8 +25,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     from core.cli.simulate import add_source
 
     add_source(p)
-    p.add_argument("--dxf", type=Path, metavar="OUT", help="DXF file to write")
-    p.add_argument("--svg", type=Path, metavar="OUT", help="SVG file to write")
+    p.add_argument("--dxf", type=path_arg, metavar="OUT", help="DXF file to write")
+    p.add_argument("--svg", type=path_arg, metavar="OUT", help="SVG file to write")
     p.add_argument("--angle", type=float, default=0.0, help="crank angle in degrees from the crank phase (default 0)")
     p.add_argument("--hole", type=float, default=HOLE, metavar="MM",
                    help=f"pivot hole diameter in mm, your pins' (default {HOLE:g})")

@@ -49,9 +49,13 @@ def run(args: argparse.Namespace) -> int:
     if args.stride is not None:
         if not (math.isfinite(args.stride) and args.stride > 0):
             raise CLIError(f"--stride must be a positive number of mm, got {args.stride}")
-        if width is None or width <= 0:
-            raise CLIError("the design's foot path has no width to scale from (it does not assemble, or its foot "
-                           "does not move along x): give --factor")
+        if width is None:  # which of the two it is (QA: the message named both)
+            raise CLIError(f"the design does not assemble over the whole crank cycle (violation "
+                           f"{float(sol.violation[0]):.3g} mm), so its foot path has no width to scale from: give "
+                           "--factor")
+        if width <= 0:
+            raise CLIError("the design's foot does not move along x, so its path has no width to scale from: give "
+                           "--factor")
         factor = args.stride / width
     else:
         factor = args.factor
@@ -59,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         scaled = design.scaled(factor)
     except ValueError as exc:
-        raise CLIError(f"{given}: {exc} (scale factor {factor:.6g})") from None
+        raise CLIError(f"{given}: {exc}" + (f" (scale factor {factor:.6g})" if given == "--stride" else "")) from None
     label = design_label(args, preset)
     after = scaled.solve(360)
     if sol.violation[0] == 0 and after.violation[0] != 0:

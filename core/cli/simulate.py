@@ -12,7 +12,7 @@ import numpy as np
 
 from core.analysis.evaluate import MIN_SAMPLES
 from core.analysis.targets import read_user_file
-from core.cli import CLIError, dumps
+from core.cli import CLIError, dumps, path_arg
 from core.formats.design import check_design, design_from_dict
 from core.formats.typed import unique_keys
 from core.kinematics import presets
@@ -60,7 +60,7 @@ def add_source(p: argparse.ArgumentParser) -> argparse._MutuallyExclusiveGroup:
     command that takes another source too (``clm evaluate --curve``)."""
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--preset", metavar="NAME", help="a preset name (see 'clm presets')")
-    src.add_argument("--design", metavar="FILE", type=Path,
+    src.add_argument("--design", metavar="FILE", type=path_arg,
                      help="a design JSON file, or a clm design run (its folder or result.json): its final pick")
     return src
 

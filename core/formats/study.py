@@ -223,6 +223,9 @@ def _check_case(i: int, case: CaseEntry, config: Path) -> None:
 
 def parse_study(data: dict[str, Any], base: str | Path = ".", path: str = "") -> Study:
     """Check a study given as a dict (the parsed TOML) and resolve its seeds and config paths."""
+    if "stages" in data and "cases" not in data:  # read "mechanism: unknown key; known: algorithms, cases, ..." (QA)
+        raise ValueError("this is a design configuration ([[stages]]), not a study: run it with clm design, or name it "
+                         "in a study's [[cases]] config")
     f = decode(data, StudyFile)
     seeds = parse_seeds(f.seeds)
     _unique([a.name for a in f.algorithms], "algorithms")
