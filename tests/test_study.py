@@ -377,3 +377,35 @@ def test_a_local_cluster_asks_for_no_fixed_dashboard_port() -> None:
                 assert ":8787/" not in client.dashboard_link
     finally:
         held.close()
+
+
+def test_ctrl_c_says_what_was_kept_and_that_the_same_command_goes_on(tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture[str], monkeypatch):
+    # QA (session 36): clm study ended with 130 and not a word, whether finished cells were kept or not.
+    import core.study.runner as runner
+
+    study = write(tmp_path, TINY)
+
+    def interrupted(kept: int):
+        def run(study, out, **kw):
+            if kept:
+                store = Store(out)  # the database as the runner makes it
+                store.close()
+                db = sqlite3.connect(Path(out) / "study.sqlite")
+                cols = [r[1] for r in db.execute("PRAGMA table_info(runs)")]
+                for k in range(kept):
+                    db.execute(f"INSERT INTO runs ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
+                               [f"{c}{k}" if c == "key" else 0 for c in cols])
+                db.commit()
+                db.close()
+            raise KeyboardInterrupt
+        return run
+
+    monkeypatch.setattr(runner, "run_study", interrupted(0))
+    assert main(["study", str(study), "--out", str(tmp_path / "a")]) == 130
+    assert capsys.readouterr().err == "clm: stopped before any run finished; nothing kept\n"
+    assert not (tmp_path / "a").exists()
+    monkeypatch.setattr(runner, "run_study", interrupted(2))
+    assert main(["study", str(study), "--out", str(tmp_path / "b")]) == 130
+    assert capsys.readouterr().err == (f"clm: stopped; 2 finished runs kept in {tmp_path / 'b'}: the same command "
+                                       "goes on from there\n")

@@ -48,24 +48,30 @@ def _check_out(out: str | None) -> Path:
     return check_out_dir(out, ["study.sqlite", "report.md", "report.html"])
 
 
+def _runs_kept(out: Path) -> int:
+    """How many runs the study folder's database holds (0 if it has none or cannot be read)."""
+    import sqlite3
+
+    try:
+        db = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
+        try:
+            return int(db.execute("SELECT count(*) FROM runs").fetchone()[0])
+        finally:
+            db.close()
+    except sqlite3.Error:
+        return 0
+
+
 def _remove_if_unused(out: Path, made: list[Path]) -> None:
     """Remove a study directory this command made, and the folders it made above it (``made``, innermost first),
     when no run finished in it and nothing else was put in it (a refused or failed start). Under the folder's
     lock: another command that took the folder once this one let it go keeps it (review of session 33); the lock
     file goes last, by ``dir_lock`` while still held, so no newer one is removed with it (review of session 35)."""
-    import sqlite3
 
     ours = {".lock", "study.sqlite", "study.sqlite-journal", "study.sqlite-wal", "study.sqlite-shm"}
     try:
         with dir_lock(out, "clm study", remove=True):
-            try:
-                db = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
-                try:
-                    used = db.execute("SELECT count(*) FROM runs").fetchone()[0] > 0
-                finally:
-                    db.close()
-            except sqlite3.Error:
-                used = False
+            used = _runs_kept(out) > 0
             if used or any(p.name not in ours for p in out.iterdir()):  # a user's file put there meanwhile too
                 return
             for p in out.iterdir():
@@ -121,9 +127,13 @@ def _run(args: argparse.Namespace) -> int:
         summary = run_study(study, str(out), scheduler=args.scheduler, workers=args.workers,
                             stream=None if args.quiet else sys.stderr, rerun_changed=args.rerun_changed,
                             mixed_code=args.mixed_code)
-    except BaseException:
+    except BaseException as exc:
         if made:
             _remove_if_unused(out, made)
+        if isinstance(exc, KeyboardInterrupt):  # it ended silently with 130 (QA, session 36)
+            kept = _runs_kept(out) if out.is_dir() else 0
+            print(f"clm: stopped; {kept} finished run{'s' * (kept != 1)} kept in {out}: the same command goes on from "
+                  "there" if kept else "clm: stopped before any run finished; nothing kept", file=sys.stderr)
         raise
     md, page = write_report(out)
     print(f"{study.name}: {summary.total} cells, {summary.skipped} already done, {summary.ran} run now "
