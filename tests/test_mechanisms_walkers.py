@@ -183,6 +183,30 @@ def test_jansen_matches_the_published_compass_construction() -> None:
         np.testing.assert_allclose(joint(sol, JANSEN, name)[0], ref, atol=1e-9, err_msg=name)
 
 
+def test_jansen_is_seven_moving_links_with_its_two_triangles_one_body_each() -> None:
+    # QA (session 36): the triangles, written as three dyad links each, were cut as 11 parts for a 7-link leg.
+    from core.kinematics.mechanisms import get
+    from core.kinematics.model import _bodies
+
+    bodies = {frozenset(b) for b in get("jansen").bodies()}
+    assert {frozenset("QUV"), frozenset("KTF")} <= bodies
+    assert len(bodies) == 8  # the frame O-Q and seven moving links
+    # Three bars pinned in a loop are one body; pinned in a chain, or at one point, they stay three.
+    from core.kinematics.model import Dyad, Ground
+
+    loop = (Ground("A", 0.0, 0.0), Ground("B", 1.0, 0.0), Dyad("P", "A", "B", "a", "b", 1),
+            Dyad("Q", "P", "B", "c", "d", 1), Dyad("R", "P", "Q", "e", "f", 1))
+    assert any(set("PQR") <= set(b) for b in _bodies(loop))
+    from core.kinematics.model import _merge_triangle
+
+    chain = [["A", "B"], ["P", "Q"], ["Q", "R"], ["R", "S"]]  # the ground first, then three bars in a row
+    assert not _merge_triangle(chain) and len(chain) == 4
+    ring = [["A", "B"], ["P", "Q"], ["Q", "R"], ["R", "P"]]
+    assert _merge_triangle(ring) and ring == [["A", "B"], ["P", "Q", "R"]]
+    grounded = [["A", "B"], ["A", "P"], ["P", "B"]]  # a triangle with the frame: the frame merges with nothing
+    assert not _merge_triangle(grounded)
+
+
 def test_jansen_foot_path_has_a_flat_stance_moving_forward() -> None:
     p = PRESETS["jansen"]
     sol = solve(JANSEN, np.array([p.values]), 720, backend="numpy")

@@ -332,17 +332,43 @@ def _bodies(steps: tuple[Step, ...]) -> tuple[tuple[str, ...], ...]:
         elif isinstance(s, Attach):
             groups.append([s.p, s.q, s.name])
     groups += list(cranks.values())
-    # Two bodies sharing two points are one rigid body: merge until stable.
-    merged = True
-    while merged:
-        merged = False
-        for i in range(len(groups)):
-            for j in range(i + 1, len(groups)):
-                if len(set(groups[i]) & set(groups[j])) >= 2:
-                    groups[i] = groups[i] + [p for p in groups[j] if p not in groups[i]]
-                    del groups[j]
-                    merged = True
-                    break
-            if merged:
-                break
+    # Two bodies sharing two points are one rigid body, and so are three moving bodies pinned to each other in a
+    # triangle (three distinct pins: no freedom left; Jansen's Q-U-V and K-T-F, written as dyads, came out as three
+    # bars each, cut as 11 parts for a 7-link leg): merge until stable.
+    while _merge_pair(groups) or _merge_triangle(groups):
+        pass
     return tuple(tuple(g) for g in groups if len(g) >= 2)
+
+
+def _join(groups: list[list[str]], idx: list[int]) -> None:
+    """Merge ``groups[idx]`` into the first of them, in order."""
+    first = groups[idx[0]]
+    for i in idx[1:]:
+        first += [p for p in groups[i] if p not in first]
+    for i in sorted(idx[1:], reverse=True):
+        del groups[i]
+
+
+def _merge_pair(groups: list[list[str]]) -> bool:
+    for i in range(len(groups)):
+        for j in range(i + 1, len(groups)):
+            if len(set(groups[i]) & set(groups[j])) >= 2:
+                _join(groups, [i, j])
+                return True
+    return False
+
+
+def _merge_triangle(groups: list[list[str]]) -> bool:
+    # groups[0] is the frame, which merges with nothing here (a body pinned to it at two points: _merge_pair).
+    sets = [set(g) for g in groups]
+    for i in range(1, len(groups)):
+        for j in range(i + 1, len(groups)):
+            ij = sets[i] & sets[j]
+            if len(ij) != 1:
+                continue
+            for k in range(j + 1, len(groups)):
+                ik, jk = sets[i] & sets[k], sets[j] & sets[k]
+                if len(ik) == len(jk) == 1 and len(ij | ik | jk) == 3:
+                    _join(groups, [i, j, k])
+                    return True
+    return False
