@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from core.formats.config import parse_config
-from core.optimize.lineage import choose
+from core.optimize.lineage import choose, stage_pick
 from core.optimize.multistart import (
     SEED_STRIDE,
     Chain,
@@ -164,10 +164,16 @@ def test_cancelling_before_any_chain_completes_keeps_the_first_cancelled_chain()
         if p.stage == "subtask1" and p.generation == 2:
             cancel.set()
 
-    out = run_design(parse_config({**CONFIG, "workers": 1}), callback=cb, cancel=cancel)
+    config = parse_config({**CONFIG, "workers": 1})
+    out = run_design(config, callback=cb, cancel=cancel)
     (block,) = out.multistart
     assert [c.status for c in block.chains] == ["cancelled"]
     assert block.chosen == 0 and [r.status for r in out.results] == ["cancelled"]
+    # Its stage is picked by the stage's rule among the population it reached, as a single chain's run is (QA,
+    # session 36: a stopped multi-start run kept no design to evaluate or export, even after 237 generations).
+    (r,) = out.results
+    assert r.picked is not None and r.picked == stage_pick(config, 0, r)
+    assert block.chains[0].picks == (r.picked,) and block.chains[0].metrics[0]["f1"] == float(r.F[r.picked, 0])
 
 
 def test_cancelling_keeps_the_best_of_the_completed_chains() -> None:

@@ -154,14 +154,19 @@ def run_stage(config: DesignConfig, pipe: Pipeline, k: int, pick: int | None, se
     if res.status not in done or res.pop == 0:
         pipe.record(k, res)
         return res
+    res = res.with_pick(stage_pick(config, k, res, spec.stop_below))
+    pipe.record(k, res)
+    return res
+
+
+def stage_pick(config: DesignConfig, k: int, res: StageResult, stop_below: tuple[float, ...] | None = None) -> int:
+    """Stage k's automatic pick in ``res`` by its config's rule and limits (:func:`auto_pick`)."""
     nxt = None
     if k + 1 < len(config.stages):
         # The next stage's absolute thresholds steer the pick (relative ones hold for every candidate).
         s = config.stages[k + 1]
         nxt = make_problem(s.problem, **placeholder(s.options, absolute=True))
-    res = res.with_pick(auto_pick(res, stage_cfg.pick, spec.stop_below, nxt, stage_cfg.pick_where))
-    pipe.record(k, res)
-    return res
+    return auto_pick(res, config.stages[k].pick, stop_below, nxt, config.stages[k].pick_where)
 
 
 def auto_pick(res: StageResult, rule: PickRule, stop_below: tuple[float, ...] | None, nxt: ProblemSpec | None,
@@ -216,6 +221,22 @@ class _Chain:
         if upto == self.last:
             self.status = "complete"
         return True
+
+    def pick_stopped(self) -> None:
+        """Pick the stage the chain was cancelled in by its rule among the population it reached, as a single chain's
+        run picks it (QA, session 36: a stopped multi-start run kept no design after 237 generations)."""
+        k = self.first + len(self.picks) - 1
+        if not self.picks or self.picks[-1] is not None:
+            return
+        res = self.pipe.results[k] if k < len(self.pipe.results) else None
+        if res is None or res.pop == 0 or res.status != "cancelled":
+            return
+        res = res.with_pick(stage_pick(self.config, k, res))
+        self.pipe.record(k, res)
+        pick = int(res.picked)  # type: ignore[arg-type]
+        self.picks[-1] = pick
+        self.metrics[-1] = {n: float(v[pick]) for n, v in res.metrics.items()}
+        self.params[-1] = res.named(pick)
 
     def reached(self, upto: int) -> bool:
         """Whether the chain has a pick at stage ``upto``."""
@@ -288,6 +309,7 @@ def run_block(config: DesignConfig, pipe: Pipeline, first: int, pick: int | None
                                   starts.where)]
         else:
             c = next(x for x in run if x.j == short[0][1])
+            c.pick_stopped()
         records = tuple(x.record() for x in chains if x.picks)
         return MultiStart(starts, tuple(names[first : last + 1]), first, last, records, c.j), c.pipe, False
 
