@@ -553,3 +553,43 @@ def test_a_lock_file_that_cannot_be_made_is_refused_not_retried_forever(tmp_path
     taken = r"its lock file \.lock could not be taken in 100 tries \(removed or held open by another program\?\)"
     with pytest.raises(ValueError, match=taken), dir_lock(out, "clm design"):
         pass
+
+
+def test_a_run_stopped_under_overwrite_goes_beside_the_finished_run_it_would_have_replaced(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    # QA (session 36): Ctrl-C during 'clm design --overwrite' replaced a finished run (its CSVs and charts) with a
+    # cancelled one; a user who changed their mind lost the old results for nothing.
+    import threading
+
+    import core.cli.design as design_cli
+
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(TINY)
+    out = tmp_path / "out"
+    assert main(["design", str(cfg), "--out", str(out), "--quiet"]) == 0
+    (out / "notes.txt").write_text("mine")
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.name != ".lock"}
+    real = design_cli.run_design
+
+    def stopped(config, callback, cancel):  # Ctrl-C after the first generation
+        ev = threading.Event()
+
+        def cb(p) -> None:  # type: ignore[no-untyped-def]
+            if p.generation >= 1:
+                ev.set()
+
+        return real(config, cb, ev)
+
+    monkeypatch.setattr(design_cli, "run_design", stopped)
+    capsys.readouterr()
+    for beside in (tmp_path / "out-stopped", tmp_path / "out-stopped-2"):
+        assert main(["design", str(cfg), "--out", str(out), "--quiet", "--overwrite"]) == 130
+        err = capsys.readouterr().err
+        assert f"the earlier run in {out} is kept as it was" in err and f"this one is in {beside}" in err
+        assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != ".lock"} == before
+        assert json.loads((beside / "result.json").read_text())["status"] == "cancelled"
+    # A finished rerun replaces it, as --overwrite says.
+    monkeypatch.setattr(design_cli, "run_design", real)
+    assert main(["design", str(cfg), "--out", str(out), "--quiet", "--overwrite"]) == 0
+    assert json.loads((out / "result.json").read_text())["status"] == "complete"
+    assert (out / "notes.txt").read_text() == "mine"

@@ -61,8 +61,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "processes; the results are the same")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--overwrite", action="store_true",
-                   help="replace an earlier run in --out (its result.json, stage CSVs and pareto-*.png charts); "
-                   "without it such a folder is refused")
+                   help="replace an earlier run in --out (its result.json, stage CSVs and pareto-*.png charts) once "
+                   "this one finishes (one stopped before goes beside it, in OUT-stopped); without it such a folder "
+                   "is refused")
     p.set_defaults(func=run)
 
 
@@ -332,11 +333,13 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
     previous: list[str] = []
+    finished = False  # the earlier run in --out completed: only a completed run replaces it
     if (args.out / "result.json").exists():
         if not args.overwrite:
             raise CLIError(f"--out {args.out_text!r} holds an earlier run (result.json); choose another folder or "
                            "pass --overwrite to replace it")
         previous = earlier_outputs(args.out / "result.json")
+        finished = read_design_result(args.out / "result.json").get("status") == "complete"
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)
     cancel = threading.Event()
@@ -380,6 +383,24 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
         if bar is not None:
             bar.close()
     result.compile_time = timer.seconds
+    if finished and result.status != "complete":
+        # Ctrl-C, a kill or a failing stage under --overwrite replaced a finished run with a partial one (QA, session
+        # 36): the earlier run stays, and this one goes beside it.
+        if not result.results:
+            print(f"clm: stopped before a stage had a result; the earlier run in {args.out} is kept as it was",
+                  file=sys.stderr)
+            return 1 if failure is not None else 143 if terminated else 130
+        beside = _beside(args.out)
+        written = write_outputs(beside, result)
+        print(summary(result))
+        print(f"wrote {beside / 'result.json'}")
+        print(f"clm: the earlier run in {args.out} is kept as it was: a run that did not finish does not replace it "
+              f"under --overwrite; this one is in {beside}", file=sys.stderr)
+        if failure is not None:
+            print(f"clm: error: {failure}; the {len(result.results)} stage(s) finished before it are in "
+                  f"{beside / 'result.json'} (its 'error' holds the traceback)", file=sys.stderr)
+            return 1
+        return 143 if terminated else 130
     written = write_outputs(args.out, result)
     kept = {p.name for p in written}
     # Plain names in --out only: a result.json is a file anyone could have edited ("0_../x.csv").
@@ -398,6 +419,19 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
     if result.status == "complete":
         return 0
     return 143 if terminated else 130
+
+
+def _beside(out: Path) -> Path:
+    """A new folder next to ``out`` for a run that must not replace it: ``<out>-stopped``, or ``-stopped-2``, ...
+    (made here, so no other command writes into it)."""
+    for k in range(1, 1000):
+        p = out.parent / (f"{out.name}-stopped" + (f"-{k}" if k > 1 else ""))
+        try:
+            p.mkdir()
+            return p
+        except FileExistsError:
+            continue
+    raise CLIError(f"no free folder next to {out} for the stopped run")
 
 
 def _warn_target(target: str, output: OutputStage) -> None:
