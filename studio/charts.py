@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import html
+import logging
 import math
 import os
 import sys
@@ -43,6 +44,9 @@ def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT, keep: bool = F
     """The figure as PNG bytes; ValueError naming what is missing when kaleido or its browser cannot run.
     ``keep``: start kaleido's browser once and draw this and later PNGs in it (``stop_png_browser`` ends it)."""
     global _kaleido_kept
+    # kaleido's browser channel logs a traceback for a message it then ignores ("JSONError decoding message.
+    # Ignoring"), which read as a crash on clm-charts' stderr (QA, session 36); its real failures raise here.
+    logging.getLogger("choreographer.channels.pipe").setLevel(logging.CRITICAL)
     with _KALEIDO_LOCK:  # one drawing at a time: the kept browser is one
         if keep and not _kaleido_kept:
             try:

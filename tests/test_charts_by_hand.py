@@ -169,6 +169,10 @@ def test_the_studio_keeps_one_png_browser_and_stops_it_on_close():
         charts.stop_png_browser()
     assert not charts._kaleido_kept
     assert charts.png(fig, 300, 200)[:4] == b"\x89PNG"  # and without it, as clm-charts draws
+    # kaleido's channel logs a traceback for a message it ignores: not on the user's stderr (its critical ones are)
+    import logging
+
+    assert logging.getLogger("choreographer.channels.pipe").getEffectiveLevel() == logging.CRITICAL
 
 
 def test_clm_charts_stops_quietly_when_its_reader_goes_and_words_a_refused_file(run_dir, monkeypatch, capsys):
