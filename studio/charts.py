@@ -40,13 +40,29 @@ _KALEIDO_LOCK = threading.Lock()
 _kaleido_kept = False
 
 
+def _not_ignored(record: logging.LogRecord) -> bool:
+    return "Ignoring" not in str(record.msg)
+
+
+def _quiet_channel() -> None:
+    """kaleido's browser channel logs a traceback for a message it then ignores ("JSONError decoding message.
+    Ignoring"), which read as a crash on clm-charts' stderr (QA, session 36): that record is filtered out; its real
+    failures raise in :func:`png`. The module is imported first: a logger asked for by name before it made its own
+    is a plain one, whose missing ``debug2`` stopped the channel's reader and hung every PNG."""
+    try:
+        import choreographer.channels.pipe as pipe
+    except ImportError:
+        return
+    logger = getattr(pipe, "_logger", None)
+    if isinstance(logger, logging.Logger) and _not_ignored not in logger.filters:
+        logger.addFilter(_not_ignored)
+
+
 def png(fig: go.Figure, width: int = WIDTH, height: int = HEIGHT, keep: bool = False) -> bytes:
     """The figure as PNG bytes; ValueError naming what is missing when kaleido or its browser cannot run.
     ``keep``: start kaleido's browser once and draw this and later PNGs in it (``stop_png_browser`` ends it)."""
     global _kaleido_kept
-    # kaleido's browser channel logs a traceback for a message it then ignores ("JSONError decoding message.
-    # Ignoring"), which read as a crash on clm-charts' stderr (QA, session 36); its real failures raise here.
-    logging.getLogger("choreographer.channels.pipe").setLevel(logging.CRITICAL)
+    _quiet_channel()
     with _KALEIDO_LOCK:  # one drawing at a time: the kept browser is one
         if keep and not _kaleido_kept:
             try:

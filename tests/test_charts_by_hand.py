@@ -172,7 +172,12 @@ def test_the_studio_keeps_one_png_browser_and_stops_it_on_close():
     # kaleido's channel logs a traceback for a message it ignores: not on the user's stderr (its critical ones are)
     import logging
 
-    assert logging.getLogger("choreographer.channels.pipe").getEffectiveLevel() == logging.CRITICAL
+    import choreographer.channels.pipe as channel
+
+    pipe = channel._logger
+    said = logging.LogRecord("choreographer.channels.pipe", logging.ERROR, "", 0, "JSONError decoding message. "
+                             "Ignoring", None, None)
+    assert not pipe.filter(said) and pipe.filter(logging.LogRecord("x", logging.CRITICAL, "", 0, "other", None, None))
 
 
 def test_clm_charts_stops_quietly_when_its_reader_goes_and_words_a_refused_file(run_dir, monkeypatch, capsys):
