@@ -139,6 +139,13 @@ def preset_label(name: str) -> str:
 PAPER_TARGET = ("stephenson1", "stephenson3", "watt1")
 
 
+def leg_target(mechanism: str) -> TargetSpec:
+    """The target a leg of ``mechanism`` comes with: the paper's cycloid, or its opening preset's."""
+    if mechanism in PAPER_TARGET or not presets_for(mechanism):
+        return TargetSpec()
+    return preset_target(opening_preset(mechanism))
+
+
 def walk_sizes(mechanism: str, target: TargetSpec) -> tuple[float, float, float]:
     """The obstacle (a, b) and trunk (mm) the walking view starts with for a leg of ``mechanism`` against
     ``target``: sized with its step (``sizes_for``), but the paper's for the RTCLM, whose stages aim at crossing
@@ -478,7 +485,9 @@ class Session:
         if walk is None:
             walk = v.walk
             if design.mechanism.name != v.design.mechanism.name and "uploaded" not in (t.origin, v.target.origin):
-                walk = resized(walk, walk_sizes(v.design.mechanism.name, v.target),  # another leg's size
+                old = v.design.mechanism.name  # another leg's size: the sizes the old leg started with, for the
+                # target shown or its own (a target edited since kept the walk the leg came with)
+                walk = resized(walk, {walk_sizes(old, v.target), walk_sizes(old, leg_target(old))},
                                walk_sizes(design.mechanism.name, t))
         return build_view(design, preset, t, v.n_samples, walk)
 
@@ -546,7 +555,11 @@ class Session:
         if not source:
             raise ValueError(f"nothing to {what}")
         step, study = source[-1], self.study
-        kept = [j for j, b in enumerate(study.branches) if b is step.branch]
+        # The step's branch, or the one holding the same stages (each restore keeps the pipeline it leaves as a new
+        # branch: a second restore and two Undos found none, review of session 36).
+        kept = [j for j, b in enumerate(study.branches) if b is step.branch] or [
+            j for j, b in enumerate(study.branches) if step.branch is not None
+            and b.pipeline == step.branch.pipeline and b.target == step.branch.target]
         # The branch a topology switch or a restore kept (not deleted since): its stages come back with the design,
         # and the pipeline they replace is the branch the step back restores.
         left = study.restore_branch(kept[0]) if kept else None

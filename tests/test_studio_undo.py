@@ -211,6 +211,22 @@ def test_undoing_a_branch_restore_brings_back_the_stages_it_left_on_either_topol
     s.redo()
     assert s.view.design.mechanism.name == "stephenson1" and s.study.pipeline is not None
     assert s.study.pipeline.to_json() == stephenson.to_json() and len(s.study.branches) == 1
+    # Restored back by hand, then two Undos: each finds the stages it left although a restore kept them as a new
+    # branch (review of session 36: the second Undo showed the Jansen design without its stages).
+    s.undo()  # back on Jansen, its stages
+    s.restore_branch(0)  # Stephenson-I
+    s.restore_branch(0)  # Jansen again, by hand
+    s.undo()
+    assert s.view.design.mechanism.name == "stephenson1" and s.study.pipeline is not None
+    assert s.study.pipeline.to_json() == stephenson.to_json()
+    s.undo()
+    assert s.view.design.mechanism.name == "jansen" and s.study.pipeline is not None
+    assert s.study.pipeline.to_json() == jansen.to_json() and len(s.study.branches) == 1
+    s.redo()
+    s.redo()
+    assert s.view.design.mechanism.name == "jansen" and s.study.pipeline is not None
+    assert s.study.pipeline.to_json() == jansen.to_json() and len(s.study.branches) == 1
+    s.restore_branch(0)
     # On one topology too: Undo takes the restore back, pipeline and design.
     run_stage(s, "subtask1", seed=6)  # a second run of the stage: the first one's pipeline becomes a branch
     again, design = s.study.pipeline, s.view.design

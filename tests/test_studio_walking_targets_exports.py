@@ -120,6 +120,15 @@ def test_the_obstacle_and_trunk_go_with_the_leg_s_size_unless_the_designer_set_t
     assert psi.label == f"ψ₂({w.a:g}, {w.b:g})" and psi.value > 0.0
     s.select_mechanism("rtclm_primary")  # the paper's leg for crossing heights: the paper's obstacle
     assert (s.view.walk.a, s.view.walk.b, s.view.walk.trunk) == (25.0, 25.0, 450.0)
+    # A target edited since the leg came keeps the walk it came with, which still goes with the next leg (review of
+    # session 36: after L = 250 the Jansen leg faced 25 x 25 mm again).
+    s.select_mechanism("stephenson1")
+    s.set_target(length=250.0)
+    s.select_mechanism("jansen")
+    assert (s.view.walk.a, s.view.walk.b) == (w.a, w.b)
+    s.set_target(height=25.0)
+    s.select_mechanism("stephenson1")
+    assert (s.view.walk.a, s.view.walk.b, s.view.walk.trunk) == (25.0, 25.0, 450.0)
     s.select_mechanism("klann")
     mine = s.set_walk(b=30.0).walk  # the designer's obstacle stays as set on the next switch
     s.select_mechanism("stephenson1")
