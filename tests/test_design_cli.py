@@ -588,6 +588,29 @@ def test_a_run_stopped_under_overwrite_goes_beside_the_finished_run_it_would_hav
         assert f"the earlier run in {out} is kept as it was" in err and f"this one is in {beside}" in err
         assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != ".lock"} == before
         assert json.loads((beside / "result.json").read_text())["status"] == "cancelled"
+    # '--out .' goes beside the folder too, not into './-stopped' (review of session 36).
+    monkeypatch.chdir(out)
+    assert main(["design", str(cfg), "--out", ".", "--quiet", "--overwrite"]) == 130
+    assert "this one is in " + str(tmp_path / "out-stopped-3") in capsys.readouterr().err
+    assert not (out / "-stopped").exists() and {p.name for p in out.iterdir() if p.name != ".lock"} == set(before)
+    monkeypatch.chdir(tmp_path)
+    # A stage that fails before any result: its error is said, and the earlier run kept.
+    from dataclasses import replace
+
+    from core.optimize.run import StageFailed
+
+    def failing(config, callback, cancel):
+        ev = threading.Event()
+        ev.set()
+        run = real(config, None, ev)
+        raise StageFailed(replace(run, status="failed", error="kaput trace"), "subtask1", RuntimeError("kaput"))
+
+    monkeypatch.setattr(design_cli, "run_design", failing)
+    assert main(["design", str(cfg), "--out", str(out), "--quiet", "--overwrite"]) == 1
+    err = capsys.readouterr().err
+    assert "clm: error: stage 'subtask1' failed: RuntimeError: kaput" in err and "is kept as it was" in err
+    assert json.loads((tmp_path / "out-stopped-4" / "result.json").read_text())["error"] == "kaput trace"
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.name != ".lock"} == before
     # A finished rerun replaces it, as --overwrite says.
     monkeypatch.setattr(design_cli, "run_design", real)
     assert main(["design", str(cfg), "--out", str(out), "--quiet", "--overwrite"]) == 0

@@ -393,9 +393,10 @@ def test_ctrl_c_says_what_was_kept_and_that_the_same_command_goes_on(tmp_path: P
                 store.close()
                 db = sqlite3.connect(Path(out) / "study.sqlite")
                 cols = [r[1] for r in db.execute("PRAGMA table_info(runs)")]
-                for k in range(kept):
+                for k in range(kept + 1):  # and a failed one, which runs again: not counted as kept
+                    status = "done" if k < kept else "failed"
                     db.execute(f"INSERT INTO runs ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
-                               [f"{c}{k}" if c == "key" else 0 for c in cols])
+                               [f"key{k}" if c == "key" else status if c == "status" else 0 for c in cols])
                 db.commit()
                 db.close()
             raise KeyboardInterrupt

@@ -386,21 +386,25 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
     if finished and result.status != "complete":
         # Ctrl-C, a kill or a failing stage under --overwrite replaced a finished run with a partial one (QA, session
         # 36): the earlier run stays, and this one goes beside it.
-        if not result.results:
-            print(f"clm: stopped before a stage had a result; the earlier run in {args.out} is kept as it was",
-                  file=sys.stderr)
-            return 1 if failure is not None else 143 if terminated else 130
-        beside = _beside(args.out)
-        written = write_outputs(beside, result)
+        code = 1 if failure is not None else 143 if terminated else 130
+        note = (f"the earlier run in {args.out} is kept as it was: a run that did not finish does not replace it "
+                "under --overwrite")
+        try:
+            beside = _beside(args.out)
+            write_outputs(beside, result)
+        except OSError as exc:  # a parent folder the user cannot write to (review of session 36)
+            print(f"clm: {note}; this one could not be written beside it ({exc.strerror or exc}: "
+                  f"{exc.filename or args.out.parent})", file=sys.stderr)
+            if failure is not None:
+                print(f"clm: error: {failure}", file=sys.stderr)
+            return code
         print(summary(result))
         print(f"wrote {beside / 'result.json'}")
-        print(f"clm: the earlier run in {args.out} is kept as it was: a run that did not finish does not replace it "
-              f"under --overwrite; this one is in {beside}", file=sys.stderr)
+        print(f"clm: {note}; this one is in {beside}", file=sys.stderr)
         if failure is not None:
             print(f"clm: error: {failure}; the {len(result.results)} stage(s) finished before it are in "
                   f"{beside / 'result.json'} (its 'error' holds the traceback)", file=sys.stderr)
-            return 1
-        return 143 if terminated else 130
+        return code
     written = write_outputs(args.out, result)
     kept = {p.name for p in written}
     # Plain names in --out only: a result.json is a file anyone could have edited ("0_../x.csv").
@@ -424,6 +428,7 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
 def _beside(out: Path) -> Path:
     """A new folder next to ``out`` for a run that must not replace it: ``<out>-stopped``, or ``-stopped-2``, ...
     (made here, so no other command writes into it)."""
+    out = out.resolve()  # '--out .' named nothing to put the suffix on: './-stopped', inside the earlier run
     for k in range(1, 1000):
         p = out.parent / (f"{out.name}-stopped" + (f"-{k}" if k > 1 else ""))
         try:

@@ -48,14 +48,16 @@ def _check_out(out: str | None) -> Path:
     return check_out_dir(out, ["study.sqlite", "report.md", "report.html"])
 
 
-def _runs_kept(out: Path) -> int:
-    """How many runs the study folder's database holds (0 if it has none or cannot be read)."""
+def _runs_kept(out: Path, done: bool = False) -> int:
+    """How many runs the study folder's database holds (``done``: that finished, not the failed ones, which run again;
+    0 if it has none or cannot be read)."""
     import sqlite3
 
     try:
         db = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
         try:
-            return int(db.execute("SELECT count(*) FROM runs").fetchone()[0])
+            where = " WHERE status = 'done'" if done else ""
+            return int(db.execute(f"SELECT count(*) FROM runs{where}").fetchone()[0])
         finally:
             db.close()
     except sqlite3.Error:
@@ -131,7 +133,7 @@ def _run(args: argparse.Namespace) -> int:
         if made:
             _remove_if_unused(out, made)
         if isinstance(exc, KeyboardInterrupt):  # it ended silently with 130 (QA, session 36)
-            kept = _runs_kept(out) if out.is_dir() else 0
+            kept = _runs_kept(out, done=True) if out.is_dir() else 0
             print(f"clm: stopped; {kept} finished run{'s' * (kept != 1)} kept in {out}: the same command goes on from "
                   "there" if kept else "clm: stopped before any run finished; nothing kept", file=sys.stderr)
         raise
