@@ -20,7 +20,7 @@ from viser import _messages
 
 from core.formats.drawing import Plates
 from core.formats.files import slug
-from core.optimize.lineage import next_feasible, unmet_by
+from core.optimize.lineage import next_feasible, unmet_by, where_mask
 from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, sized_where, stage_spec, takes_target
@@ -575,17 +575,30 @@ class Studio:
 
     def pick_limits(self, stage: str) -> list[str]:
         """The limits ``stage``'s automatic pick keeps to first (its chain's ``pick_where``, sized for the leg), in
-        words (``I (mm/s) ≤ 1``); [] if none or the stage is not in the chain."""
+        words (``f5 = I (mm/s) ≤ 1``), when they explain why its shown member misses the next stage's constraints:
+        the member is within them, and no feasible member within them meets the next stage's (as it would run now);
+        [] otherwise (no limits, a member the designer chose outside them, or one within them that could have)."""
         session = self.session
         with session.lock:
             study = session.study
-            k, r, pipe = study.index(stage), study.result(stage), study.pipeline
+            k, r, pipe, i = study.index(stage), study.result(stage), study.pipeline, study.shown_member(stage)
             st = next((c for c in self.chain() if c.name == stage), None)
-            if k is None or r is None or pipe is None or st is None or not st.pick_where:
+            names = study.stage_names()
+            if k is None or r is None or pipe is None or i is None or st is None or not st.pick_where:
+                return []
+            where = tuple(c for c in sized_where(st.pick_where, pipe.stages[k].problem.scale) if c.metric in r.metrics)
+            nxt = next((c for c in self.chain() if k + 1 < len(names) and c.name == names[k + 1]), None)
+            if not where or nxt is None:
+                return []
+            try:
+                spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
+            except ValueError:
+                return []
+            within = where_mask(r, where) & r.feasible
+            if not within[i] or (within & next_feasible(r, spec.problem)).any():
                 return []
             labels = result_labels(r)
-            return [constraint_text(c, labels) for c in sized_where(st.pick_where, pipe.stages[k].problem.scale)
-                    if c.metric in r.metrics]
+            return [constraint_text(c, labels) for c in where]
 
     def view_stage(self, stage: str, client: viser.ClientHandle | None) -> None:
         """Show a stage of the lineage again (its front, candidates, and its shown member animated)."""

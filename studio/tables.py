@@ -136,7 +136,8 @@ def next_verdict_html(i: int, nxt: str, missed: list[str], stage: str = "", avoi
     when another feasible member of its stage meets them (a pick that met its own stage's read fine until "Use for
     next stage" asked about it), else a plain note that the next stage searches for them (rtclm2's auxiliary mode,
     which rtclm1 does not model); empty when it meets them. ``kept_to``: the limits the stage's automatic pick keeps
-    to first, when i is that pick (the studio's own choice, warned about without a reason, read as a bug)."""
+    to first, when i is within them and no member within them meets the next stage's (the studio's own pick was
+    warned about without a reason, read as a bug)."""
     if not missed:
         return ""
     if not avoidable:

@@ -606,29 +606,43 @@ def test_what_a_member_misses_of_the_next_stage_agrees_with_the_automatic_pick_s
 def test_the_automatic_pick_missing_the_next_stage_says_which_of_its_own_limits_kept_it_there(studio, monkeypatch):
     # QA walk (session 36): subtask 2's automatic pick (I <= 1 first) missed subtask 3's h_s <= 6.5, which K1 met;
     # the studio's own choice was warned about without a reason.
+    import studio.app as app
+    from core.optimize.lineage import where_mask
+    from studio.chains import find, sized_where
+
     stage_runs.run_stage(studio.session, "subtask2", pop=24, gens=6, seed=3)
     study = studio.session.study
     r = study.result("subtask2")
     assert r is not None and r.picked is not None
-    limits = studio.pick_limits("subtask2")
-    assert len(limits) == 1 and limits[0].endswith("≤ 1") and "I" in limits[0]
-    assert studio.pick_limits("subtask3") == [] and studio.pick_limits("nothing") == []
+    k = study.index("subtask2")
+    where = sized_where(find(studio.chain(), "subtask2").pick_where, study.pipeline.stages[k].problem.scale)
+    within = where_mask(r, where) & r.feasible
+    assert within.any() and (r.feasible & ~within).any()
+    inside, outside = int(np.flatnonzero(within)[0]), int(np.flatnonzero(r.feasible & ~within)[0])
+    # The next stage met only outside the limits: the limits are why a member within them misses it.
+    monkeypatch.setattr(app, "next_feasible", lambda res, problem: res.feasible & ~where_mask(res, where))
     monkeypatch.setattr(studio, "next_unmet", lambda stage: ("subtask3", ["f4 = h_s (mm) 7.57 > 6.5"], True))
-    assert r.cv[r.picked] <= 0 and r.feasible.sum() > 1
-    other = next(int(i) for i in np.flatnonzero(r.feasible) if i != r.picked)
 
-    def table(member: int) -> str:
+    def table(member: int) -> tuple[list[str], str]:
         study.shown["subtask2"] = member
         with studio.session.lock:
             study.viewing = "subtask2"
             study.touch()
         studio.pick_panel._key = None
         studio.refresh()
-        return html.unescape(studio.pick_panel.table.content)
+        return studio.pick_limits("subtask2"), html.unescape(studio.pick_panel.table.content)
 
-    assert f"the automatic pick keeps to {limits[0]} first, and no member within it meets subtask3's" in table(r.picked)
-    shown = table(other)  # a member the designer chose: the warning alone
-    assert "misses subtask3's constraints" in shown and "automatic pick" not in shown
+    limits, shown = table(inside)
+    assert len(limits) == 1 and limits[0].endswith("≤ 1") and "I" in limits[0]
+    assert f"the automatic pick keeps to {limits[0]} first, and no member within it meets subtask3's" in shown
+    # A member the designer chose outside the limits (review of session 36: passed on, it read as the automatic
+    # pick): the warning alone; and none either when a member within the limits meets the next stage.
+    limits, shown = table(outside)
+    assert limits == [] and "misses subtask3's constraints" in shown and "automatic pick" not in shown
+    monkeypatch.setattr(app, "next_feasible", lambda res, problem: res.feasible.copy())
+    limits, shown = table(inside)
+    assert limits == [] and "automatic pick" not in shown
+    assert studio.pick_limits("subtask3") == [] and studio.pick_limits("nothing") == []
     from studio.tables import next_verdict_html
 
     assert "automatic pick keeps" not in html.unescape(next_verdict_html(3, "b", ["x 2 > 1"], "a", True, []))

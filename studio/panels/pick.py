@@ -172,8 +172,7 @@ class PickPanel:
         one = len(self._cands) == 1 and self._cands[0].kind != "fallback" and self._cands[0].member == sv.shown
         nxt, missed, avoidable = (self.studio.next_unmet(sv.viewing) if sv.viewing is not None and r.cv[sv.shown] <= 0
                                   else ("", [], False))
-        auto = missed and avoidable and sv.viewing is not None and sv.shown == r.picked
-        kept_to = self.studio.pick_limits(sv.viewing) if auto and sv.viewing is not None else None
+        kept_to = self.studio.pick_limits(sv.viewing) if missed and avoidable and sv.viewing is not None else None
         off = "" if sv.status.running or self._on_screen(r, sv.shown) else off_screen_html(sv.shown)
         return (off + verdict_html(r, sv.shown, sv.viewing or "", labels=labels) + dead_point_html(r, sv.shown)
                 + next_verdict_html(sv.shown, nxt, missed, sv.viewing or "", avoidable, kept_to)
