@@ -550,52 +550,53 @@ class Studio:
                 self.notify(client, "Not passed on", str(exc))
         self.refresh()
 
+    def _next_of(self, stage: str) -> tuple[Any, int, int, str, Any] | None:
+        """``stage``'s result, index and shown member, the next stage's name and the problem it would run now (its
+        settings, the editor's target); None if there is none or it cannot be built. Under the session lock."""
+        session = self.session
+        study = session.study
+        k, r, i = study.index(stage), study.result(stage), study.shown_member(stage)
+        names = study.stage_names()
+        if k is None or r is None or i is None or k + 1 >= len(names):
+            return None
+        nxt = next((c for c in self.chain() if c.name == names[k + 1]), None)
+        if nxt is None:
+            return None
+        try:
+            spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
+        except ValueError:
+            return None
+        return r, k, i, nxt.name, spec.problem
+
     def next_unmet(self, stage: str) -> tuple[str, list[str], bool]:
         """The stage after ``stage``, what its shown member misses of that stage's constraints, as that stage
         would run now (its settings, the editor's target), and whether another feasible member of ``stage`` meets
         them (the pick could have: worth asking before it is passed on; else the next stage is there to find
         them, as rtclm2 finds the auxiliary mode rtclm1 never modelled); ("", [], False) if none or it cannot be
         built."""
-        session = self.session
-        with session.lock:
-            study, chain = session.study, self.chain()
-            k, r, i = study.index(stage), study.result(stage), study.shown_member(stage)
-            names = study.stage_names()
-            if k is None or r is None or i is None or k + 1 >= len(names):
+        with self.session.lock:
+            got = self._next_of(stage)
+            if got is None:
                 return "", [], False
-            nxt = next((c for c in chain if c.name == names[k + 1]), None)
-            if nxt is None:
-                return "", [], False
-            try:
-                spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
-            except ValueError:
-                return "", [], False
-            missed = unmet_by(r, i, spec.problem.constraints, spec.problem.labels)
-            return nxt.name, missed, bool(missed) and bool(next_feasible(r, spec.problem).any())
+            r, _, i, name, problem = got
+            missed = unmet_by(r, i, problem.constraints, problem.labels)
+            return name, missed, bool(missed) and bool(next_feasible(r, problem).any())
 
     def pick_limits(self, stage: str) -> list[str]:
         """The limits ``stage``'s automatic pick keeps to first (its chain's ``pick_where``, sized for the leg), in
         words (``f5 = I (mm/s) ≤ 1``), when they explain why its shown member misses the next stage's constraints:
         the member is within them, and no feasible member within them meets the next stage's (as it would run now);
         [] otherwise (no limits, a member the designer chose outside them, or one within them that could have)."""
-        session = self.session
-        with session.lock:
-            study = session.study
-            k, r, pipe, i = study.index(stage), study.result(stage), study.pipeline, study.shown_member(stage)
+        with self.session.lock:
             st = next((c for c in self.chain() if c.name == stage), None)
-            names = study.stage_names()
-            if k is None or r is None or pipe is None or i is None or st is None or not st.pick_where:
+            got = self._next_of(stage)
+            pipe = self.session.study.pipeline
+            if st is None or not st.pick_where or got is None or pipe is None:
                 return []
+            r, k, i, _, problem = got
             where = tuple(c for c in sized_where(st.pick_where, pipe.stages[k].problem.scale) if c.metric in r.metrics)
-            nxt = next((c for c in self.chain() if k + 1 < len(names) and c.name == names[k + 1]), None)
-            if not where or nxt is None:
-                return []
-            try:
-                spec = stage_spec(nxt, study.settings_for(nxt), session.view.target)
-            except ValueError:
-                return []
             within = where_mask(r, where) & r.feasible
-            if not within[i] or (within & next_feasible(r, spec.problem)).any():
+            if not where or not within[i] or (within & next_feasible(r, problem)).any():
                 return []
             labels = result_labels(r)
             return [constraint_text(c, labels) for c in where]

@@ -486,9 +486,11 @@ class Session:
             walk = v.walk
             if design.mechanism.name != v.design.mechanism.name and "uploaded" not in (t.origin, v.target.origin):
                 old = v.design.mechanism.name  # another leg's size: the sizes the old leg started with, for the
-                # target shown or its own (a target edited since kept the walk the leg came with)
-                walk = resized(walk, {walk_sizes(old, v.target), walk_sizes(old, leg_target(old))},
-                               walk_sizes(design.mechanism.name, t))
+                # target shown or its own (a target edited since kept the walk the leg came with; fitted only if
+                # needed: ~50 ms)
+                now = (float(walk.a), float(walk.b), float(walk.trunk))
+                if now == walk_sizes(old, v.target) or now == walk_sizes(old, leg_target(old)):
+                    walk = resized(walk, walk_sizes(design.mechanism.name, t))
         return build_view(design, preset, t, v.n_samples, walk)
 
     def snapshot(self) -> tuple[DesignView, Playback, int]:

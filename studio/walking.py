@@ -12,7 +12,6 @@ or ψ4 (quadruped).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -208,11 +207,7 @@ def build_walk(leg: F64, dleg: F64 | None, period: float, spec: WalkSpec) -> Wal
                       hit=is_hit(x0, lo, hi, period_x), stride=stride, bounds=bounds, leg_names=robot.legs)
 
 
-def resized(walk: WalkSpec, old: Collection[tuple[float, float, float]], new: tuple[float, float, float]) -> WalkSpec:
-    """The walking view for another leg: an obstacle and trunk (a, b, trunk mm) at sizes the old leg started with
-    (one of ``old``, e.g. :func:`sizes_for` its step) take the new leg's (``new``); sizes the designer set stay. The
-    paper's 25 x 25 mm obstacle stood as tall as a Theo Jansen leg's 22 mm step, whose ψ read 0 % (QA walk,
-    session 36)."""
-    if (float(walk.a), float(walk.b), float(walk.trunk)) not in old:
-        return walk
-    return replace(walk, a=new[0], b=new[1], trunk=new[2])
+def resized(walk: WalkSpec, sizes: tuple[float, float, float]) -> WalkSpec:
+    """The walking view with another leg's obstacle and trunk (a, b, trunk mm; :func:`sizes_for`). The paper's
+    25 x 25 mm obstacle stood as tall as a Theo Jansen leg's 22 mm step, whose ψ read 0 % (QA walk, session 36)."""
+    return replace(walk, a=sizes[0], b=sizes[1], trunk=sizes[2])
