@@ -173,10 +173,10 @@ def write_outputs(out: Path, run_: DesignRun) -> list[Path]:
     return written
 
 
-def earlier_outputs(result: Path) -> list[str]:
+def earlier_outputs(result: Path) -> tuple[list[str], bool]:
     """The files an earlier ``clm design`` run in the same folder wrote, read from its ``result.json``: its stage
-    CSVs (or baseline CSV) and the ``pareto-<k>_<stage>.png`` charts clm-charts draws from it. CLIError when the
-    file is not such a result (it is not ours to replace)."""
+    CSVs (or baseline CSV) and the ``pareto-<k>_<stage>.png`` charts clm-charts draws from it; and whether it
+    completed. CLIError when the file is not such a result (it is not ours to replace)."""
     try:
         data = read_design_result(result)
     except ValueError:
@@ -190,7 +190,7 @@ def earlier_outputs(result: Path) -> list[str]:
         name = stage.get("name") if isinstance(stage, dict) else None
         if isinstance(name, str) and name:
             names += [stage_file(k, name), chart_file(k, name)]
-    return names
+    return names, data.get("status") == "complete"
 
 
 def _cell(v: Any) -> Any:
@@ -338,8 +338,7 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
         if not args.overwrite:
             raise CLIError(f"--out {args.out_text!r} holds an earlier run (result.json); choose another folder or "
                            "pass --overwrite to replace it")
-        previous = earlier_outputs(args.out / "result.json")
-        finished = read_design_result(args.out / "result.json").get("status") == "complete"
+        previous, finished = earlier_outputs(args.out / "result.json")
     n = max(1, len(config.stages))
     bar = None if args.quiet else ProgressBar(sys.stderr, n)
     cancel = threading.Event()
@@ -383,46 +382,38 @@ def _run_into(args: argparse.Namespace, config: DesignConfig) -> int:
         if bar is not None:
             bar.close()
     result.compile_time = timer.seconds
-    if finished and result.status != "complete":
+    code = 1 if failure is not None else 0 if result.status == "complete" else 143 if terminated else 130
+    dest, stale = args.out, []
+    if finished and code:
         # Ctrl-C, a kill or a failing stage under --overwrite replaced a finished run with a partial one (QA, session
         # 36): the earlier run stays, and this one goes beside it.
-        code = 1 if failure is not None else 143 if terminated else 130
         note = (f"the earlier run in {args.out} is kept as it was: a run that did not finish does not replace it "
                 "under --overwrite")
         try:
-            beside = _beside(args.out)
-            write_outputs(beside, result)
+            dest = _beside(args.out)
+            write_outputs(dest, result)
         except OSError as exc:  # a parent folder the user cannot write to (review of session 36)
             print(f"clm: {note}; this one could not be written beside it ({exc.strerror or exc}: "
                   f"{exc.filename or args.out.parent})", file=sys.stderr)
             if failure is not None:
                 print(f"clm: error: {failure}", file=sys.stderr)
             return code
-        print(summary(result))
-        print(f"wrote {beside / 'result.json'}")
-        print(f"clm: {note}; this one is in {beside}", file=sys.stderr)
-        if failure is not None:
-            print(f"clm: error: {failure}; the {len(result.results)} stage(s) finished before it are in "
-                  f"{beside / 'result.json'} (its 'error' holds the traceback)", file=sys.stderr)
-        return code
-    written = write_outputs(args.out, result)
-    kept = {p.name for p in written}
-    # Plain names in --out only: a result.json is a file anyone could have edited ("0_../x.csv").
-    stale = [args.out / n for n in previous if n not in kept and Path(n).name == n and (args.out / n).is_file()]
-    for path in stale:
-        path.unlink(missing_ok=True)
+        print(f"clm: {note}; this one is in {dest}", file=sys.stderr)
+    else:
+        kept = {p.name for p in write_outputs(args.out, result)}
+        # Plain names in --out only: a result.json is a file anyone could have edited ("0_../x.csv").
+        stale = [args.out / n for n in previous if n not in kept and Path(n).name == n and (args.out / n).is_file()]
+        for path in stale:
+            path.unlink(missing_ok=True)
     print(summary(result))
     if stale:
         print(f"removed {len(stale)} file(s) of the earlier run: {', '.join(p.name for p in stale)}")
-    print(f"wrote {args.out / 'result.json'}")
+    print(f"wrote {dest / 'result.json'}")
     if failure is not None:
         done = len(result.results)
-        print(f"clm: error: {failure}; the {done} stage(s) finished before it are in {args.out / 'result.json'} "
+        print(f"clm: error: {failure}; the {done} stage(s) finished before it are in {dest / 'result.json'} "
               "(its 'error' holds the traceback)", file=sys.stderr)
-        return 1
-    if result.status == "complete":
-        return 0
-    return 143 if terminated else 130
+    return code
 
 
 def _beside(out: Path) -> Path:

@@ -215,8 +215,9 @@ class _Chain:
                 self.params.append({})
                 self.status = "cancelled"
                 return False
-            self.metrics.append({n: float(v[pick]) for n, v in res.metrics.items()})
-            self.params.append(res.named(pick))
+            self.metrics.append({})
+            self.params.append({})
+            self._note(res, pick)
             self.feasible = bool(res.feasible[pick])
         if upto == self.last:
             self.status = "complete"
@@ -235,6 +236,10 @@ class _Chain:
         self.pipe.record(k, res)
         pick = int(res.picked)  # type: ignore[arg-type]
         self.picks[-1] = pick
+        self._note(res, pick)
+
+    def _note(self, res: StageResult, pick: int) -> None:
+        """The last stage's pick's metrics and parameters, as the chain's record shows them."""
         self.metrics[-1] = {n: float(v[pick]) for n, v in res.metrics.items()}
         self.params[-1] = res.named(pick)
 
