@@ -300,6 +300,13 @@ def _same(a: object, b: object) -> bool:
     return a is b or (a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=True)))
 
 
+def _one_lineage(a: Pipeline | None, b: Pipeline) -> bool:
+    """The same pipeline, or a copy of it: a branch restored (by hand, or by an Undo of a restore or of a topology
+    switch) is rebuilt from its JSON, and a pass-on made before could no longer be undone (review of session 36)."""
+    return a is b or (a is not None and [s.name for s in a.stages] == [s.name for s in b.stages]
+                      and _same(a.start.params, b.start.params))
+
+
 @dataclass(frozen=True, eq=False)
 class Selection:
     """What the study showed, had picked and would run next at one moment (Undo brings it back with the design it
@@ -357,7 +364,7 @@ class Study:
     def holds(self, sel: Selection) -> bool:
         """True when :meth:`reselect` can bring ``sel`` back: no run and no other pipeline came between."""
         pipe = self.pipeline
-        if self.status.running or pipe is None or sel.pipeline is not pipe:
+        if self.status.running or pipe is None or not _one_lineage(sel.pipeline, pipe):
             return False
         now = [None if r is None else r.X for r in pipe.results]
         return len(now) == len(sel.populations) and all(_same(a, b) for a, b in zip(now, sel.populations,

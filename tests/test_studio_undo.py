@@ -305,6 +305,32 @@ def test_undo_takes_a_pass_on_back_and_then_the_pick_and_the_panels_agree() -> N
         studio.close()
 
 
+def test_a_pass_on_is_undone_and_redone_after_its_stages_came_back_from_a_branch() -> None:
+    # Review of session 36: once an Undo of a topology switch (or of a restore) had brought the stages back, rebuilt
+    # from their JSON, the pass-on made before them could not be undone: Undo read "the same design" and did nothing.
+    import studio.app as app
+    from tests.stage_runs import run_stage
+
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0)
+    try:
+        s, study = studio.session, studio.session.study
+        run_stage(s, "subtask1", pop=12, gens=3)
+        before = (study.next_stage, study.from_pick)
+        studio.use_for_next("subtask1", None)
+        passed = (study.next_stage, study.from_pick)
+        assert passed == ("subtask2", True) and passed != before
+        for _ in range(2):  # the second time through, the stages are a copy of a copy
+            s.select_mechanism("jansen")
+            s.undo()  # Stephenson-I again, its stages rebuilt from the branch
+            assert s.view.design.mechanism.name == "stephenson1" and s.change_names("undo") == "pass-on"
+            s.undo()
+            assert (study.next_stage, study.from_pick) == before and s.change_names("redo") == "pass-on"
+            s.redo()
+            assert (study.next_stage, study.from_pick) == passed
+    finally:
+        studio.close()
+
+
 def test_a_target_typed_back_to_the_paper_s_values_is_the_paper_s_again() -> None:
     s = Session.default()
     s.set_target(length=250.0)
