@@ -263,6 +263,10 @@ def test_presets_show_writes_a_file_only_for_a_name_it_knows_and_keeps_an_existi
      "with clm design, or name it in a study's [[cases]] config"),
     (["simulate", "--design", "{huge.json}"], "cannot read design file '{huge.json}': 1.0 MB is more than the 1 MB "
      "such a file may have"),
+    # An argument a subcommand does not know points to that subcommand's help, not clm's (QA, session 36).
+    (["presets", "show", "a", "b"], "unrecognized arguments: b (see 'clm presets show --help')"),
+    (["presets", "list", "--x"], "unrecognized arguments: --x (see 'clm presets list --help')"),
+    (["simulate", "--preset", S1, "y"], "unrecognized arguments: y (see 'clm simulate --help')"),
 ])
 def test_refusals_read_plainly(tmp_path, capsys, argv, said):
     names = files(tmp_path)

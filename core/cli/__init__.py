@@ -86,7 +86,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
         importlib.import_module(f"core.cli.{name}").register(sub)
+    _name_help(parser)
     return parser
+
+
+def _name_help(parser: argparse.ArgumentParser) -> None:
+    """Each (sub)command records its own name, so an argument it does not know points to its own help (``clm
+    presets show a b`` pointed to 'clm --help', which lists no argument of ``show``; QA, session 36)."""
+    parser.set_defaults(help_prog=parser.prog)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _name_help(child)
 
 
 def jsonable(value: Any) -> Any:
@@ -133,7 +144,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``clm`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     keep_freed_memory()
     try:
-        args = build_parser().parse_args(named_show(list(sys.argv[1:] if argv is None else argv)))
+        args, extra = build_parser().parse_known_args(named_show(list(sys.argv[1:] if argv is None else argv)))
+        if extra:
+            raise CLIError(f"unrecognized arguments: {' '.join(extra)} (see '{args.help_prog} --help')")
         return int(args.func(args))
     except (CLIError, ValueError) as e:
         print(f"clm: error: {e}", file=sys.stderr)
