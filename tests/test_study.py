@@ -93,6 +93,7 @@ def test_a_tiny_study_keeps_one_row_and_one_result_file_per_cell(reference_run: 
     text = (reference_run / "report.md").read_text()
     assert "## subtask2" in text and "| HV |" in text and "Best picked design" in text
     assert "Plotly.newPlot" in (reference_run / "report.html").read_text()
+    assert not (reference_run / ".lock").exists()  # held while it ran, gone with it (QA, session 37)
 
 
 def test_results_do_not_depend_on_the_number_of_workers(reference_run: Path, tmp_path: Path):

@@ -39,8 +39,9 @@ CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 @contextmanager
 def study_lock(directory: str | Path) -> Iterator[None]:
     """Hold ``DIR/.lock`` while a study runs into ``DIR``: a second ``clm study`` on the same directory is
-    refused (it ran every cell again beside the first, doubling the cost and the attempts counted)."""
-    with dir_lock(directory, "clm study"):
+    refused (it ran every cell again beside the first, doubling the cost and the attempts counted). The file goes
+    with the study (a finished study's folder kept it, with a dead process's number; QA, session 37)."""
+    with dir_lock(directory, "clm study", remove=True):
         yield
 
 
