@@ -51,17 +51,18 @@ def test_a_cell_narrows_the_case_to_its_stages_budget_seed_start_and_algorithm(t
     assert [s["name"] for s in data["stages"]] == ["a", "b", "c"]
 
 
-def _result(name: str, n_evals: int, F: np.ndarray, feasible: np.ndarray) -> SimpleNamespace:
-    return SimpleNamespace(name=name, n_evals=n_evals, objectives=("f1", "f2"), F=F, feasible=feasible)
+def _result(name: str, n_evals: int, F: np.ndarray, feasible: np.ndarray, status: str = "complete") -> SimpleNamespace:
+    return SimpleNamespace(name=name, n_evals=n_evals, objectives=("f1", "f2"), F=F, feasible=feasible, status=status)
 
 
 def test_measure_counts_every_stage_s_evaluations_and_keeps_the_last_stage_s_feasible_front() -> None:
     F = np.array([[1.0, 4.0], [0.0, 0.0], [2.0, 2.0], [3.0, 3.0], [4.0, 1.0]])
     feasible = np.array([True, False, True, True, True])  # (0, 0) dominates all but violates
-    run = SimpleNamespace(results=[_result("a", 100, F, feasible), _result("b", 40, F, feasible)], wall_time=2.5,
-                          status="complete", final=lambda: None)
+    run = SimpleNamespace(results=[_result("a", 100, F, feasible, "stopped"), _result("b", 40, F, feasible)],
+                          wall_time=2.5, status="complete", final=lambda: None)
     m = measure(run)
     assert m["n_eval"] == 140 and m["stage"] == "b" and m["run_status"] == "complete"
+    assert m["stopped_early"] == ["a"]  # its config's stop_below ended stage a before the budget
     assert m["feasible_ratio"] == 0.8
     assert sorted(map(tuple, m["front"])) == [(1.0, 4.0), (2.0, 2.0), (4.0, 1.0)]
 
@@ -93,7 +94,8 @@ def test_the_store_keeps_done_cells_counts_attempts_and_orders_by_case_algorithm
 
 def test_measure_keeps_the_final_pick_its_feasibility_and_parameters() -> None:
     F = np.array([[1.0, 4.0], [2.0, 2.0]])
-    last = SimpleNamespace(name="b", n_evals=10, objectives=("f1", "f2"), F=F, feasible=np.array([True, False]),
+    last = SimpleNamespace(name="b", n_evals=10, status="complete", objectives=("f1", "f2"), F=F,
+                           feasible=np.array([True, False]),
                            metrics={"S": np.array([40.0, 55.0]), "I": np.array([3.0, 9.0]), "f1": F[:, 0]},
                            named=lambda i: {"r1": 10.0 + i})
     run = SimpleNamespace(results=[last], wall_time=1.0, status="complete", final=lambda: (last, 1))

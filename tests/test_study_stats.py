@@ -195,6 +195,20 @@ def test_a_budget_below_an_algorithms_first_generation_is_said() -> None:
         "s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
 
 
+def test_runs_that_a_stop_rule_ended_early_are_counted_under_the_case() -> None:
+    # QA (session 37): the RTCLM cases' stop_below ended CMOES's stages at 2197 evaluations of 3000, IMTCMO's at
+    # 3040, and the report read "a budget of 1500 function evaluations a stage" only.
+    rows = [run_row("a", s, 1.0, [[0.0, 1.0]]) for s in (1, 2, 3)] + [run_row("b", s, 1.0, [[0.0, 1.0]])
+                                                                       for s in (1, 2, 3)]
+    md = markdown("s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
+    assert "stopped a stage early" not in md
+    for r in rows:
+        r["metrics"]["stopped_early"] = ["rtclm1"] if r["algorithm"] == "b" or r["seed"] == 2 else []
+    md = markdown("s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
+    assert "Runs that stopped a stage early, once a feasible member met every objective's `stop_below` of the " \
+           "case's config: A 1 of 3, B 3 of 3." in md
+
+
 def test_too_few_runs_names_only_the_algorithms_it_applies_to_and_populations_per_algorithm() -> None:
     # Review of session 30: "every sign is ≈ whatever the values" stood under another algorithm's "+", and the
     # case line gave one algorithm's population for every run.

@@ -73,7 +73,9 @@ def measure(run: Any) -> dict[str, Any]:
     """What a study keeps of a finished run: the last stage's front, feasibility, the pick, time, evaluations."""
     results = run.results
     out: dict[str, Any] = {"n_eval": int(sum(r.n_evals for r in results)), "wall_time": float(run.wall_time),
-                           "run_status": run.status}
+                           "run_status": run.status,
+                           # Stages its config's stop_below ended before the budget (the RTCLM's, the paper's rule).
+                           "stopped_early": [r.name for r in results if r.status == "stopped"]}
     if not results:
         return out
     last = results[-1]
