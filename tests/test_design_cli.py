@@ -616,3 +616,18 @@ def test_a_run_stopped_under_overwrite_goes_beside_the_finished_run_it_would_hav
     assert main(["design", str(cfg), "--out", str(out), "--quiet", "--overwrite"]) == 0
     assert json.loads((out / "result.json").read_text())["status"] == "complete"
     assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_the_progress_line_names_each_objectives_best_on_its_own() -> None:
+    # QA (session 37): "best h_s=17.12 I=47.66" read as one member's values; the member with h_s 17.12 had I 88.
+    import io
+
+    from core.cli.design import ProgressBar
+    from core.optimize.stage import Progress
+
+    F = np.array([[17.12, 88.0], [17.17, 47.66], [20.0, 10.0]])
+    feasible = np.array([True, True, False])  # an infeasible member's I is not the best
+    out = io.StringIO()
+    ProgressBar(out, 2)(Progress("subtask2", 1, 10, 10, 1.0, 30, np.zeros((3, 2)), F, np.zeros((3, 1)),
+                                 np.array([0.0, 0.0, 1.0]), feasible, ("h_s", "I")))
+    assert out.getvalue().rstrip().endswith("gen 10/10  1.0 s  best h_s=17.12, best I=47.66")

@@ -88,7 +88,9 @@ class ProgressBar:
         best = ""
         if p.feasible.any():
             vals = p.F[p.feasible].min(axis=0)
-            best = "  best " + " ".join(f"{o}={v:.4g}" for o, v in zip(p.objectives, vals, strict=True))
+            # Each objective's own best, often of different members: "best h_s=17.12 I=47.66" read as one design's
+            # values, whose I was 88 (QA, session 37).
+            best = "  " + ", ".join(f"best {o}={v:.4g}" for o, v in zip(p.objectives, vals, strict=True))
         else:
             best = f"  no feasible member (least violation {np.min(p.cv):.3g})" if p.cv.size else ""
         chain = "" if p.chain is None else f" chain {p.chain}"
