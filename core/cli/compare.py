@@ -150,7 +150,8 @@ def run(args: argparse.Namespace) -> int:
               "(its violation > 0)")
     first = sorted({(r["source"], r["compiled"]) for r in rows if r.get("compiled")})
     if first:
-        print("The time includes compiling numba kernels (a first run on a machine; later runs load them) in "
+        print("The time includes compiling numba kernels (a first run of this code, in this checkout; later runs load "
+              "them from the cache) in "
               + ", ".join(f"{src} ({t:.1f} s of it)" for src, t in first) + ".")
     if args.paper and rtclm:
         print("The paper's times are MATLAB minutes on one core (Appendix C-1), here in s.")

@@ -227,8 +227,8 @@ def summary(run_: DesignRun) -> str:
     """The end-of-run table: one line per stage (or the baseline) with its pick's metrics."""
     c = run_.config
     workers = f", {run_.workers} worker process{'es' if run_.workers != 1 else ''}" if run_.multistart else ""
-    compiled = (f" ({run_.compile_time:.1f} s of it compiling numba kernels: a first run on this machine; the stage "
-                "times below include it)" if run_.compile_time >= COMPILE_NOTE else "")
+    compiled = (f" ({run_.compile_time:.1f} s of it compiling numba kernels, which later runs of this code load from "
+                "its cache; the stage times below include it)" if run_.compile_time >= COMPILE_NOTE else "")
     lines = [f"{c.name}: {c.method}, {c.mechanism.name}, seed {c.seed}, {run_.status}, wall {run_.wall_time:.1f} s"
              + compiled + workers]
     if run_.baseline is not None:

@@ -73,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(jsonable(r)))
         return 0
-    compiled = (f" ({r['compile_time']:.1f} s of it compiling numba kernels: a first run on this machine)"
+    compiled = (f" ({r['compile_time']:.1f} s of it compiling numba kernels, which later runs of this code load "
+                "from its cache)"
                 if r["compile_time"] >= COMPILE_NOTE else "")
     # Lab rehearsal: "IGD -" and 3077 evaluations of a 3000 budget were left to guess.
     none = "no feasible member at the end: nothing to measure" if not math.isfinite(r["igd"]) else "lower is better"
