@@ -53,6 +53,25 @@ def test_clm_moea_prints_json_with_the_budget_spent(capsys):
     assert 0 <= out["feasible"] <= 20 and out["reference_points"] > 0
 
 
+def test_the_population_written_out_gives_the_printed_igd_and_hv(capsys, tmp_path):
+    # QA (session 37): the JSON held no front, so its IGD and HV could not be checked from the command's own output.
+    path = tmp_path / "pop.csv"
+    argv = ["moea", "--problem", "mw3", "--algorithm", "cmoes", "--pop", "20", "--evals", "2000", "--seed", "2"]
+    assert main([*argv, "--json", "--out", str(path)]) == 0
+    said = json.loads(capsys.readouterr().out)
+    head, *rows = path.read_text().splitlines()
+    cols = head.split(",")
+    assert cols[-3:] == ["cv", "feasible", "front"] and len(rows) == said["size"]
+    table = np.array([[float(v) for v in r.split(",")] for r in rows])
+    F, cv, feasible, front = table[:, cols.index("f1"):-3], table[:, -3], table[:, -2], table[:, -1].astype(bool)
+    assert F.shape[1] == 2 and int(feasible.sum()) == said["feasible"] > 0 and np.array_equal(feasible, cv <= 0)
+    pf = reference_front("mw3")
+    assert igd(F[front], pf) == said["igd"] and hv_platemo(F[front], pf) == said["hv"]
+    assert np.array_equal(np.unique(F[front], axis=0), np.unique(feasible_front(F, cv), axis=0))
+    assert main([*argv, "--out", str(path)]) == 2  # not replaced without --overwrite
+    assert "exists; pass --overwrite" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("argv", [
     ["moea", "--problem", "mw99"], ["moea", "--problem", "mw1", "--algorithm", "nope"],
     ["moea", "--problem", "mw1", "--evals", "0"], ["moea", "--problem", "mw1", "--evals", "-5"],
@@ -63,6 +82,7 @@ def test_clm_moea_prints_json_with_the_budget_spent(capsys):
     ["moea", "--problem", "mw1", "--option", "crossover_prob=2"], ["moea", "--problem", "mw1", "--option", "de"],
     ["moea", "--problem", "mw1", "--algorithm", "cmoes", "--option", "operator=DE"],
     ["moea", "--problem", "mw1", "--option", "crossover_prob=0.8", "--option", "crossover_prob=0.5"],
+    ["moea", "--problem", "mw1", "--overwrite"], ["moea", "--problem", "mw1", "--out", ""],
 ])
 def test_bad_arguments_are_one_line_errors(argv, capsys):
     assert main(argv) == 2

@@ -100,11 +100,13 @@ def hv_platemo(F: F64, pf: F64 | None) -> float:
     return float(moocore.hypervolume(Fn, ref=np.ones(F.shape[1])))
 
 
-def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: dict[str, Any] | None = None
-        ) -> dict[str, Any]:
+def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: dict[str, Any] | None = None,
+        population: bool = False) -> dict[str, Any]:
     """Run an algorithm on a test problem for ``evals`` function evaluations; IGD, HV, evaluations, the final
     population's size (``size``: the Das-Dennis N of the decomposition-based ones, e.g. 91 for ``pop`` 100) and
-    feasible count, and wall time."""
+    feasible count, and wall time. ``population``: also the final population under ``"population"``: ``X`` (n, d),
+    ``F`` (n, m), ``cv`` (n,) and ``front`` (n,) True for the members IGD and HV measure (feasible, finite,
+    non-dominated), so a reader can check both indicators."""
     if not 4 <= pop <= 100_000:
         raise ValueError(f"--pop must be between 4 and 100000, got {pop}")
     if not 1 <= evals <= MAX_EVALS:
@@ -122,8 +124,15 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
     cv = np.asarray(pop_.get("CV"), dtype=np.float64).reshape(-1)
     front = feasible_front(F, cv)
     pf = reference_front(problem)
-    return {"problem": problem.lower(), "algorithm": algorithm, "pop": pop, "seed": seed,
-            "igd": igd(front, pf), "hv": hv_platemo(front, pf), "n_eval": int(res.algorithm.evaluator.n_eval),
-            "feasible": int((cv <= 0).sum()), "size": int(len(cv)),
-            "front_size": int(len(np.unique(front, axis=0))) if len(front) else 0, "wall_time": wall,
-            "reference_points": 0 if pf is None else int(len(pf))}
+    out = {"problem": problem.lower(), "algorithm": algorithm, "pop": pop, "seed": seed,
+           "igd": igd(front, pf), "hv": hv_platemo(front, pf), "n_eval": int(res.algorithm.evaluator.n_eval),
+           "feasible": int((cv <= 0).sum()), "size": int(len(cv)),
+           "front_size": int(len(np.unique(front, axis=0))) if len(front) else 0, "wall_time": wall,
+           "reference_points": 0 if pf is None else int(len(pf))}
+    if population:
+        ok = np.flatnonzero((cv <= 0) & np.isfinite(F).all(axis=1))
+        mask = np.zeros(len(cv), dtype=bool)
+        if len(ok):
+            mask[ok[pareto_front(F[ok])]] = True
+        out["population"] = {"X": np.asarray(pop_.get("X"), dtype=np.float64), "F": F, "cv": cv, "front": mask}
+    return out
