@@ -287,6 +287,7 @@ class SceneFrames:
         feature_labels: the feature points' labels (leg-view local), merged or moved so none covers another.
         scale_bars: ``(k, 2, 3)`` a millimetre scale bar under each view (scene coordinates).
         text_height: the titles' height (m); the inset's labels use it too.
+        posed: False when the design assembles nowhere on the cycle: its foot (both views) is not drawn.
     """
 
     links: F32
@@ -315,6 +316,7 @@ class SceneFrames:
     scale_bars: F32 = field(default_factory=lambda: np.zeros((0, 2, 3), dtype=np.float32))
     text_height: float = 0.0
     joint_names: tuple[str, ...] = ()
+    posed: bool = True
 
     @property
     def n_samples(self) -> int:
@@ -361,7 +363,8 @@ def bench_text(view: DesignView) -> str:
     """The bench trajectory's headline figures over the bench view (its Metrics rows: MSE, S, I, h_s; the RTCLM's
     h6 or h4 first), two a line;
     a figure that is not this leg's (it does not walk; the RTCLM's MSE) is left out, and with none left the line
-    says why. The Metrics panel sat below the fold at 1280 x 720: these are what a slider is moved for."""
+    says why; a leg without a walking view says so on a last line. The Metrics panel sat below the fold at 1280 x 720:
+    these are what a slider is moved for."""
     rows = {r.key: r for r in view.rows}
     figures: tuple[tuple[str, str], ...] = BENCH_SHORT
     if "h_m" in rows and not rows["h_m"].label.startswith("Crossing"):  # the RTCLM's: "h6 (crossing height hₘ)"
@@ -369,10 +372,12 @@ def bench_text(view: DesignView) -> str:
     shown = [(short, rows[k]) for k, short in figures if k in rows and not rows[k].undefined]
     parts = [f"{short} {r.text()} {r.unit}" for short, r in shown
              if isinstance(r.value, float) and math.isfinite(r.value)]
+    # A leg that does not walk has no walking view: said here, last (QA, session 37: the view vanished unsaid).
+    gone = ["no walking view"] if view.walking is None else []
     if not parts:  # nothing to measure: why not, as the Metrics panel's "Why not" says it
         why = rows["why"].text() if "why" in rows else "-"
-        return "" if why == "-" else "\n".join(textwrap.wrap(why, 32))
-    return "\n".join(" · ".join(parts[i:i + 2]) for i in range(0, len(parts), 2))
+        return "\n".join(([] if why == "-" else textwrap.wrap(why, 32)) + gone)
+    return "\n".join([" · ".join(parts[i:i + 2]) for i in range(0, len(parts), 2)] + gone)
 
 
 def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
@@ -471,18 +476,24 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         seg_colour[:] = vertex_colours(np.array(palette.PATH))
     feats = np.array([xy for _, xy in view.features], dtype=np.float64).reshape(-1, 2)
     extent = max(lay.scene[2] - lay.scene[0], lay.scene[3] - lay.scene[1])
-    # viser needs finite arrays: where the mechanism does not assemble, hold its last assembled
-    # pose; if it never assembles, collapse everything onto the first ground pivot.
+    # viser needs finite arrays: where the mechanism does not assemble, hold its last assembled pose. If it never
+    # assembles, the ground pivots stay where they are and what solves (the crank) turns; the other joints and the
+    # links that reach them sit on the first ground pivot, and the foot is not drawn (``posed``). QA, session 37:
+    # everything, pivots too, sat on one pivot as a red dot, and the bench view's foot fell outside its frame.
     hold = hold_last_valid(sol.valid[0])
     if hold is None:
         pivot = np.nan_to_num(joints[0, int(np.argmax(is_ground))])
-        pose = np.broadcast_to(pivot, joints.shape).copy()
-        foot, leg_foot = pose[:, 0], np.broadcast_to(view.design.output.apply(pivot), leg.shape)
+        fin = np.isfinite(joints).all(axis=-1)
+        pose = np.where(fin[..., None], joints, pivot)
+        foot, leg_foot = np.broadcast_to(pivot, point.shape), np.broadcast_to(pivot, leg.shape)
+        segments = link_segments(pose, edges.pairs)
+        segments[~(fin[:, edges.pairs[:, 0]] & fin[:, edges.pairs[:, 1]])] = pivot
     else:
         pose, foot, leg_foot = joints[hold], point[hold], leg[hold]
+        segments = link_segments(pose, edges.pairs)
     grid, step = grid_lines(composition.bounds)
     return SceneFrames(
-        links=_lift(to_scene(link_segments(pose, edges.pairs)), Z_LINES),
+        links=_lift(to_scene(segments), Z_LINES),
         link_colors=link_colors,
         joints=_lift(to_scene(pose[:, ~is_ground]), Z_MARKERS),
         pivots=_lift(to_scene(pose[0, pivots]), Z_MARKERS),
@@ -510,6 +521,7 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         feature_labels=feature_texts(view.features, FEATURE_TEXT * h, lay.leg_offset),
         scale_bars=_lift(to_scene(bars), Z_LINES),
         text_height=h * SCENE_SCALE,
+        posed=hold is not None,
     )
 
 

@@ -148,6 +148,7 @@ class MechanismScene:
                                       (self.foot, palette.FOOT, frames.foot),
                                       (self.leg_foot, palette.FOOT, frames.leg_foot)):
                 node.colors = paint(moving[0], rgb)  # as many as the design has: _draw sets the points only
+            self.foot.visible = self.leg_foot.visible = frames.posed  # no foot where it never assembles
             self.leg.position = (lay.leg_offset[0] * SCENE_SCALE, lay.leg_offset[1] * SCENE_SCALE, 0.0)
             _set_points(self.leg_axes, frames.leg_axes, palette.FRAME)
             _set_segments(self.leg_target, frames.leg_target, palette.TARGET)

@@ -171,18 +171,33 @@ def test_the_bench_path_leaves_out_every_segment_with_an_end_where_the_mechanism
     assert len(f.leg_path) == int((ok & np.roll(ok, -1)).sum()) == len(f.leg_path_colors)
 
 
-def test_a_design_that_never_assembles_collapses_onto_its_first_ground_pivot(x3_view):
+def test_a_design_that_never_assembles_keeps_its_pivots_turns_its_crank_and_draws_no_foot(x3_view):
+    # QA (session 37): every joint, pivot and the foot sat on one pivot as a red dot, and the bench view's foot fell
+    # outside its frame.
     never = build_view(x3_view.design.replace(r4=1000.0), "stephenson1/X3", x3_view.target)
     assert not never.solution.valid[0].any()
     f = build_frames(never)
+    assert not f.posed and build_frames(x3_view).posed  # the scene hides both feet
     # Its moving joints are not named (review of session 33: six names piled on pivot A while paused).
     assert f.joint_names == () and build_frames(x3_view).joint_names
+    joints = never.solution.joints[0] * S
     steps = never.design.mechanism.steps
-    first = next(i for i, s in enumerate(steps) if isinstance(s, Ground))
-    a = never.solution.joints[0][0, first] * S  # pivot A, (150.57, 66.12) mm
-    assert np.isfinite(a).all()
-    np.testing.assert_allclose(f.joints[..., :2], np.broadcast_to(a, f.joints[..., :2].shape), rtol=1e-6)
-    np.testing.assert_allclose(f.foot[:, 0, :2], np.broadcast_to(a, (len(f.foot), 2)), rtol=1e-6)
+    ground = np.array([isinstance(s, Ground) for s in steps])
+    a = joints[0, int(np.argmax(ground))]  # pivot A, (150.57, 66.12) mm: what does not solve sits there
+    assert np.isfinite(joints[:, ground]).all()
+    shown = np.isin(np.array(never.design.mechanism.joint_names), never.design.mechanism.pivots())
+    assert shown.sum() >= 2
+    np.testing.assert_allclose(f.pivots[:, :2], joints[0, shown], rtol=1e-6)  # each in its own place
+    moving = joints[:, ~ground]
+    solved = np.isfinite(moving).all(axis=(0, 2))
+    assert 0 < solved.sum() < len(solved)  # the crank's tip solves, the rest does not
+    np.testing.assert_allclose(f.joints[:, solved, :2], moving[:, solved], rtol=1e-6)  # it turns
+    assert np.ptp(f.joints[:, solved, 0]) > 10 * S
+    np.testing.assert_allclose(f.joints[:, ~solved, :2], np.broadcast_to(a, f.joints[:, ~solved, :2].shape), rtol=1e-6)
+    assert np.isfinite(f.links).all() and np.isfinite(f.foot).all() and np.isfinite(f.leg_foot).all()
+    # A link is drawn only where both its ends solve (the crank), else it is a point on A.
+    length = np.linalg.norm(f.links[:, :, 0, :2] - f.links[:, :, 1, :2], axis=-1)
+    assert ((length > 1e-9).sum(axis=1) >= 1).all()
 
 
 def test_the_walking_metrics_print_as_two_lines_heights_then_obstacle_crossing(x3):
@@ -339,11 +354,12 @@ def test_the_bench_figures_leave_out_what_is_not_this_leg_s():
 
     x3 = Session.default("stephenson1/X3").view
     breaks = build_view(x3.design.replace(r4=131.8), "stephenson1/X3", x3.target)
-    assert bench_text(breaks) == "does not assemble over the whole\ncycle (shortfall 0.23 mm)"
+    assert bench_text(breaks) == "does not assemble over the whole\ncycle (shortfall 0.23 mm)\nno walking view"
     seen = set()
     for v in (x3, *(build_view(x3.design.replace(r3=r3), "stephenson1/X3", x3.target) for r3 in (110.0, 130.0))):
         walks = bool(v.evaluation.feasible[0])
         assert ("S " in bench_text(v)) == walks and bench_text(v).startswith("MSE "), (walks, bench_text(v))
+        assert bench_text(v).endswith("\nno walking view") != walks  # its view is gone: said (QA, session 37)
         seen.add(walks)
     assert seen == {True, False}  # r3 = 130 mm assembles and does not walk: its MSE alone
     rtclm = Session.default("rtclm/clm-case1").view  # its stages drive h6 and h4, not a shape: no MSE, h6 first

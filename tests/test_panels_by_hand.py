@@ -993,6 +993,13 @@ def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(st
     press(studio.files.load, c, upload(json.dumps(typo).encode(), "typo.json"))
     assert c.notes[-1][0] == "Design not loaded" and "typo.json: " in c.notes[-1][1] and "'parms'" in c.notes[-1][1]
     assert "format" not in c.notes[-1][1] and studio.session.view.design == before
+    # One that assembles nowhere loads (nothing is lost) with a yellow word on it, as such a preset gets (QA, session
+    # 37: it loaded green and its views broke unexplained).
+    far = dict(d, params={**d["params"], "r4": 499.0})
+    press(studio.files.load, c, upload(json.dumps(far).encode(), "far.json"))
+    assert c.notes[-1][0] == "Design loaded: it does not assemble" and c.notes[-1][2] == "yellow"
+    assert "far.json: the mechanism does not assemble over 100 % of the crank cycle" in c.notes[-1][1]
+    assert studio.session.undo().design == before
     press(studio.files.load, c, upload(b'{"version": 2}', "odd.json"))
     assert 'it has no "format"' in c.notes[-1][1] and "None" not in c.notes[-1][1]
     # A design in degrees loads (nothing is lost) with a word on its units, as a target CSV in m does.

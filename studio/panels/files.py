@@ -146,6 +146,7 @@ class FilesPanel:
         Rehearsal 3: the README's loop (presets show > my.json, edit, simulate --design) dead-ended at the studio."""
         from core.formats.design import design_from_dict, unit_note
         from core.formats.session import MAX_SESSION_BYTES, parse_json
+        from studio.state import assembly_reason
 
         if len(content) > MAX_SESSION_BYTES:
             return False
@@ -164,6 +165,11 @@ class FilesPanel:
             self.studio.notify(client, "Design not loaded", f"{name}: {exc}. The editor's design is kept.")
             return True
         self.studio.refresh()
+        reason = assembly_reason(self.studio.session.view)
+        if reason is not None:  # QA (session 37): a design that assembles nowhere loaded green, its views broken
+            self.studio.notify(client, "Design loaded: it does not assemble", f"{name}: {reason}; it is drawn where "
+                               "it does. It is the editor's design now; Undo takes it back", color="yellow")
+            return True
         note = unit_note(design, self.studio.session.view.solution.point[0])
         if note:  # lab rehearsal: a design in m or degrees loaded green, a 0.3 mm leg on screen
             self.studio.notify(client, "Design loaded: check its units", f"{name}: {note}. It is the editor's design "
