@@ -239,7 +239,9 @@ class ParetoPanel:
             what += f"; {same}"
         if r is not None and (note := population_note(r)):
             what += f"; {note}"
-        self.caption.content = f"**{sv.viewing}** ({what}). Camera icon: save as PNG."
+        # viser sends no plotly clicks: a presenter clicked a point and nothing happened (QA, session 37).
+        self.caption.content = (f"**{sv.viewing}** ({what}). Hover names a member; to pick one, click its sphere in "
+                                f"the scene's Candidates view or use Pick below. Camera icon: save as PNG.")
 
     def charts(self) -> tuple[LazyPlotly, ...]:
         return self.plot, self.trace
