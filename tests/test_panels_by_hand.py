@@ -253,6 +253,31 @@ def test_the_walking_status_says_blocked_only_when_a_foot_enters_the_obstacle(st
     assert "**blocked**" in studio.walking.status.content
 
 
+def test_an_obstacle_far_beyond_the_leg_s_step_is_applied_with_a_word_on_its_size(studio):
+    # QA (session 37): b = 5000 mm for the paper's 300 x 100 mm step went in silently; the views shrank to specks.
+    c = Client()
+    before = studio.session.view.walk
+    try:
+        for key, text, said in (("b", "5000", "obstacle b = 5000 mm is 50 times this leg's step height (100 mm)"),
+                                ("a", "2000", None),  # under ten times the 300 mm step: a test, not a mistake
+                                ("a", "4000", "obstacle a = 4000 mm is 13 times this leg's step length (300 mm)"),
+                                ("b", "40", None)):
+            field = studio.walking.a if key == "a" else studio.walking.b
+            n = len(c.notes)
+            field.handle._impl.value = text
+            field.arrived(text)
+            field.edit(c)  # type: ignore[arg-type]
+            assert getattr(studio.session.view.walk, key) == float(text)  # applied: a valid value, only odd
+            if said is None:
+                assert len(c.notes) == n
+            else:
+                assert c.notes[-1][0] == f"obstacle {key}: check its size" and c.notes[-1][2] == "yellow"
+                assert c.notes[-1][1].startswith(said) and "Values are in mm" in c.notes[-1][1]
+    finally:
+        studio.session.set_walk(a=before.a, b=before.b)
+        studio.refresh()
+
+
 def test_choosing_the_quadruped_redraws_the_walking_view_with_four_feet(studio):
     press(studio.walking.robot, Client(), "quadruped (ψ₄)")
     assert studio.session.view.walk.layout == "quadruped"

@@ -131,6 +131,7 @@ class NumberField:
         current: Callable[[], float],
         what: str,
         delay: float = REJECT_DELAY,
+        note: Callable[[float], str | None] | None = None,
     ) -> None:
         """
         Args:
@@ -139,6 +140,8 @@ class NumberField:
             apply: commits a parsed value; raises ValueError with the reason if the model refuses it.
             current: the last valid value (what the field returns to).
             what: how the notification names the field (``r4 [mm]``).
+            note: a word on an applied value that is valid but odd (a 5 m obstacle for a 300 mm leg), said in a
+                yellow notification, or None.
         """
         self.studio = studio
         self.handle = handle
@@ -146,6 +149,7 @@ class NumberField:
         self.apply = apply
         self.current = current
         self.what = what
+        self.note = note
         self.delay = delay
         self._state = threading.Lock()  # the fields below
         self._edits = threading.Lock()  # one edit at a time, on the newest text
@@ -235,11 +239,15 @@ class NumberField:
             if timer is not None:
                 timer.cancel()
             try:
-                self.apply(self.form.parse(text))
+                value = self.form.parse(text)
+                self.apply(value)
             except ValueError as exc:
                 self._schedule(text, str(exc), client)
                 return
         self.studio.refresh()
+        said = None if self.note is None else self.note(value)
+        if said:
+            self.studio.notify(client, f"{self.what}: check its size", said, color="yellow")
 
     def _schedule(self, text: str, reason: str, client: viser.ClientHandle) -> None:
         timer = threading.Timer(self.delay, self._reject, (text, reason, client))
@@ -285,6 +293,7 @@ class NumberFields:
         what: str | None = None,
         hint: str | None = None,
         disabled: bool = False,
+        note: Callable[[float], str | None] | None = None,
     ) -> NumberField:
         """A text input labelled ``label`` in the current GUI container, showing ``value``.
 
@@ -292,12 +301,13 @@ class NumberFields:
             key: unique name of the field in this panel.
             what: how notifications name it (default: the label).
             hint: shown on hover; what the field takes is added to it.
+            note: see :class:`NumberField`.
         """
         takes = f"takes {form.describe()}"
         h = self.studio.server.gui.add_text(label, format_number(value, form.whole), disabled=disabled,
                                             hint=f"{hint} ({takes})" if hint else takes)
         field = NumberField(self.studio, h, form=form, apply=apply, current=current, what=what or label,
-                            delay=self.delay)
+                            delay=self.delay, note=note)
         self.fields[key] = field
         return field
 

@@ -8,14 +8,33 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
+from core.optimize.rtclm import is_rtclm
 from studio.frames import walk_text
 from studio.panels._inputs import NumberFields, NumberForm, set_value
 from studio.state import DesignView
+from studio.walking import PAPER_STEP
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
 
 ROBOTS = {"biped module (ψ₂)": "biped", "quadruped (ψ₄)": "quadruped"}
+
+
+OUT_OF_SCALE = 10.0  # an obstacle this many times the leg's step (length or height) is a units mistake, not a test
+
+
+def obstacle_note(key: str, value: float, view: DesignView) -> str | None:
+    """A word on an obstacle side ``key`` (``a`` or ``b``, mm) far beyond the leg's step (the walking view's own size
+    for its target: :func:`studio.state.walk_sizes` scales the paper's 25 x 25 mm by it), or None. QA (session 37): b =
+    5000 mm for a 300 x 100 mm step went in silently, and the views shrank to specks around it."""
+    t = view.target
+    step = PAPER_STEP if is_rtclm(view.design.mechanism.name) else (float(t.length), float(t.height))
+    side, scale, name = (0, "length", "a") if key == "a" else (1, "height", "b")
+    ref = step[side]
+    if not (ref > 0.0 and value > OUT_OF_SCALE * ref):
+        return None
+    return (f"obstacle {name} = {value:g} mm is {value / ref:.0f} times this leg's step {scale} ({ref:g} mm): no foot "
+            "steps over it, and the views shrink around it. Values are in mm.")
 
 
 class WalkingPanel:
@@ -32,10 +51,10 @@ class WalkingPanel:
                                           hint="legs drawn in the walking view")
             self.a = self._numbers.add("a", "Obstacle a [mm]", float(walk.a), form=NumberForm(lo=0.0, unit="mm"),
                                        apply=self._setter("a"), current=self._getter("a"), what="obstacle a",
-                                       hint="obstacle length")
+                                       hint="obstacle length", note=self._size_note("a"))
             self.b = self._numbers.add("b", "Obstacle b [mm]", float(walk.b), form=NumberForm(lo=0.0, unit="mm"),
                                        apply=self._setter("b"), current=self._getter("b"), what="obstacle b",
-                                       hint="obstacle height")
+                                       hint="obstacle height", note=self._size_note("b"))
             self.place = gui.add_slider("Obstacle place [%]", 0.0, 100.0, 1.0, 100.0 * float(walk.place),
                                         hint="where the obstacle stands within one stride")
             self.status = gui.add_markdown("")
@@ -52,6 +71,9 @@ class WalkingPanel:
 
     def _getter(self, key: str) -> Callable[[], float]:
         return lambda: float(getattr(self.studio.session.view.walk, key))
+
+    def _size_note(self, key: str) -> Callable[[float], str | None]:
+        return lambda v: obstacle_note(key, v, self.studio.session.view)
 
     def close(self) -> None:
         self._numbers.cancel_all()
