@@ -267,3 +267,26 @@ def test_texts_that_arrive_while_an_edit_waits_are_applied_once_the_newest() -> 
     field.edit("client")  # type: ignore[arg-type]
     field.edit("client")  # type: ignore[arg-type]  # the second keystroke's callback: handled already
     assert applied == [40, 16] and studio.refreshed == 1 and studio.notes == []
+
+
+def test_the_target_and_obstacle_fields_state_the_limits_the_model_keeps() -> None:
+    # QA (session 37): L = 1e9 read "must be at most 1e+06 mm, got 1000000000.0. It takes a number > 0 (mm)", and
+    # T = 1e-9 "must be between 1e-06 and 1e+06 s ... It takes a number > 0 (s)": the form's own words now name the
+    # whole rule, and refuse first.
+    from studio.panels.target import field_form
+    from studio.panels.walking import SIDE
+
+    length, period = field_form("length", "mm"), field_form("period", "s")
+    assert length.describe() == "a number > 0 and <= 1000000 (mm)"
+    assert period.describe() == "a number from 0.000001 to 1000000 (s)"
+    with pytest.raises(ValueError, match=r"^'1e9' is above 1000000$"):
+        length.parse("1e9")
+    with pytest.raises(ValueError, match=r"^'1e-9' is below 0.000001$"):
+        period.parse("1e-9")
+    with pytest.raises(ValueError, match=r"^'2e6' is above 1000000$"):
+        SIDE.parse("2e6")
+    # What the forms let through, the model takes: their bounds are the model's.
+    from studio.target import TargetSpec
+
+    TargetSpec(length=length.parse("1e6"), height=length.parse("1e6"), period=period.parse("1e-6")).target()
+    TargetSpec(period=period.parse("1e6")).target()

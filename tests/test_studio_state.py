@@ -499,6 +499,9 @@ def test_clm_studio_refuses_a_malformed_session_file_with_one_line(tmp_path, cap
     bad.write_text("{not json")
     assert main(["--session", str(bad), "--port", "0"]) == 2
     assert "not JSON" in capsys.readouterr().err
+    bad.write_text("\n")  # QA (session 37): "not JSON (Expecting value: line 1 column 1 (char 0))"
+    assert main(["--session", str(bad), "--port", "0"]) == 2
+    assert capsys.readouterr().err.strip().endswith(f"{bad}: the file is empty")
 
 
 def test_the_studio_autosaves_its_session_after_every_change(tmp_path) -> None:

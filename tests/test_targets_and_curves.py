@@ -81,7 +81,8 @@ def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("x,y\n0,0\n1,0\n", "at least 4"),
+        ("x,y\n0,0\n1,0\n", "at least 4 distinct points, got 2 in 2 rows"),
+        ("0,0\n0,0\n0,0\n0,0\n", "at least 4 distinct points, got 1 in 4 rows"),  # QA (session 37): "got 3"
         ("0,0\n1,0\n1,abc\n0,1\n", "'abc' is not a number"),
         ("abc,0\n1,0\n1,1\n0,1\n0,0.5\n", "data row 1: 'abc' is not a number"),  # not taken for a header
         ("0,0\n1,0\n1,nan\n0,1\n", "NaN or infinite"),

@@ -182,7 +182,11 @@ def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
         period = float(times[-1] - times[0]) if times is not None else 2.0
         pts, times = pts[:-1], (times[:-1] if times is not None else None)
     if len(pts) < MIN_POINTS:
-        raise ValueError(f"{name}: a closed curve needs at least {MIN_POINTS} distinct points, got {len(pts)}")
+        # Counted as distinct points: four rows of 0,0 read "got 3" (the closing repeat was taken off, not the copies;
+        # QA, session 37).
+        n = len(np.unique(pts, axis=0))
+        raise ValueError(f"{name}: a closed curve needs at least {MIN_POINTS} distinct points, got {n} in "
+                         f"{len(data)} row{'s' * (len(data) != 1)}")
     steps = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     med = float(np.median(steps))
     if med <= 0.0:
@@ -259,7 +263,7 @@ def scale_note(points: Any, period: float | None = None) -> str:
     if not SPAN_MM[0] <= span <= SPAN_MM[1]:
         size = f"{span:,.0f}" if 1.0 <= span < 1e9 else f"{span:.2g}"
         notes.append(f"it spans {size} mm, where a foot path spans tens to hundreds of mm: its numbers are read in "
-                     "mm (values in m or um need scaling)")
+                     "mm (values in m or µm need scaling)")
     if period is not None and not PERIOD_S[0] <= period <= PERIOD_S[1]:
         notes.append(f"its times make one cycle {period:g} s long, where a leg's crank turns once in "
                      f"{PERIOD_S[0]:g} to {PERIOD_S[1]:g} s: its times are read in s (times in ms need scaling)")
@@ -333,3 +337,4 @@ def parse_target(spec: str | None) -> Target:
         kw = cycloid_params(spec or "cycloid")
         return cycloid_target(kw["L"], kw["H"], kw["T"])
     return load_curve(spec)
+

@@ -83,7 +83,8 @@ def parse_json(content: str | bytes) -> Any:
         raise ValueError(f"a session is at most {MAX_SESSION_BYTES // 2**20} MB, got {len(content) / 2**20:.0f} MB")
     try:
         text = content.decode("utf-8-sig") if isinstance(content, bytes) else content
-        return json.loads(text, object_pairs_hook=unique_keys)
+        if text.strip():
+            return json.loads(text, object_pairs_hook=unique_keys)
     except UnicodeDecodeError as exc:
         raise ValueError(f"not UTF-8 text ({exc.reason})") from None
     except json.JSONDecodeError as exc:
@@ -92,6 +93,7 @@ def parse_json(content: str | bytes) -> Any:
         raise ValueError("not a session: nested too deep") from None
     except ValueError as exc:  # unique_keys
         raise ValueError(f"not a session: {exc}") from None
+    raise ValueError("the file is empty")  # QA (session 37): "not JSON (Expecting value: line 1 column 1 (char 0))"
 
 
 def check_session(data: Any) -> SessionFile:

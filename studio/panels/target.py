@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
+from core.kinematics.checks import MAX_ABS
 from core.kinematics.model import OutputStage
 from core.optimize.rtclm import is_rtclm
 from studio.panels._inputs import NumberField, NumberFields, NumberForm
@@ -30,6 +31,15 @@ HEIGHTS = (("h6", "h6 target [mm]", "the primary mode's step height h6, rtclm1's
            ("h4", "h4 target [mm]", "the auxiliary mode's step height h4, rtclm2's target"))
 
 
+def field_form(key: str, unit: str) -> NumberForm:
+    """What L, H (mm, > 0 up to 1e6) and T (s, 1e-6 to 1e6) take, as the model checks them: the form's own words
+    name the whole rule (QA, session 37: "must be at most 1e+06 mm, got 1000000000.0. It takes a number > 0 (mm)";
+    T = 1e-9 read "must be between 1e-06 and 1e+06 s ... It takes a number > 0 (s)")."""
+    if key == "period":
+        return NumberForm(lo=1.0 / MAX_ABS, hi=MAX_ABS, unit=unit)
+    return NumberForm(lo=0.0, lo_open=True, hi=MAX_ABS, unit=unit)
+
+
 class TargetPanel:
     """Number fields for the cycloid (hidden while a curve is the target), a CSV upload, and a status line."""
 
@@ -44,11 +54,11 @@ class TargetPanel:
             self.status = gui.add_markdown("")
             for key, label, hint in HEIGHTS:
                 self.inputs[key] = self._numbers.add(
-                    key, label, float(getattr(target, key)), form=NumberForm(lo=0.0, lo_open=True, unit="mm"),
+                    key, label, float(getattr(target, key)), form=field_form(key, "mm"),
                     apply=self._height(key), current=self._getter(key), what=f"RTCLM {label}", hint=hint)
             for key, label, unit, hint in FIELDS:
                 self.inputs[key] = self._numbers.add(
-                    key, label, float(getattr(target, key)), form=NumberForm(lo=0.0, lo_open=True, unit=unit),
+                    key, label, float(getattr(target, key)), form=field_form(key, unit),
                     apply=self._setter(key), current=self._getter(key), what=f"target {label}",
                     hint=hint + "; compound cycloid, editing returns to it")
             self.frame = gui.add_dropdown("CSV frame", FRAMES, initial_value=FRAMES[0],

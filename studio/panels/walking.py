@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import viser
 
+from core.kinematics.checks import MAX_ABS
 from core.optimize.rtclm import is_rtclm
 from studio.frames import walk_text
 from studio.panels._inputs import NumberFields, NumberForm, set_value
@@ -20,6 +21,7 @@ if TYPE_CHECKING:
 ROBOTS = {"biped module (ψ₂)": "biped", "quadruped (ψ₄)": "quadruped"}
 
 
+SIDE = NumberForm(lo=0.0, hi=MAX_ABS, unit="mm")  # an obstacle side, as the model takes it
 OUT_OF_SCALE = 10.0  # an obstacle this many times the leg's step (length or height) is a units mistake, not a test
 
 
@@ -49,10 +51,10 @@ class WalkingPanel:
         with self.folder:
             self.robot = gui.add_dropdown("Robot", tuple(ROBOTS), initial_value=self._robot_label(walk.layout),
                                           hint="legs drawn in the walking view")
-            self.a = self._numbers.add("a", "Obstacle a [mm]", float(walk.a), form=NumberForm(lo=0.0, unit="mm"),
+            self.a = self._numbers.add("a", "Obstacle a [mm]", float(walk.a), form=SIDE,
                                        apply=self._setter("a"), current=self._getter("a"), what="obstacle a",
                                        hint="obstacle length", note=self._size_note("a"))
-            self.b = self._numbers.add("b", "Obstacle b [mm]", float(walk.b), form=NumberForm(lo=0.0, unit="mm"),
+            self.b = self._numbers.add("b", "Obstacle b [mm]", float(walk.b), form=SIDE,
                                        apply=self._setter("b"), current=self._getter("b"), what="obstacle b",
                                        hint="obstacle height", note=self._size_note("b"))
             self.place = gui.add_slider("Obstacle place [%]", 0.0, 100.0, 1.0, 100.0 * float(walk.place),
