@@ -654,6 +654,13 @@ class Studio:
         return f"{slug(view.preset or view.design.mechanism.name)}-design.json", design_json(view)
 
     def drawing_file(self, kind: str, plates: Plates | None = None) -> tuple[str, bytes]:
+        """A drawing of the design at the pose on screen; the animation pauses there first, so that the next drawing
+        (the DXF after the SVG) is of the same pose (QA, session 37: 96 and 25 degrees, a click apart)."""
+        with self.session.lock:
+            pb = self.session.set_playing(False) if self.session.playback.playing else None
+        if pb is not None:
+            self.playback.show(pb, self.held())
+            self.autosave()
         return drawing_export(self.session.view, self.session.playback.angle, kind, plates or Plates())
 
     def drawing_notes(self, plates: Plates | None = None) -> list[str]:

@@ -1120,6 +1120,24 @@ def test_run_against_a_target_of_another_unit_asks_first_and_runs_only_if_confir
     assert len(asked) == 1 and started == [1, 1]
 
 
+def test_a_drawing_pauses_the_animation_so_its_dxf_and_svg_show_one_pose(studio):
+    # QA (session 37): while the animation played, the DXF and the SVG a click apart were drawn at 96 and 25 deg.
+    import time
+
+    c = Client()
+    studio.session.set_playing(True)
+    try:
+        time.sleep(0.3)  # the animator moves the crank
+        press(studio.files.dxf, c)
+        assert not studio.session.playback.playing and studio.playback.play.label == "Play"
+        time.sleep(0.3)
+        press(studio.files.svg, c)
+        (dxf, _), (svg, _) = c.downloads[-2:]
+        assert dxf.endswith(".dxf") and svg.endswith(".svg") and dxf.rsplit(".", 1)[0] == svg.rsplit(".", 1)[0]
+    finally:
+        studio.session.set_playing(False)
+
+
 def test_the_drawings_take_the_pin_hole_set_in_the_panel(studio, tmp_path):
     """Rehearsal 4: the studio's warning said 'use smaller pins (--hole)', an option the studio did not have."""
     import ezdxf

@@ -46,10 +46,12 @@ class FilesPanel:
                 hint="the drawings' pivot holes (your pins'), saved with the session; the parts sheet's plates are "
                      "three holes wide (clm export --hole, --width)")
             self.dxf = gui.add_button("Drawing (DXF)", icon=viser.Icon.FILE_DOWNLOAD,
-                                      hint="the design at the shown crank angle: one layer per link, pivot holes, "
-                                      "dimensions in mm, and each link as a plate laid flat to cut")
+                                      hint="the design at the shown crank angle (the animation pauses there): one "
+                                      "layer per link, pivot holes, dimensions in mm, and each link as a plate laid "
+                                      "flat to cut")
             self.svg = gui.add_button("Drawing (SVG)", icon=viser.Icon.FILE_DOWNLOAD,
-                                      hint="the design at the shown crank angle and its foot path")
+                                      hint="the design at the shown crank angle (the animation pauses there) and its "
+                                      "foot path")
             self.csv = gui.add_button("Trajectories (CSV)", icon=viser.Icon.FILE_DOWNLOAD,
                                       hint="design-frame path, bench trajectory, stance, target per crank sample")
             self.pareto = gui.add_button("Pareto chart (HTML)", icon=viser.Icon.FILE_DOWNLOAD,
