@@ -82,7 +82,7 @@ def test_an_uploaded_curve_becomes_the_target_and_back_to_the_cycloid_is_enabled
     assert panel.cycloid.disabled  # the cycloid is the target: nothing to go back to
     press(panel.upload, c, upload(CURVE, "four.csv"))
     t = studio.session.view.target
-    assert t.is_curve and t.curve.name == "four.csv" and not c.notes
+    assert t.is_curve and t.curve.name == "four.csv" and [n[0] for n in c.notes] == ["Target curve loaded"]
     assert not panel.cycloid.disabled
     # x,y rows only: no time law, so the status says how it is compared.
     assert "(no times: compared at the best cyclic shift)" in panel.status.content
@@ -120,6 +120,19 @@ def test_a_curve_drawn_clockwise_is_loaded_with_a_word_on_its_direction(studio):
     assert [(n[0], n[2]) for n in c.notes] == [("Target curve loaded: check its direction", "yellow")]
     assert c.notes[0][1].startswith("cw.csv: it runs clockwise in the leg frame")
     press(studio.target.cycloid, c)
+
+
+def test_a_good_curve_upload_is_confirmed_in_one_green_notification(studio):
+    # QA (session 37): only viser's "File uploaded successfully." said anything, whatever the studio made of it.
+    c = Client()
+    press(studio.target.upload, c, upload(CURVE, "good.csv"))
+    n = len(studio.session.view.target.curve.points)
+    assert studio.session.view.target.is_curve and c.notes == [
+        ("Target curve loaded", f"good.csv: {n} points, without times: compared with the design's path at the best "
+         "phase. It is the target now; Undo takes it back.", "green")]
+    studio.session.undo()
+    assert not studio.session.view.target.is_curve  # as said
+    studio.refresh()
 
 
 def test_a_malformed_curve_upload_is_one_red_notification_and_the_target_stays(studio):

@@ -131,19 +131,28 @@ class TargetPanel:
                                f"{name} was uploaded but is not a target curve: {problem}. "
                                f"The target is unchanged: {kept}.")
             return
+        said = False
         note = curve.scale_note()
         if note:  # loaded (nothing is lost), with a word on its units
             self.studio.notify(event.client, "Target curve loaded: check its units", f"{name}: {note}.",
                                color="yellow")
+            said = True
         rtclm = self.studio.session.view.design.mechanism.derive is not None  # its targets are heights
         note = "" if rtclm else curve.path_note(output)
         if note:  # loaded as drawn: a leg matching it would walk backward or stand on its swing
             self.studio.notify(event.client, "Target curve loaded: check its direction", f"{name}: {note}.",
                                color="yellow")
+            said = True
         if leg:
             self.studio.notify(event.client, "Target curve read in the leg frame",
                                f"{name}: mapped to the design frame by the design's output stage "
                                f"({output_text(output)}); targets are kept in the design frame.", color="green")
+        elif not said:  # QA (session 37): a good file got viser's "File uploaded successfully." alone
+            timing = ("with times" if curve.times is not None else
+                      "without times: compared with the design's path at the best phase")
+            self.studio.notify(event.client, "Target curve loaded",
+                               f"{name}: {len(curve.points)} points, {timing}. It is the target now; Undo takes it "
+                               "back.", color="green")
         self.studio.refresh(fit_camera=True)
 
     def _on_cycloid(self, event: viser.GuiEvent[Any]) -> None:
