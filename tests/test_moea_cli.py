@@ -83,6 +83,7 @@ def test_the_population_written_out_gives_the_printed_igd_and_hv(capsys, tmp_pat
     ["moea", "--problem", "mw1", "--algorithm", "cmoes", "--option", "operator=DE"],
     ["moea", "--problem", "mw1", "--option", "crossover_prob=0.8", "--option", "crossover_prob=0.5"],
     ["moea", "--problem", "mw1", "--overwrite"], ["moea", "--problem", "mw1", "--out", ""],
+    ["moea", "--problem", "mw1", "--out", "-"], ["moea", "--problem", "mw1", "--out", "-", "--overwrite"],
 ])
 def test_bad_arguments_are_one_line_errors(argv, capsys):
     assert main(argv) == 2

@@ -63,6 +63,14 @@ def test_measure_counts_every_stage_s_evaluations_and_keeps_the_last_stage_s_fea
     m = measure(run)
     assert m["n_eval"] == 140 and m["stage"] == "b" and m["run_status"] == "complete"
     assert m["stopped_early"] == ["a"]  # its config's stop_below ended stage a before the budget
+    # One that met its stop_below on the last generation it had spent the whole budget: not early (review, s. 37).
+    last = _result("a", 100, F, feasible, "stopped")
+    last.settings, last.generation = {"max_evals": 100, "n_gen": 100}, 4
+    assert measure(SimpleNamespace(results=[last], wall_time=1.0, status="complete",
+                                   final=lambda: None))["stopped_early"] == []
+    last.n_evals = 60
+    assert measure(SimpleNamespace(results=[last], wall_time=1.0, status="complete",
+                                   final=lambda: None))["stopped_early"] == ["a"]
     assert m["feasible_ratio"] == 0.8
     assert sorted(map(tuple, m["front"])) == [(1.0, 4.0), (2.0, 2.0), (4.0, 1.0)]
 

@@ -207,6 +207,16 @@ def test_runs_that_a_stop_rule_ended_early_are_counted_under_the_case() -> None:
     md = markdown("s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
     assert "Runs that stopped a stage early, once a feasible member met every objective's `stop_below` of the " \
            "case's config: A 1 of 3, B 3 of 3." in md
+    # Runs kept before they recorded it, of a case whose config stops early: said, not counted as 0 (review of
+    # session 37).
+    import json
+
+    for r in rows:
+        del r["metrics"]["stopped_early"]
+        r["settings"] = json.dumps({"algorithm": {}, "case": {"budget": 100, "config": {
+            "stages": [{"name": "rtclm1", "stop_below": [0.5]}]}}})
+    md = markdown("s", [case_report(Rows(rows), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")])
+    assert "config: none recorded; not recorded for 6 run(s) kept before session 37" in md
 
 
 def test_too_few_runs_names_only_the_algorithms_it_applies_to_and_populations_per_algorithm() -> None:

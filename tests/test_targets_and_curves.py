@@ -83,6 +83,7 @@ def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
     [
         ("x,y\n0,0\n1,0\n", "at least 4 distinct points, got 2 in 2 rows"),
         ("0,0\n0,0\n0,0\n0,0\n", "at least 4 distinct points, got 1 in 4 rows"),  # QA (session 37): "got 3"
+        ("0,0\n1,0\n0,0\n1,0\n0,0\n", "at least 4 distinct points, got 2 in 5 rows"),  # it was a target
         ("0,0\n1,0\n1,abc\n0,1\n", "'abc' is not a number"),
         ("abc,0\n1,0\n1,1\n0,1\n0,0.5\n", "data row 1: 'abc' is not a number"),  # not taken for a header
         ("0,0\n1,0\n1,nan\n0,1\n", "NaN or infinite"),
@@ -92,7 +93,7 @@ def test_an_untimed_csv_is_resampled_in_arc_length() -> None:
         ("0,0,0,0\n1,0,1,1\n", "2 columns"),
         ("0,0\n1,0\n1\n0,1\n", "row 3 has 1 columns"),
         ("x,y\n", "no data rows"),
-        ("0,0\n0,0\n0,0\n0,0\n0,0\n", "do not move"),
+        ("0,0\n0,0\n0,0\n0,0\n0,0\n", "at least 4 distinct points, got 1 in 5 rows"),
     ],
 )
 def test_bad_curves_get_one_clear_error(tmp_path: Path, text: str, message: str) -> None:

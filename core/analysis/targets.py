@@ -181,10 +181,10 @@ def curve_from_rows(rows: list[list[str]], name: str = "curve") -> Target:
     if closed_by_repeat:
         period = float(times[-1] - times[0]) if times is not None else 2.0
         pts, times = pts[:-1], (times[:-1] if times is not None else None)
-    if len(pts) < MIN_POINTS:
-        # Counted as distinct points: four rows of 0,0 read "got 3" (the closing repeat was taken off, not the copies;
-        # QA, session 37).
-        n = len(np.unique(pts, axis=0))
+    n = len(np.unique(pts, axis=0))
+    if n < MIN_POINTS:
+        # Distinct points, as it says: four rows of 0,0 read "got 3" (the closing repeat was taken off, not the
+        # copies), and 0,0 / 1,0 / 0,0 / 1,0 was a target (QA and review, session 37).
         raise ValueError(f"{name}: a closed curve needs at least {MIN_POINTS} distinct points, got {n} in "
                          f"{len(data)} row{'s' * (len(data) != 1)}")
     steps = np.linalg.norm(np.diff(pts, axis=0), axis=1)

@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--out", metavar="FILE", type=path_arg,
                    help="also write the final population as CSV: x1.., f1.., cv, feasible, front (1 for the members "
-                   "IGD and HV measure), so both can be checked")
+                   "IGD and HV measure, each copy of a point: the printed front counts distinct points), so both can "
+                   "be checked")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out FILE")
     p.set_defaults(func=run)
 
@@ -85,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
     args.algorithm = registered(args.algorithm)
     if args.overwrite and args.out is None:
         raise CLIError("--overwrite replaces an existing --out FILE; give --out FILE too")
+    if args.out is not None and str(args.out) == "-":  # out_file's "-" prints; this CSV is a file (review, session 37)
+        raise CLIError("--out takes a file name for the population's CSV; it is not printed")
     out = None if args.out is None else out_file(str(args.out), args.overwrite)
     timer = CompileTimer()
     with timer:

@@ -70,11 +70,20 @@ def reference_front(name: str) -> F64 | None:
     return None
 
 
-def feasible_front(F: F64, cv: F64 | None = None) -> F64:
+def feasible_front_mask(F: F64, cv: F64 | None = None) -> NDArray[np.bool_]:
+    """``(n,)`` True for the members IGD and HV measure: feasible, finite, non-dominated (copies of a point each)."""
     F = np.asarray(F, dtype=np.float64).reshape(len(F), -1) if len(F) else np.zeros((0, 1))
     ok = np.isfinite(F).all(axis=1) if cv is None else (np.asarray(cv) <= 0) & np.isfinite(F).all(axis=1)
-    F = F[ok]
-    return F[pareto_front(F)] if len(F) else F
+    idx = np.flatnonzero(ok)
+    mask = np.zeros(len(F), dtype=bool)
+    if len(idx):
+        mask[idx[pareto_front(F[idx])]] = True
+    return mask
+
+
+def feasible_front(F: F64, cv: F64 | None = None) -> F64:
+    F = np.asarray(F, dtype=np.float64).reshape(len(F), -1) if len(F) else np.zeros((0, 1))
+    return F[feasible_front_mask(F, cv)]
 
 
 def igd(F: F64, pf: F64 | None) -> float:
@@ -130,9 +139,6 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
            "front_size": int(len(np.unique(front, axis=0))) if len(front) else 0, "wall_time": wall,
            "reference_points": 0 if pf is None else int(len(pf))}
     if population:
-        ok = np.flatnonzero((cv <= 0) & np.isfinite(F).all(axis=1))
-        mask = np.zeros(len(cv), dtype=bool)
-        if len(ok):
-            mask[ok[pareto_front(F[ok])]] = True
-        out["population"] = {"X": np.asarray(pop_.get("X"), dtype=np.float64), "F": F, "cv": cv, "front": mask}
+        out["population"] = {"X": np.asarray(pop_.get("X"), dtype=np.float64), "F": F, "cv": cv,
+                             "front": feasible_front_mask(F, cv)}
     return out

@@ -69,13 +69,22 @@ def _front(F: np.ndarray, feasible: np.ndarray) -> list[list[float]]:
     return F[front].tolist()
 
 
+def _stopped_early(r: Any) -> bool:
+    """Its config's stop_below ended the stage (the RTCLM's, the paper's rule) before the budget or its generations
+    were spent (one that met it on its last generation spent them all: review, session 37)."""
+    if r.status != "stopped":
+        return False
+    settings = getattr(r, "settings", None) or {}
+    budget, gens = settings.get("max_evals"), settings.get("n_gen")
+    return not ((budget is not None and r.n_evals >= budget) or (gens is not None and r.generation >= gens))
+
+
 def measure(run: Any) -> dict[str, Any]:
     """What a study keeps of a finished run: the last stage's front, feasibility, the pick, time, evaluations."""
     results = run.results
     out: dict[str, Any] = {"n_eval": int(sum(r.n_evals for r in results)), "wall_time": float(run.wall_time),
                            "run_status": run.status,
-                           # Stages its config's stop_below ended before the budget (the RTCLM's, the paper's rule).
-                           "stopped_early": [r.name for r in results if r.status == "stopped"]}
+                           "stopped_early": [r.name for r in results if _stopped_early(r)]}
     if not results:
         return out
     last = results[-1]

@@ -86,11 +86,13 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
                          "objectives": r["metrics"].get("objectives", [])}
     feasible = {a: sum(bool((r["metrics"] or {}).get("pick_feasible")) for r, _ in per_alg[a]) for a in algorithms}
     early = {a: sum(bool((r["metrics"] or {}).get("stopped_early")) for r, _ in per_alg[a]) for a in algorithms}
+    recorded = {a: sum("stopped_early" in (r["metrics"] or {}) for r, _ in per_alg[a]) for a in algorithms}
     failed = [{"key": r["key"], "error": r["error"]} for r in rows if r["status"] != "done"]
     values = {a: {m: [v.get(m, math.nan) for _, v in per_alg[a]] for m in metrics} for a in algorithms}
     return {"case": case, "metrics": metrics, "table": table, "best_by": key, "best": best_rows, "fronts": fronts,
             "failed": failed, "values": values, "labels": labels, "reference": reference, "algorithms": algorithms,
             "left_out": left_out, "feasible_picks": feasible, "stopped_early": early,
+            "early_recorded": recorded, "stops_early": stops_early(rows),
             "runs": {a: len(per_alg[a]) for a in algorithms},
             "flat": flat_objectives(rows), "codes": [r.get("code") for r in rows if r["status"] == "done"],
             "settings": next((r.get("settings") for r in rows if r.get("settings")), None),
@@ -195,20 +197,35 @@ def overspent(c: dict[str, Any]) -> str:
             "alone costing more; the comparison is not at equal evaluations (raise the budget).")
 
 
+def stops_early(rows: list[dict[str, Any]]) -> bool:
+    """Whether the case's config gives a stage a ``stop_below`` (read from a cell's settings, which hold it)."""
+    for r in rows:
+        try:
+            stages = json.loads(r.get("settings") or "")["case"]["config"]["stages"]
+            return any(isinstance(st, dict) and st.get("stop_below") for st in stages)
+        except (ValueError, KeyError, TypeError):
+            continue
+    return False
+
+
 def stopped_early(c: dict[str, Any], n: dict[str, int]) -> str:
     """A line when runs ended a stage before the budget by its config's ``stop_below`` (the RTCLM cases: the paper
     stops once a member's objectives are all under [0.5, 0.5] mm), else "": the evaluations and time rows then
     measure the effort to reach that, not a run of the whole budget (QA, session 37: CMOES spent 2197 evaluations
     against IMTCMO's 3040, unsaid)."""
-    early = c.get("stopped_early") or {}
-    if not any(early.values()):
+    early, recorded = c.get("stopped_early") or {}, c.get("early_recorded") or {}
+    unknown = sum(n[a] - recorded.get(a, 0) for a in c["algorithms"]) if c.get("stops_early") else 0
+    if not any(early.values()) and not unknown:
         return ""
     labels = c["labels"]
+    counts = ", ".join(f"{labels.get(a, a)} {early.get(a, 0)} of {recorded.get(a, 0)}" for a in c["algorithms"]
+                       if recorded.get(a, 0))
+    not_kept = (f"; not recorded for {unknown} run(s) kept before session 37 (their stages' `status` in `runs/` reads "
+                "\"stopped\" if so)") if unknown else ""
     return ("Runs that stopped a stage early, once a feasible member met every objective's `stop_below` of the case's "
-            "config: " + ", ".join(f"{labels.get(a, a)} {early.get(a, 0)} of {n[a]}" for a in c["algorithms"]) +
-            ". Such a run did not spend the whole budget: its evaluations and time measure the effort to reach the "
-            "limits, and its front is the one it had then (drop `stop_below` from the config to compare at equal "
-            "budgets).")
+            f"config: {counts or 'none recorded'}{not_kept}. Such a run did not spend the whole budget: its "
+            "evaluations and time measure the effort to reach the limits, and its front is the one it had then (drop "
+            "`stop_below` from the config to compare at equal budgets).")
 
 
 def min_p(n: int, m: int) -> float:

@@ -1,8 +1,9 @@
 """A study's numbers: per-run front quality against the case's pooled fronts, medians, IQRs, rank-sum verdicts.
 
-Front quality is measured in the case's normalised objective space: the ideal and nadir of the union
-of every run's feasible non-dominated front map to 0 and 1, HV uses the reference point 1.1 in every
-objective (PlatEMO's convention, spec §1.7) and IGD+ the non-dominated members of that union.
+Front quality is measured in the case's normalised objective space: the ideal of the union of every run's
+feasible non-dominated front maps to 0 and the nadir of that union's non-dominated members to 1 (a run far behind
+the others lies beyond 1: HV 0, IGD+ above 1), HV uses the reference point 1.1 in every objective (PlatEMO's
+convention, spec §1.7) and IGD+ the non-dominated members of that union.
 """
 
 from __future__ import annotations
