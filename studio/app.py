@@ -656,12 +656,13 @@ class Studio:
     def drawing_file(self, kind: str, plates: Plates | None = None) -> tuple[str, bytes]:
         """A drawing of the design at the pose on screen; the animation pauses there first, so that the next drawing
         (the DXF after the SVG) is of the same pose (QA, session 37: 96 and 25 degrees, a click apart)."""
-        with self.session.lock:
+        with self.session.lock:  # the design and the pose of one moment (another page may change them next)
             pb = self.session.set_playing(False) if self.session.playback.playing else None
+            view, angle = self.session.view, self.session.playback.angle
         if pb is not None:
             self.playback.show(pb, self.held())
             self.autosave()
-        return drawing_export(self.session.view, self.session.playback.angle, kind, plates or Plates())
+        return drawing_export(view, angle, kind, plates or Plates())
 
     def drawing_notes(self, plates: Plates | None = None) -> list[str]:
         """The shown design's parts: holes that overlap or leave a thin web (said after a drawing is sent)."""

@@ -146,13 +146,22 @@ def leg_target(mechanism: str) -> TargetSpec:
     return preset_target(opening_preset(mechanism))
 
 
+def leg_step(mechanism: str, target: TargetSpec) -> tuple[float, float]:
+    """The step (length, height) mm a leg of ``mechanism`` walks against ``target``, which sizes its walking view:
+    the cycloid's L and H, an uploaded curve's span (the replaced cycloid's L and H stay hidden in the spec), or the
+    paper's for the RTCLM, whose stages aim at crossing heights (h6, h4), not at its fitted curve."""
+    if is_rtclm(mechanism):
+        return PAPER_STEP
+    if target.curve is not None:
+        w, h = np.ptp(np.asarray(target.curve.points, dtype=np.float64), axis=0)
+        return float(w), float(h)
+    return float(target.length), float(target.height)
+
+
 def walk_sizes(mechanism: str, target: TargetSpec) -> tuple[float, float, float]:
     """The obstacle (a, b) and trunk (mm) the walking view starts with for a leg of ``mechanism`` against
-    ``target``: sized with its step (``sizes_for``), but the paper's for the RTCLM, whose stages aim at crossing
-    heights (h6, h4), not at its fitted curve."""
-    if is_rtclm(mechanism):
-        return sizes_for(PAPER_STEP)
-    return sizes_for((float(target.length), float(target.height)))
+    ``target``: sized with its step (:func:`leg_step`, ``sizes_for``)."""
+    return sizes_for(leg_step(mechanism, target))
 
 
 def preset_target(name: str, period: float = 2.0) -> TargetSpec:

@@ -130,6 +130,8 @@ def test_a_good_curve_upload_is_confirmed_in_one_green_notification(studio):
     assert studio.session.view.target.is_curve and c.notes == [
         ("Target curve loaded", f"good.csv: {n} points, without times: compared with the design's path at the best "
          "phase. It is the target now; Undo takes it back.", "green")]
+    press(studio.target.upload, c, upload(CURVE, "good.csv"))  # the same file again: nothing to undo (review)
+    assert c.notes[-1][1].endswith("It was the target already.")
     studio.session.undo()
     assert not studio.session.view.target.is_curve  # as said
     studio.refresh()
@@ -271,9 +273,11 @@ def test_an_obstacle_far_beyond_the_leg_s_step_is_applied_with_a_word_on_its_siz
     c = Client()
     before = studio.session.view.walk
     try:
-        for key, text, said in (("b", "5000", "obstacle b = 5000 mm is 50 times this leg's step height (100 mm)"),
+        for key, text, said in (("b", "5000", "obstacle b = 5000 mm is 50 times the target's step height (100 mm): "
+                                 "no foot steps over it"),
                                 ("a", "2000", None),  # under ten times the 300 mm step: a test, not a mistake
-                                ("a", "4000", "obstacle a = 4000 mm is 13 times this leg's step length (300 mm)"),
+                                ("a", "4000", "obstacle a = 4000 mm is 13 times the target's step length (300 mm): "
+                                 "it spans many strides"),
                                 ("b", "40", None)):
             field = studio.walking.a if key == "a" else studio.walking.b
             n = len(c.notes)
@@ -289,6 +293,20 @@ def test_an_obstacle_far_beyond_the_leg_s_step_is_applied_with_a_word_on_its_siz
     finally:
         studio.session.set_walk(a=before.a, b=before.b)
         studio.refresh()
+
+
+def test_the_obstacle_s_size_note_measures_an_uploaded_curve_not_the_cycloid_it_replaced():
+    # Review of session 37: with a 30 x 10 mm curve uploaded, the note compared b with the hidden cycloid's 100 mm.
+    from studio.panels.walking import obstacle_note
+    from studio.target import Curve
+
+    s = Session.default()
+    small = b"x,y\n" + b"\n".join(b"%r,%r" % (float(15.0 * np.cos(t)), float(5.0 * np.sin(t)))
+                                   for t in np.linspace(0, 2 * np.pi, 40, endpoint=False)) + b"\n"
+    s.set_curve(Curve.from_csv(small, "small.csv"))
+    said = obstacle_note("b", 500.0, s.view)
+    assert said is not None and said.startswith("obstacle b = 500 mm is 50 times the target's step height (10 mm)")
+    assert obstacle_note("b", 90.0, s.view) is None
 
 
 def test_choosing_the_quadruped_redraws_the_walking_view_with_four_feet(studio):
@@ -1005,8 +1023,9 @@ def test_a_three_objective_front_with_flat_objectives_opens_on_a_projection_once
     assert panel.view.value == THREE_D and panel.axes() is None
 
 
-HOW_TO_PICK = ("Hover names a member; to pick one, click its sphere in the scene's Candidates view or use Pick "
-               "below.")  # viser sends no plotly clicks (QA, session 37: a click on a point did nothing, unsaid)
+# viser sends no plotly clicks (QA, session 37: a click on a point did nothing, unsaid)
+HOW_TO_PICK = ("Hover names a member; to pick a candidate, click its sphere in the scene's Candidates view; any "
+               "member: Pick below.")
 
 
 def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(studio):
@@ -1053,6 +1072,16 @@ def test_a_design_file_loads_into_the_editor_with_undo_and_a_bad_one_is_named(st
     press(studio.files.load, c, upload(json.dumps(degrees).encode(), "deg.json"))
     assert c.notes[-1][0] == "Design loaded: check its units" and "probably degrees" in c.notes[-1][1]
     assert studio.session.undo().design == before
+    # One in degrees that no longer assembles says both, its units first (review of session 37: the assembly note
+    # alone hid the likelier cause).
+    rt = design_to_dict(preset("rtclm/case1").design())
+    rt_kinds = {p.name: p.kind for p in preset("rtclm/case1").design().mechanism.params}
+    rt_deg = dict(rt, params={k: float(np.degrees(v)) if rt_kinds[k] == "angle" else v
+                              for k, v in rt["params"].items()})
+    press(studio.files.load, c, upload(json.dumps(rt_deg).encode(), "rt-deg.json"))
+    assert c.notes[-1][0] == "Design loaded: check its units" and c.notes[-1][2] == "yellow"
+    assert c.notes[-1][1].index("probably degrees") < c.notes[-1][1].index("does not assemble over")
+    studio.session.undo()
     # A design of a mechanism without the paper's target gets one fitted to its path, as its preset does (review of
     # session 28: a Jansen leg kept the Stephenson cycloid and read MSE 206 mm against its preset's 2.3).
     press(studio.files.load, c, upload(json.dumps(design_to_dict(preset("jansen").design())).encode(), "j.json"))

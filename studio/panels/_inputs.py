@@ -131,7 +131,7 @@ class NumberField:
         current: Callable[[], float],
         what: str,
         delay: float = REJECT_DELAY,
-        note: Callable[[float], str | None] | None = None,
+        size_note: Callable[[float], str | None] | None = None,
     ) -> None:
         """
         Args:
@@ -140,8 +140,8 @@ class NumberField:
             apply: commits a parsed value; raises ValueError with the reason if the model refuses it.
             current: the last valid value (what the field returns to).
             what: how the notification names the field (``r4 [mm]``).
-            note: a word on an applied value that is valid but odd (a 5 m obstacle for a 300 mm leg), said in a
-                yellow notification, or None.
+            size_note: a word on an applied value that is valid but of an odd size (a 5 m obstacle for a 300 mm
+                leg), said in a yellow "check its size" notification, or None.
         """
         self.studio = studio
         self.handle = handle
@@ -149,7 +149,7 @@ class NumberField:
         self.apply = apply
         self.current = current
         self.what = what
-        self.note = note
+        self.size_note = size_note
         self.delay = delay
         self._state = threading.Lock()  # the fields below
         self._edits = threading.Lock()  # one edit at a time, on the newest text
@@ -245,7 +245,7 @@ class NumberField:
                 self._schedule(text, str(exc), client)
                 return
         self.studio.refresh()
-        said = None if self.note is None else self.note(value)
+        said = None if self.size_note is None else self.size_note(value)
         if said:
             self.studio.notify(client, f"{self.what}: check its size", said, color="yellow")
 
@@ -293,7 +293,7 @@ class NumberFields:
         what: str | None = None,
         hint: str | None = None,
         disabled: bool = False,
-        note: Callable[[float], str | None] | None = None,
+        size_note: Callable[[float], str | None] | None = None,
     ) -> NumberField:
         """A text input labelled ``label`` in the current GUI container, showing ``value``.
 
@@ -301,13 +301,13 @@ class NumberFields:
             key: unique name of the field in this panel.
             what: how notifications name it (default: the label).
             hint: shown on hover; what the field takes is added to it.
-            note: see :class:`NumberField`.
+            size_note: see :class:`NumberField`.
         """
         takes = f"takes {form.describe()}"
         h = self.studio.server.gui.add_text(label, format_number(value, form.whole), disabled=disabled,
                                             hint=f"{hint} ({takes})" if hint else takes)
         field = NumberField(self.studio, h, form=form, apply=apply, current=current, what=what or label,
-                            delay=self.delay, note=note)
+                            delay=self.delay, size_note=size_note)
         self.fields[key] = field
         return field
 

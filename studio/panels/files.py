@@ -167,15 +167,17 @@ class FilesPanel:
             self.studio.notify(client, "Design not loaded", f"{name}: {exc}. The editor's design is kept.")
             return True
         self.studio.refresh()
-        reason = assembly_reason(self.studio.session.view)
-        if reason is not None:  # QA (session 37): a design that assembles nowhere loaded green, its views broken
-            self.studio.notify(client, "Design loaded: it does not assemble", f"{name}: {reason}; it is drawn where "
-                               "it does. It is the editor's design now; Undo takes it back", color="yellow")
-            return True
-        note = unit_note(design, self.studio.session.view.solution.point[0])
-        if note:  # lab rehearsal: a design in m or degrees loaded green, a 0.3 mm leg on screen
-            self.studio.notify(client, "Design loaded: check its units", f"{name}: {note}. It is the editor's design "
-                               "now; Undo takes it back", color="yellow")
+        # Yellow with what is wrong: its units (lab rehearsal: a design in m or degrees loaded green, a 0.3 mm leg on
+        # screen), then its assembly (QA, session 37: one that assembles nowhere loaded green, its views broken);
+        # a file in degrees that no longer assembles says both, the units first (the likelier cause).
+        view = self.studio.session.view
+        units, reason = unit_note(design, view.solution.point[0]), assembly_reason(view)
+        if units or reason:
+            title = ("check its units" if units else "it does not assemble" if "does not assemble" in (reason or "")
+                     else "check it")
+            said = "; ".join(t for t in (units, reason) if t)
+            self.studio.notify(client, f"Design loaded: {title}", f"{name}: {said}. It is the editor's design now; "
+                               "Undo takes it back", color="yellow")
             return True
         self.studio.notify(client, "Design loaded", f"{name} is the editor's design now "
                            f"({design.mechanism.title}); Undo takes it back", color="green")

@@ -240,8 +240,9 @@ class ParetoPanel:
         if r is not None and (note := population_note(r)):
             what += f"; {note}"
         # viser sends no plotly clicks: a presenter clicked a point and nothing happened (QA, session 37).
-        self.caption.content = (f"**{sv.viewing}** ({what}). Hover names a member; to pick one, click its sphere in "
-                                f"the scene's Candidates view or use Pick below. Camera icon: save as PNG.")
+        self.caption.content = (f"**{sv.viewing}** ({what}). Hover names a member; to pick a candidate, click its "
+                                f"sphere in the scene's Candidates view; any member: Pick below. Camera icon: save "
+                                f"as PNG.")
 
     def charts(self) -> tuple[LazyPlotly, ...]:
         return self.plot, self.trace

@@ -121,6 +121,7 @@ class TargetPanel:
         name = f.name or "upload.csv"
         leg = self.frame.value == FRAMES[1]
         output = self.studio.session.view.design.output
+        before = self.studio.session.view.target
         try:
             curve = Curve.from_csv(f.content, name, leg=output if leg else None)
             self.studio.session.set_curve(curve)
@@ -150,9 +151,10 @@ class TargetPanel:
         elif not said:  # QA (session 37): a good file got viser's "File uploaded successfully." alone
             timing = ("with times" if curve.times is not None else
                       "without times: compared with the design's path at the best phase")
-            self.studio.notify(event.client, "Target curve loaded",
-                               f"{name}: {len(curve.points)} points, {timing}. It is the target now; Undo takes it "
-                               "back.", color="green")
+            now = ("It was the target already." if self.studio.session.view.target == before else
+                   "It is the target now; Undo takes it back.")  # the same file again changes nothing (review)
+            self.studio.notify(event.client, "Target curve loaded", f"{name}: {len(curve.points)} points, {timing}. "
+                               + now, color="green")
         self.studio.refresh(fit_camera=True)
 
     def _on_cycloid(self, event: viser.GuiEvent[Any]) -> None:

@@ -9,11 +9,9 @@ from typing import TYPE_CHECKING, Any
 import viser
 
 from core.kinematics.checks import MAX_ABS
-from core.optimize.rtclm import is_rtclm
 from studio.frames import walk_text
 from studio.panels._inputs import NumberFields, NumberForm, set_value
-from studio.state import DesignView
-from studio.walking import PAPER_STEP
+from studio.state import DesignView, leg_step
 
 if TYPE_CHECKING:
     from studio.context import StudioContext as Studio
@@ -26,17 +24,17 @@ OUT_OF_SCALE = 10.0  # an obstacle this many times the leg's step (length or hei
 
 
 def obstacle_note(key: str, value: float, view: DesignView) -> str | None:
-    """A word on an obstacle side ``key`` (``a`` or ``b``, mm) far beyond the leg's step (the walking view's own size
-    for its target: :func:`studio.state.walk_sizes` scales the paper's 25 x 25 mm by it), or None. QA (session 37): b =
-    5000 mm for a 300 x 100 mm step went in silently, and the views shrank to specks around it."""
-    t = view.target
-    step = PAPER_STEP if is_rtclm(view.design.mechanism.name) else (float(t.length), float(t.height))
-    side, scale, name = (0, "length", "a") if key == "a" else (1, "height", "b")
+    """A word on an obstacle side ``key`` (``a`` or ``b``, mm) more than ``OUT_OF_SCALE`` times the target's step
+    (:func:`studio.state.leg_step`, which sizes the walking view), or None. QA (session 37): b = 5000 mm for a
+    300 x 100 mm step went in silently, and the views shrank to specks around it."""
+    step = leg_step(view.design.mechanism.name, view.target)
+    side, scale = (0, "length") if key == "a" else (1, "height")
     ref = step[side]
     if not (ref > 0.0 and value > OUT_OF_SCALE * ref):
         return None
-    return (f"obstacle {name} = {value:g} mm is {value / ref:.0f} times this leg's step {scale} ({ref:g} mm): no foot "
-            "steps over it, and the views shrink around it. Values are in mm.")
+    what = "no foot steps over it" if key == "b" else "it spans many strides"
+    return (f"obstacle {key} = {value:g} mm is {value / ref:.0f} times the target's step {scale} ({ref:g} mm): {what}, "
+            "and the views shrink around it. Values are in mm.")
 
 
 class WalkingPanel:
@@ -53,10 +51,10 @@ class WalkingPanel:
                                           hint="legs drawn in the walking view")
             self.a = self._numbers.add("a", "Obstacle a [mm]", float(walk.a), form=SIDE,
                                        apply=self._setter("a"), current=self._getter("a"), what="obstacle a",
-                                       hint="obstacle length", note=self._size_note("a"))
+                                       hint="obstacle length", size_note=self._size_note("a"))
             self.b = self._numbers.add("b", "Obstacle b [mm]", float(walk.b), form=SIDE,
                                        apply=self._setter("b"), current=self._getter("b"), what="obstacle b",
-                                       hint="obstacle height", note=self._size_note("b"))
+                                       hint="obstacle height", size_note=self._size_note("b"))
             self.place = gui.add_slider("Obstacle place [%]", 0.0, 100.0, 1.0, 100.0 * float(walk.place),
                                         hint="where the obstacle stands within one stride")
             self.status = gui.add_markdown("")
