@@ -267,6 +267,7 @@ def test_presets_show_writes_a_file_only_for_a_name_it_knows_and_keeps_an_existi
     (["presets", "show", "a", "b"], "unrecognized arguments: b (see 'clm presets show --help')"),
     (["presets", "list", "--x"], "unrecognized arguments: --x (see 'clm presets list --help')"),
     (["simulate", "--preset", S1, "y"], "unrecognized arguments: y (see 'clm simulate --help')"),
+    (["--bogus", "presets", "list"], "unrecognized arguments: --bogus (see 'clm --help')"),  # clm's own option
 ])
 def test_refusals_read_plainly(tmp_path, capsys, argv, said):
     names = files(tmp_path)

@@ -144,9 +144,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``clm`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     keep_freed_memory()
     try:
-        args, extra = build_parser().parse_known_args(named_show(list(sys.argv[1:] if argv is None else argv)))
-        if extra:
-            raise CLIError(f"unrecognized arguments: {' '.join(extra)} (see '{args.help_prog} --help')")
+        words = named_show(list(sys.argv[1:] if argv is None else argv))
+        args, extra = build_parser().parse_known_args(words)
+        if extra:  # given before the subcommand: clm's own (review of session 37)
+            before = words.index(extra[0]) < words.index(args.command) if args.command in words else False
+            raise CLIError(f"unrecognized arguments: {' '.join(extra)} (see '{'clm' if before else args.help_prog} "
+                           "--help')")
         return int(args.func(args))
     except (CLIError, ValueError) as e:
         print(f"clm: error: {e}", file=sys.stderr)
