@@ -44,7 +44,7 @@ from studio.panels.target import TargetPanel
 from studio.panels.walking import WalkingPanel
 from studio.runner import LIVE_PERIOD, Runner
 from studio.scene import MechanismScene
-from studio.session_file import read_session_bytes, save_session
+from studio.session_file import read_session_bytes, rescue_session, save_session
 from studio.state import DesignView, Session, same_leg
 from studio.study import result_labels
 from studio.study_view import StudyView, constraint_text, study_view
@@ -56,6 +56,7 @@ STUDY_PUSH_PERIOD = 0.15
 # always): a restart loses at most the last seconds of a run. Written after every generation (30-45 ms for a
 # session with a few dozen branches, against a few ms a generation) a run took about 15 times as long.
 SAVE_PERIOD = 2.0
+SAVE_REMIND = 60.0  # s: a failing autosave is said again after this long while it keeps failing
 # A Run click this soon after a run of the same stage and settings started is the second click of a double
 # click (even if that run already finished): it starts nothing.
 DOUBLE_CLICK = 1.0
@@ -85,6 +86,12 @@ def later(delay: float, fn: Any, *args: Any) -> None:
     t = threading.Timer(delay, fn, args)
     t.daemon = True
     t.start()
+
+
+def unsaved_text(reason: str) -> str:
+    """What a page is told while its session cannot be saved."""
+    return (f"{reason}. The work goes on in memory and is written at the next change once saving works again; if the "
+            "file still cannot take it when the studio stops, it goes to the user's cache.")
 
 
 class StudioServer(viser.ViserServer):
@@ -139,7 +146,8 @@ class Studio:
         self._last_request: object = None  # (stage, settings, from the pick) of the last run started
         self._loading: dict[int, float] = {}  # pages that have not drawn yet: client id -> connected at
         self._framed: dict[int, tuple[float, np.ndarray]] = {}  # client id -> the aspect and position it was framed at
-        self._save_error: str | None = None  # the last autosave's failure, said once
+        self._save_error: str | None = None  # the last autosave's failure, said to every page
+        self._save_said = 0.0  # when it was last said
         self._requested: collections.deque[float] = collections.deque()  # pages asked for, not yet connected
         self._request_lock = threading.Lock()  # the gate's thread adds, viser's and the animator's take
         self.server = StudioServer(host=host, port=port, label="CLM Studio", verbose=False)
@@ -348,6 +356,9 @@ class Studio:
         """
         fitted = threading.Event()
         self._loading[client.client_id] = time.monotonic()
+        failing = self._save_error
+        if failing is not None:  # saves are failing: a page opened since is told too (QA, session 37)
+            self.notify(client, "Session not saved", unsaved_text(failing), color="yellow")
         with self._request_lock:
             if self._requested:  # the oldest page requested has connected (its own hold follows)
                 self._requested.popleft()
@@ -742,15 +753,40 @@ class Studio:
         with self._save_lock:
             try:
                 save_session(self.session, self.session_path)
-            except (ValueError, OSError) as exc:  # too large, disk full: said once to every page, the work goes on
+            except (ValueError, OSError) as exc:  # too large, disk full: said to every page, the work goes on
                 message = str(exc) if isinstance(exc, ValueError) else f"cannot write {self.session_path} ({exc})"
-                if message != self._save_error:
-                    self._save_error = message
+                now = time.monotonic()
+                # Said again when it changes and at most once a minute while it lasts (a whole run went unsaved
+                # without a new word; QA, session 37); a page opened meanwhile is told as it connects.
+                if message != self._save_error or now - self._save_said > SAVE_REMIND:
+                    self._save_error, self._save_said = message, now
                     print(f"clm-studio: session not saved: {message}", file=sys.stderr)
                     for client in self.server.get_clients().values():
-                        self.notify(client, "Session not saved", message, color="yellow")
+                        self.notify(client, "Session not saved", unsaved_text(message), color="yellow")
                 return
-            self._save_error = None
+            if self._save_error is not None:  # saving works again: said, or the warning stood for ever
+                self._save_error = None
+                print(f"clm-studio: session saved again to {self.session_path}", file=sys.stderr)
+                for client in self.server.get_clients().values():
+                    self.notify(client, "Session saved again", f"{self.session_path} holds the session again.",
+                                color="green")
+
+    def final_save(self) -> str | None:
+        """The last save as the studio stops: None when the session file holds the session; else what happened to
+        the work since the last save (kept in the user's cache if the file cannot take it). QA, session 37: after a
+        disk filled up, Ctrl-C printed "CLM Studio stopped." and the edits and a run since were gone."""
+        if self.session_path is None:
+            return None
+        self.autosave()
+        if self._save_error is None:
+            return None
+        try:
+            kept = rescue_session(self.session, self.session_path)
+        except OSError as exc:
+            return (f"the session could not be saved ({self._save_error}), nor kept in the cache ({exc}): the changes "
+                    f"since {self.session_path}'s last save are lost")
+        return (f"the session could not be saved ({self._save_error}); its latest state is in {kept} (load it with "
+                f"clm-studio --session {kept}, or Load session in the page)")
 
     def close(self) -> None:
         """Stop a run, the animation, pending input checks and the server."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import signal
 import sys
 import threading
 import time
@@ -72,6 +73,15 @@ def main(argv: list[str] | None = None) -> int:
     studio: Studio | None = None
     gate: Gate | None = None
     lock: SessionLock | None = None
+    said: str | None = None
+    if args.session is not None and args.session.is_symlink():
+        # Saved through the link to its file: each save replaced the link itself with a file, the real one was
+        # never written again, and the lock (on the resolved path) no longer kept a second studio off it (QA, s. 37).
+        args.session = args.session.resolve()
+    # SIGTERM (kill, systemd, docker stop) stops the studio as Ctrl-C does: the run stopped between generations and
+    # kept with its pick, the session saved; it ended the process at once, losing the run's last seconds (QA, s. 37).
+    previous = signal.signal(signal.SIGTERM, _interrupt) if threading.current_thread() is threading.main_thread() \
+        else None
     try:  # Ctrl-C from here on stops the studio cleanly, whenever it comes (even while the address is printed)
         try:
             token = None if args.token is None else check_token(args.token) if args.token else new_token()
@@ -117,10 +127,21 @@ def main(argv: list[str] | None = None) -> int:
             gate.close()
         if studio is not None:
             studio.close()
+            said = studio.final_save()  # a session that could not be saved goes to the cache, and says where
         if lock is not None:
             lock.release()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+    if said is not None:
+        print(f"clm-studio: {said}", file=sys.stderr, flush=True)
+        print("CLM Studio stopped.", flush=True)
+        return 1
     print("CLM Studio stopped.", flush=True)
     return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

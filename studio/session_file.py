@@ -5,6 +5,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
+import time
 from pathlib import Path
 from typing import IO
 
@@ -21,9 +23,31 @@ def save_session(session: Session, path: Path) -> None:
         raise ValueError(f"the session has grown to {len(data) / 2**20:.0f} MB, past the "
                          f"{MAX_SESSION_BYTES // 2**20} MB a session file may hold, so {path} keeps its last save; "
                          "delete branches in the History panel to save again")
+    mode = None
+    if path.exists():  # its owner's choices stay: a 600 file became 644, a read-only one a writable one (QA, s. 37)
+        mode = stat.S_IMODE(path.stat().st_mode)
+        if not mode & stat.S_IWUSR:
+            raise ValueError(f"{path} is read-only (mode {mode:o}): the studio does not write over it; make it "
+                             "writable, or give another --session")
     tmp = path.with_name(path.name + ".tmp")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    try:
+        tmp.write_bytes(data)
+        if mode is not None:
+            os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)  # a full disk left a partial s.json.tmp beside the session (QA, session 37)
+        raise
+
+
+def rescue_session(session: Session, path: Path) -> Path:
+    """Write a session that could not be saved to ``path`` into the user's cache instead (``unsaved/``, named after
+    ``path`` and the time); the file written. OSError if that fails too."""
+    folder = LOCK_DIR.parent / "unsaved"
+    folder.mkdir(parents=True, exist_ok=True)
+    out = folder / f"{path.stem}-{time.strftime('%Y%m%d-%H%M%S')}.json"
+    out.write_bytes((json.dumps(session.to_dict(), separators=(",", ":")) + "\n").encode("utf-8"))
+    return out
 
 
 def read_session_bytes(content: bytes) -> Session:

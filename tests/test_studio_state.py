@@ -547,6 +547,76 @@ def test_a_session_past_what_a_file_may_hold_keeps_its_last_save_and_the_studio_
         studio.close()
 
 
+def test_a_session_file_keeps_its_mode_a_read_only_one_is_refused_and_a_failed_write_leaves_no_tmp(tmp_path,
+                                                                                                       monkeypatch):
+    # QA (session 37): a 600 file became 644, a 444 one was replaced by a writable one, and a full disk left a
+    # partial s.json.tmp beside the session.
+    import errno
+    import os
+    import stat
+
+    from studio.session_file import load_session, save_session
+
+    path = tmp_path / "s.json"
+    save_session(Session.default(), path)
+    path.chmod(0o600)
+    save_session(Session.default("fourbar/chebyshev"), path)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o600 and load_session(path).view.preset == "fourbar/chebyshev"
+    path.chmod(0o444)
+    with pytest.raises(ValueError, match=r"s.json is read-only \(mode 444\): the studio does not write over it"):
+        save_session(Session.default(), path)
+    assert load_session(path).view.preset == "fourbar/chebyshev"
+    path.chmod(0o644)
+
+    def full(*args: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", full)
+    with pytest.raises(OSError, match="No space left"):
+        save_session(Session.default(), path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json"]  # no s.json.tmp left
+
+
+def test_work_the_file_cannot_take_is_kept_in_the_cache_when_the_studio_stops_and_pages_are_told(tmp_path,
+                                                                                                  monkeypatch):
+    # QA (session 37): after the disk filled, edits and a run were made, Ctrl-C printed "CLM Studio stopped." and
+    # they were gone; a page opened meanwhile, or a later failure, heard nothing; nothing said when saving worked again.
+    import studio.app as app
+    import studio.session_file as session_file
+    from studio.session_file import load_session
+
+    monkeypatch.setattr(session_file, "LOCK_DIR", tmp_path / "cache" / "sessions")
+    path = tmp_path / "s.json"
+    studio = app.Studio(Session.default(), host="127.0.0.1", port=0, session_path=path)
+    said: list[tuple[str, str]] = []
+    monkeypatch.setattr(studio, "notify", lambda client, title, text, color="red": said.append((title, color)))
+    monkeypatch.setattr(studio.server, "get_clients", lambda: {1: object()})
+    try:
+        real = app.save_session
+
+        def full(session: Session, where: object) -> None:
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(app, "save_session", full)
+        studio.session.set_param("r4", 129.0)
+        studio.autosave()
+        studio.autosave()  # the same failure a moment later: not said again at once
+        assert said == [("Session not saved", "yellow")]
+        monkeypatch.setattr(app, "SAVE_REMIND", 0.0)
+        studio.autosave()  # while it lasts, said again (a run that ended unsaved said nothing)
+        assert said[-1] == ("Session not saved", "yellow") and len(said) == 2
+        message = studio.final_save()
+        assert message is not None and "its latest state is in" in message
+        kept = next((tmp_path / "cache" / "unsaved").glob("s-*.json"))
+        assert str(kept) in message and load_session(kept).view.values["r4"] == 129.0
+        monkeypatch.setattr(app, "save_session", real)
+        studio.autosave()
+        assert said[-1] == ("Session saved again", "green") and load_session(path).view.values["r4"] == 129.0
+        assert studio.final_save() is None
+    finally:
+        studio.close()
+
+
 @pytest.mark.parametrize(("name", "value", "note"), [
     ("r2", 250.0, "; non-Grashof: s + l = 310 > p + q = 270 mm, so no link turns fully"),  # 60+250 > 120+150
     ("r3", 30.0, "; Grashof, but the shortest link is the rocker DC (30 mm), so AB only rocks"),

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import base64
 import http.client
+import json
 import os
 import re
 import signal
@@ -280,3 +281,28 @@ def test_a_second_studio_on_the_same_session_file_is_refused_and_says_where_the_
             proc.kill()
             proc.wait()
     SessionLock(session).release()  # free again once the first has stopped
+
+
+def test_sigterm_stops_the_studio_as_ctrl_c_does_and_a_linked_session_is_saved_through_its_link(tmp_path):
+    # QA (session 37): SIGTERM (kill, systemd, docker stop) ended the process at once, the run's last seconds lost;
+    # a symlinked --session was replaced by a file on the first save, and a second studio then started on it.
+    target = tmp_path / "real.json"
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    proc = subprocess.Popen([sys.executable, "-m", "studio", "--port", "0", "--session", str(link)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        assert proc.stdout is not None
+        assert "CLM Studio:" in proc.stdout.readline()
+        assert link.is_symlink() and target.is_file()  # the first save went through the link
+        second = subprocess.run([sys.executable, "-m", "studio", "--port", "0", "--session", str(target)], cwd=ROOT,
+                                capture_output=True, text=True, timeout=60)
+        assert second.returncode == 2 and "is open in another clm-studio" in second.stderr
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0 and out.strip().endswith("CLM Studio stopped."), out
+    assert link.is_symlink() and json.loads(target.read_text())["format"] == "clm-studio-session"
