@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -36,7 +37,8 @@ def save_session(session: Session, path: Path) -> None:
             os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException:
-        tmp.unlink(missing_ok=True)  # a full disk left a partial s.json.tmp beside the session (QA, session 37)
+        with contextlib.suppress(OSError):  # (a folder in its place: the write's own error is the one to say)
+            tmp.unlink(missing_ok=True)  # a full disk left a partial s.json.tmp beside the session (QA, session 37)
         raise
 
 
