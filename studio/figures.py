@@ -295,8 +295,11 @@ def make_pareto_figure(
     if n_obj == 1 and ranges is not None:  # the violation axis: from 0 (feasible) up to the largest drawn
         v = coords[drawable, 1]
         v = v[np.isfinite(v)]
-        top = float(v.max()) * 1.06 if len(v) and v.max() > 1e-9 else 1.0
-        ranges = (ranges[0], [-0.06 * top, top])
+        if len(v) and v.max() > 1e-9:
+            top = float(v.max()) * 1.06
+            ranges = (ranges[0], [-0.06 * top, top])
+        else:  # every member feasible: their line through the middle under its one tick, 0 (it ran along the bottom
+            ranges = (ranges[0], [-1.0, 1.0])  # edge of an empty chart; QA, session 37); no negative tick shows
     placed: dict[int, str | None] = {}  # member -> its label's position on a 2-D chart (None: hover only)
     # Every point's hover names the candidates it is (the front's point under a knee's diamond took the hover,
     # which read "member #14" where the docs promise "K2"), and its objectives with their units.
