@@ -236,6 +236,9 @@ def joined_names(names: list[str]) -> str:
     return "=".join(names)
 
 
+LABEL_GAP = 0.3  # of a label's height: the least room between two candidates' labels side by side
+
+
 def marker_texts(markers: tuple[tuple[str, tuple[float, float]], ...], h: float,
                  r: float) -> tuple[SceneText | None, ...]:
     """Labels of the candidate spheres (tag, centre in mm; radius ``r`` mm), ``h`` mm high, in the markers' order
@@ -253,8 +256,9 @@ def marker_texts(markers: tuple[tuple[str, tuple[float, float]], ...], h: float,
         free = first_clear([t.box for t in tries], others)
         got = None if free is None else tries[free]
         out.append(got)
-        if got is not None:
-            placed.append(got.box)
+        if got is not None:  # kept a narrow letter's width from the next label: "K4K6" read as one (QA, session 37)
+            x0, y0, x1, y1 = got.box
+            placed.append((x0 - LABEL_GAP * h, y0, x1 + LABEL_GAP * h, y1))
     return tuple(out)
 
 

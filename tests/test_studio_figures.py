@@ -389,6 +389,21 @@ def test_candidate_labels_never_cover_each_other_or_another_sphere():
         assert not any(_overlaps(t.box, d) for j, d in enumerate(discs) if j != i)
 
 
+def test_candidate_labels_side_by_side_keep_a_gap():
+    # QA (session 37): K4's and K6's labels above their spheres touched and read "K4K6".
+    from studio.frames import LABEL_GAP, marker_texts
+
+    r, h = 1.0, 4.0
+    one = marker_texts((("K4", (0.0, 0.0)),), h, r)[0]
+    assert one is not None
+    w = one.box[2] - one.box[0]
+    for dx in (w + 0.1 * h, w + 0.5 * LABEL_GAP * h):  # labels above would stand closer than the gap
+        k4, k6 = marker_texts((("K4", (0.0, 0.0)), ("K6", (dx, 0.0))), h, r)
+        assert k4 is not None and k6 is not None and k4.box[1] > 0 and k6.box[1] < 0  # K6's goes below
+    k4, k6 = marker_texts((("K4", (0.0, 0.0)), ("K6", (w + 1.1 * LABEL_GAP * h, 0.0))), h, r)
+    assert k4 is not None and k6 is not None and k4.box[1] == k6.box[1] > 0  # room enough: both above
+
+
 def test_a_long_chart_title_is_broken_at_its_separators_for_the_side_panel():
     from studio.figures import make_pareto_figure, with_title_wrapped, wrapped
 
