@@ -337,4 +337,3 @@ def parse_target(spec: str | None) -> Target:
         kw = cycloid_params(spec or "cycloid")
         return cycloid_target(kw["L"], kw["H"], kw["T"])
     return load_curve(spec)
-

@@ -131,7 +131,8 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
     pop_ = res.pop
     F = np.asarray(pop_.get("F"), dtype=np.float64)
     cv = np.asarray(pop_.get("CV"), dtype=np.float64).reshape(-1)
-    front = feasible_front(F, cv)
+    on_front = feasible_front_mask(F, cv)
+    front = F[on_front]
     pf = reference_front(problem)
     out = {"problem": problem.lower(), "algorithm": algorithm, "pop": pop, "seed": seed,
            "igd": igd(front, pf), "hv": hv_platemo(front, pf), "n_eval": int(res.algorithm.evaluator.n_eval),
@@ -139,6 +140,5 @@ def run(problem: str, algorithm: str, pop: int, evals: int, seed: int, options: 
            "front_size": int(len(np.unique(front, axis=0))) if len(front) else 0, "wall_time": wall,
            "reference_points": 0 if pf is None else int(len(pf))}
     if population:
-        out["population"] = {"X": np.asarray(pop_.get("X"), dtype=np.float64), "F": F, "cv": cv,
-                             "front": feasible_front_mask(F, cv)}
+        out["population"] = {"X": np.asarray(pop_.get("X"), dtype=np.float64), "F": F, "cv": cv, "front": on_front}
     return out

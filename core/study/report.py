@@ -92,7 +92,7 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
     return {"case": case, "metrics": metrics, "table": table, "best_by": key, "best": best_rows, "fronts": fronts,
             "failed": failed, "values": values, "labels": labels, "reference": reference, "algorithms": algorithms,
             "left_out": left_out, "feasible_picks": feasible, "stopped_early": early,
-            "early_recorded": recorded, "stops_early": stops_early(rows),
+            "early_recorded": recorded,
             "runs": {a: len(per_alg[a]) for a in algorithms},
             "flat": flat_objectives(rows), "codes": [r.get("code") for r in rows if r["status"] == "done"],
             "settings": next((r.get("settings") for r in rows if r.get("settings")), None),
@@ -197,15 +197,14 @@ def overspent(c: dict[str, Any]) -> str:
             "alone costing more; the comparison is not at equal evaluations (raise the budget).")
 
 
-def stops_early(rows: list[dict[str, Any]]) -> bool:
-    """Whether the case's config gives a stage a ``stop_below`` (read from a cell's settings, which hold it)."""
-    for r in rows:
-        try:
-            stages = json.loads(r.get("settings") or "")["case"]["config"]["stages"]
-            return any(isinstance(st, dict) and st.get("stop_below") for st in stages)
-        except (ValueError, KeyError, TypeError):
-            continue
-    return False
+def stops_early(settings: str | None) -> bool:
+    """Whether the case's config gives a stage a ``stop_below``, from one of its cells' settings (as
+    :func:`budget_of` reads the budget)."""
+    try:
+        stages = json.loads(settings or "")["case"]["config"]["stages"]
+        return any(isinstance(st, dict) and st.get("stop_below") for st in stages)
+    except (ValueError, KeyError, TypeError, AttributeError):
+        return False
 
 
 def stopped_early(c: dict[str, Any], n: dict[str, int]) -> str:
@@ -214,7 +213,7 @@ def stopped_early(c: dict[str, Any], n: dict[str, int]) -> str:
     measure the effort to reach that, not a run of the whole budget (QA, session 37: CMOES spent 2197 evaluations
     against IMTCMO's 3040, unsaid)."""
     early, recorded = c.get("stopped_early") or {}, c.get("early_recorded") or {}
-    unknown = sum(n[a] - recorded.get(a, 0) for a in c["algorithms"]) if c.get("stops_early") else 0
+    unknown = sum(n[a] - recorded.get(a, 0) for a in c["algorithms"]) if stops_early(c.get("settings")) else 0
     if not any(early.values()) and not unknown:
         return ""
     labels = c["labels"]
