@@ -102,3 +102,32 @@ def test_reaches_a_feasible_archive_at_20000_evaluations(name):
 
 def test_a_repair_and_a_generation_budget():
     check_repair_and_generations(lambda **kw: MCCMO(pop_size=20, **kw), "mw3", 5)
+
+
+def test_a_generation_cuts_each_set_of_members_once(monkeypatch):
+    # On an unconstrained problem the archive A and P0 select from the same members: one truncation, shared.
+    from core.optimize.evolve import spea2
+
+    made, asked = [], set()
+    cut, truncate = spea2._cut, spea2.truncate
+
+    def spy_cut(F, keep):
+        made.append(len(F))
+        return cut(F, keep)
+
+    def spy_truncate(F, keep, cuts=None):
+        if keep < len(F):
+            asked.add((keep, np.asarray(F)[np.lexsort(np.asarray(F).T)].tobytes()))
+        return truncate(F, keep, cuts)
+
+    p = problem_by_name("dtlz2")
+    alg = make_algorithm(AlgorithmSpec("mccmo", 40), p.n_obj, 1)
+    alg.setup(p, termination=("n_gen", 30), seed=1)
+    for _ in range(20):
+        alg.next()
+    monkeypatch.setattr(spea2, "_cut", spy_cut)
+    monkeypatch.setattr(spea2, "truncate", spy_truncate)
+    for _ in range(5):
+        made.clear(), asked.clear()
+        alg.next()
+        assert asked and len(made) == len(asked)  # a truncation per distinct set, none twice

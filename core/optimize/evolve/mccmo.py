@@ -81,10 +81,12 @@ class MCCMO(ArrayAlgorithm):
     def _G(self, a: Arrays) -> F64:
         return a.G if a.G.shape[1] else np.zeros((len(a), 1))
 
-    def _select(self, pool: Arrays, S: tuple[int, ...] | None) -> tuple[Arrays, F64]:
-        """SPEA2 selection of N: unconstrained (S None), or under constraint domination over the set S."""
+    def _select(self, pool: Arrays, S: tuple[int, ...] | None,
+                cuts: spea2.Cuts | None = None) -> tuple[Arrays, F64]:
+        """SPEA2 selection of N: unconstrained (S None), or under constraint domination over the set S. ``cuts``:
+        the generation's truncations (A and P0 cut the same members when every one is feasible)."""
         cv = None if S is None else subset_cv(self._G(pool), S)
-        order, fit, _ = spea2.select(pool.F, self.pop_size, cv)
+        order, fit, _ = spea2.select(pool.F, self.pop_size, cv, cuts=cuts)
         return pool.take(order), fit
 
     def _random(self) -> Arrays:
@@ -161,12 +163,13 @@ class MCCMO(ArrayAlgorithm):
             parts.append(self._children(self.p0.X, self.fit0, n, half=True, other=(a.X, self.fit_a)))
         parts.append(self._children(a.X, self.fit_a, n, half=False))
         off = self.evaluate(self.repaired(np.vstack(parts)))
-        self.arrays, self.fit_a = self._select(Arrays.concat(off, a), every)
-        self.p0, self.fit0 = self._select(Arrays.concat(self.p0, off), None)
+        cuts: spea2.Cuts = {}
+        self.arrays, self.fit_a = self._select(Arrays.concat(off, a), every, cuts)
+        self.p0, self.fit0 = self._select(Arrays.concat(self.p0, off), None, cuts)
         self.h0[gen] = float(np.abs(self.p0.F).sum())
         if several:
             for q in self.Q:
-                q.pop, q.fit = self._select(Arrays.concat(q.pop, off), q.S)
+                q.pop, q.fit = self._select(Arrays.concat(q.pop, off), q.S, cuts)
                 q.h[gen] = float(q.pop.F.sum())
                 q.stable = is_stable(q.h, gen, q.pop.F, n, nd_required=not q.dormant)
                 if q.stable and q.dormant:  # ADD: a settled dormant population wakes up

@@ -528,7 +528,7 @@ Cuts = dict[tuple[int, tuple[int, ...], bytes], tuple[B, bool, NDArray[np.int64]
 """Truncations already made in a generation, keyed on keep and the rows sorted by their first objective (the same
 points in any order): the mask in that order, whether it holds for any order, and the order it was made in.
 Selections that cut the same members pass one dict: CMOES's P1 and P2; CMOEMT's P1 and P3, IMTCMO's and
-DRLOS-EMCMO's P1 and P2 when every member is feasible."""
+DRLOS-EMCMO's P1 and P2, MCCMO's archive and P0 when every member is feasible."""
 
 
 def truncate(F: F64, keep: int, cuts: Cuts | None = None) -> B:
