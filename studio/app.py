@@ -25,7 +25,7 @@ from studio.address import url_for
 from studio.candidates import candidates
 from studio.chains import ChainStage, chain_for, find, sized_where, stage_spec, takes_target
 from studio.charts import png, stop_png_browser
-from studio.exports import design_json, drawing_export, drawing_warnings, figure_html, trajectories_csv
+from studio.exports import design_json, drawing_export, drawing_warnings, figure_html, notice_closed, trajectories_csv
 from studio.frames import DEFAULT_ASPECT, FPS, INSET_EXPORT_TITLE, INSET_NOTE, INSET_TITLE, SceneFrames, inset_caption
 from studio.geometry import SCENE_SCALE, frame_index, inset_positions
 from studio.inset import Animator, CandidateInset, InsetMarker
@@ -705,7 +705,7 @@ class Studio:
         title = self.inset.title
         title.text = INSET_EXPORT_TITLE
         try:
-            html = self.scene.record_html(view.target.period)
+            html = notice_closed(self.scene.record_html(view.target.period), self.notice_seconds)
         finally:
             title.text = INSET_TITLE
         return f"{slug(view.preset or view.design.mechanism.name)}-scene.html", html.encode()

@@ -79,6 +79,26 @@ def figure_html(fig: go.Figure, title: str) -> bytes:
         "<head>", f"<head><title>{title}</title>", 1).encode()
 
 
+SOFTWARE_NOTICE = "Software WebGL rendering detected"  # viser's notice (its client's BrowserWarning.tsx)
+
+
+def notice_closed(page: str, seconds: float, title: str = SOFTWARE_NOTICE) -> str:
+    """A viser page (a recorded scene) that closes the viewer's notice called ``title`` ``seconds`` after it
+    appears, as the studio does on its own pages: it never closes by itself and covered the recording's top-left
+    (the design's name, the first view's title) on any machine without a GPU. A page on a GPU, which never shows
+    it, stops looking after a minute."""
+    script = ("<script>(function(){var seen=null,start=Date.now();var t=setInterval(function(){"
+              "var n=Array.prototype.filter.call(document.querySelectorAll('.mantine-Notification-root'),"
+              f"function(e){{return e.textContent.indexOf({json.dumps(title)})>=0;}});"
+              "var now=Date.now();if(!n.length){if(seen===null&&now-start>60000){clearInterval(t);}return;}"
+              "if(seen===null){seen=now;}"
+              f"if(now-seen>={int(round(1000 * max(seconds, 0.0)))}){{n.forEach(function(e){{"
+              "var b=e.querySelector('button');if(b){b.click();}});clearInterval(t);}"
+              "},250);})();</script>")
+    end = page.rfind("</body>")
+    return page + script if end < 0 else page[:end] + script + page[end:]
+
+
 def parse_trajectories_csv(data: bytes) -> dict[str, np.ndarray]:
     """Columns of :func:`trajectories_csv` output as float arrays (NaN for empty cells); for tests and tools."""
     lines = data.decode().strip().splitlines()

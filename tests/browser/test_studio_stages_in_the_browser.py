@@ -326,8 +326,13 @@ def test_exports_are_files_a_collaborator_can_open_offline(page: Any, studio: An
         camera.click()
     assert dl.value.suggested_filename == "pareto.png"
     assert Path(dl.value.path()).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    # The animated scene opens on its own, with every outside request blocked.
-    scene = fetch("Animated scene (HTML)").decode()
+    # The animated scene opens on its own, with every outside request blocked; viser's software-rendering notice
+    # closes after the studio's delay, as on the studio's pages (it stayed, over the recording's top-left).
+    studio.notice_seconds = 2.0
+    try:
+        scene = fetch("Animated scene (HTML)").decode()
+    finally:
+        studio.notice_seconds = 10.0
     ctx = browser.new_context(viewport={"width": 800, "height": 600})
     try:
         ctx.route("**/*", lambda r: (blocked.append(r.request.url), r.abort()) if not r.request.url.startswith(
@@ -335,6 +340,9 @@ def test_exports_are_files_a_collaborator_can_open_offline(page: Any, studio: An
         viewer = ctx.new_page()
         viewer.set_content(scene)
         viewer.wait_for_selector("canvas", state="visible")
+        notice = viewer.locator(".mantine-Notification-root").filter(has_text="Software WebGL rendering detected")
+        expect(notice).to_be_visible()
+        expect(notice).to_have_count(0, timeout=15_000)
     finally:
         ctx.close()
     assert blocked == []
