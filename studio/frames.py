@@ -69,6 +69,7 @@ WALK_TITLE = "Walking (world frame): trunk, feet, obstacle a × b"
 TEXT_SCALE = 50.0
 CHAR_WIDTH = 0.52  # a character's advance as a share of the label height (viser draws the system sans-serif)
 FEATURE_TEXT, SMALL_TEXT = 0.8, 0.85  # feature-point / pivot labels, scale-bar and note labels (share of h)
+LABEL_GAP = 0.3  # of a label's height: the least room between two labels side by side
 
 
 LINE = 1.2  # line height as a share of the label height
@@ -119,10 +120,13 @@ def scale_bar(x0: float, y: float, span: float, h: float, key: str) -> tuple[F64
     return seg, _text(key, f"{length:g} mm", x0 + length + 0.5 * h, y, "center-left", SMALL_TEXT * h)
 
 
-def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: float,
-                  offset: F64) -> tuple[SceneText, ...]:
+def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: float, offset: F64,
+                  lines: tuple[F64, ...] = ()) -> tuple[SceneText, ...]:
     """Feature-point labels in the leg view (``h`` mm high): points closer than a label's height print as one
-    (``t2=t5``); a label that would cover another goes below, right or left of its point instead."""
+    (``t2=t5``); each label goes above its point, else below, right or left of it: the first spot that covers
+    no other label (nor comes within a narrow letter's width of one beside it) and crosses the fewest of
+    ``lines`` (``(k, 2, 2)`` segments each, leg-view mm: the foot path, the target; a curve rising past a
+    point ran through its label, QA session 37). Covering a label weighs more than crossing every line."""
     groups: list[tuple[list[str], tuple[float, float]]] = []
     for name, xy in features:
         for names, q in groups:
@@ -131,14 +135,23 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
                 break
         else:
             groups.append(([name], xy))
+    ox, oy = float(offset[0]), float(offset[1])
+    segs = [np.asarray(seg, dtype=np.float64).reshape(-1, 2, 2) + (ox, oy) for seg in lines]
+    starts, steps = [seg[:, 0] for seg in segs], [seg[:, 1] - seg[:, 0] for seg in segs]
     out: list[SceneText] = []
+    placed: list[tuple[float, float, float, float]] = []
     for k, (names, (x, y)) in enumerate(groups):
         text = joined_names(sorted("=".join(names).split("="), key=lambda n: int(n[1:]) if n[1:].isdigit() else 0))
         spots = [(x, y + 0.4 * h, "bottom-center"), (x, y - 0.4 * h, "top-center"),
                  (x + 0.6 * h, y, "center-left"), (x - 0.6 * h, y, "center-right")]
         tries = [_text(f"feature_{k}", text, sx, sy, a, h, offset) for sx, sy, a in spots]
-        free = first_clear([t.box for t in tries], [o.box for o in out])
-        out.append(tries[0 if free is None else free])
+        cost = [(len(lines) + 1.0) * (first_clear([t.box], placed) is None)
+                + sum(bool(_crosses_box(a, d, t.box).any()) for a, d in zip(starts, steps, strict=True))
+                for t in tries]
+        got = tries[int(np.argmin(cost))]  # the first of the cheapest
+        out.append(got)
+        x0, y0, x1, y1 = got.box
+        placed.append((x0 - LABEL_GAP * h, y0, x1 + LABEL_GAP * h, y1))
     return tuple(out)
 
 
@@ -234,9 +247,6 @@ def joined_names(names: list[str]) -> str:
     if len(names) >= 4 and len(nums) == len(names) and nums == list(range(nums[0], nums[0] + len(nums))):
         return f"{names[0]}=…={names[-1]}"
     return "=".join(names)
-
-
-LABEL_GAP = 0.3  # of a label's height: the least room between two candidates' labels side by side
 
 
 def marker_texts(markers: tuple[tuple[str, tuple[float, float]], ...], h: float,
@@ -522,7 +532,8 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         grid=_lift(to_scene(grid), 0.0),
         grid_step=step,
         texts=texts,
-        feature_labels=feature_texts(view.features, FEATURE_TEXT * h, lay.leg_offset),
+        feature_labels=feature_texts(view.features, FEATURE_TEXT * h, lay.leg_offset,
+                                     (seg[keep], closed_polyline(target_leg))),
         scale_bars=_lift(to_scene(bars), Z_LINES),
         text_height=h * SCENE_SCALE,
         posed=hold is not None,

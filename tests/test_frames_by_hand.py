@@ -103,6 +103,25 @@ def test_a_feature_label_that_would_cover_another_moves_below_its_point():
     assert got[1].box[3] < 0.0  # under its point
 
 
+def test_a_feature_label_keeps_off_the_lines_through_its_point_and_apart_from_its_neighbour():
+    h = 4.0
+    # The foot path rises to the right of t4 through the spot above it (QA session 37: "t4" sat on the green
+    # swing line): the label goes below, where nothing runs.
+    rising = np.array([[[0.0, 0.0], [2.0 * h, 2.0 * h]]])
+    flat = np.array([[[-5.0 * h, -3.0 * h], [5.0 * h, -3.0 * h]]])
+    (t,) = feature_texts((("t4", (0.0, 0.0)),), h, np.zeros(2), (rising, flat))
+    assert t.anchor == "top-center" and t.box[3] < 0.0
+    # With the spots below and right crossed too, it goes left, the side nothing crosses.
+    under = np.array([[[-0.5 * h, -h], [3.0 * h, -h]], [[1.2 * h, -h], [1.2 * h, h]]])
+    (t,) = feature_texts((("t4", (0.0, 0.0)),), h, np.zeros(2), (rising, under))
+    assert t.anchor == "center-right"
+    # Crossing every line beats covering a label; two labels side by side keep a narrow letter's width apart.
+    a, b = feature_texts((("t1", (0.0, 0.0)), ("t2", (1.3 * h, 0.0))), h, np.zeros(2))
+    assert a.anchor == "bottom-center" and b.anchor != "bottom-center"
+    (c,) = feature_texts((("t1", (0.0, 0.0)),), h, np.array([10.0, 5.0]), (rising + (10.0, 5.0),))
+    assert c.anchor == "bottom-center"  # the offset moves the lines with the view: nothing crosses
+
+
 def test_a_candidates_label_sits_above_its_own_sphere_without_covering_it():
     r, h = 3.0, 4.0
     (t,) = marker_texts((("K1", (10.0, 20.0)),), h, r)

@@ -254,6 +254,21 @@ def test_feature_labels_cover_no_other_label_or_point_and_keep_off_the_ticks(nam
         assert a[1] >= 18.5 and a[3] <= plot[3] + 4.0  # under the legend's text, above the x ticks' labels
 
 
+@pytest.mark.parametrize("name", ["jansen", "klann", "fourbar/chebyshev", "stephenson1/X3", "stephenson1/X0",
+                                  "stephenson3/paper", "watt1/paper"])
+def test_the_scenes_feature_labels_cross_neither_the_foot_path_nor_the_target(name):
+    # Above their points, the labels at the path's ends sat on the swing curve rising from there (QA session 37).
+    from studio.frames import _crosses_box
+
+    view = Session.default(name).view
+    frames = build_frames(view)
+    off = np.asarray(frames.layout.leg_offset, dtype=np.float64)
+    for curve in (view.solution.leg[0], view.target_leg):
+        seg = np.stack([curve, np.roll(curve, -1, axis=0)], axis=1) + off
+        for t in frames.feature_labels:
+            assert not _crosses_box(seg[:, 0], seg[:, 1] - seg[:, 0], t.box).any(), (name, t.text)
+
+
 def test_a_label_that_would_cover_a_neighbour_moves_and_the_first_stays_above_its_point():
     from studio.bench_svg import label_box, label_spots
 
