@@ -453,9 +453,9 @@ class Studio:
 
     def notify(
         self, client: viser.ClientHandle, title: str, body: str, color: Literal["red", "yellow", "green"] = "red"
-    ) -> None:
-        """Tell one client something about its own action (red: refused; yellow: a warning)."""
-        client.add_notification(title, body, color=color, auto_close_seconds=8.0, with_close_button=True)
+    ) -> viser.NotificationHandle:
+        """Tell one client something about its own action (red: refused; yellow: a warning); its handle."""
+        return client.add_notification(title, body, color=color, auto_close_seconds=8.0, with_close_button=True)
 
     # Stages, picks, history -----------------------------------------------------------------
 

@@ -28,10 +28,13 @@ class Client:
 
     def __init__(self) -> None:
         self.notes: list[tuple[str, str, str]] = []
+        self.removed: list[int] = []  # indices into notes of the notifications taken off the page
         self.downloads: list[tuple[str, bytes]] = []
 
-    def add_notification(self, title: str, body: str, color: str = "", **_: Any) -> None:
+    def add_notification(self, title: str, body: str, color: str = "", **_: Any) -> Any:
         self.notes.append((title, body, color))
+        k = len(self.notes) - 1
+        return SimpleNamespace(remove=lambda: self.removed.append(k))
 
     def send_file_download(self, name: str, content: bytes, save_immediately: bool = False) -> None:
         self.downloads.append((name, content))
@@ -408,8 +411,10 @@ def test_each_export_button_sends_its_own_file(studio):
     assert c.downloads[3][1].lstrip().startswith((b"<svg", b"<?xml"))
     assert b"SECTION" in c.downloads[2][1]
     # X3's link A-B-F holds B and F 6.5 mm apart: with 5 mm holes, 1.5 mm between them. Said after each drawing.
-    said = [n for n in c.notes if n[0] == "Check the parts before cutting"]
-    assert len(said) == 2 and all("holes B and F of link A-B-F" in n[1] and n[2] == "yellow" for n in said)
+    said = [k for k, n in enumerate(c.notes) if n[0] == "Check the parts before cutting"]
+    assert len(said) == 2 and all("holes B and F of link A-B-F" in c.notes[k][1] and c.notes[k][2] == "yellow"
+                                  for k in said)
+    assert c.removed == said[:1]  # the DXF's warning made way for the SVG's: one on the page (QA session 38)
 
 
 def test_an_export_with_nothing_to_export_is_one_notification_and_no_download(studio):

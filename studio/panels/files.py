@@ -25,6 +25,7 @@ class FilesPanel:
 
     def __init__(self, studio: Studio, order: float) -> None:
         self.studio = studio
+        self._parts_note: dict[int, viser.NotificationHandle] = {}  # each page's open warning about a drawing's parts
         gui = studio.server.gui
         self.folder = gui.add_folder("Session and export", order=order, expand_by_default=False)
         with self.folder:
@@ -109,7 +110,13 @@ class FilesPanel:
             client.send_file_download(name, content, save_immediately=True)
             said = notes() if notes is not None else []
             if said:
-                self.studio.notify(client, "Check the parts before cutting", "; ".join(said), color="yellow")
+                # One warning on the page at a time: the DXF's and then the SVG's stacked the same text twice
+                # over the mechanism view (QA session 38).
+                old = self._parts_note.pop(client.client_id, None)
+                if old is not None:
+                    old.remove()
+                self._parts_note[client.client_id] = self.studio.notify(
+                    client, "Check the parts before cutting", "; ".join(said), color="yellow")
 
         return handler
 
