@@ -359,11 +359,11 @@ def make_pareto_figure(
     add("Pareto front", np.flatnonzero(on_front), {"color": palette.css(palette.PATH), "size": size + 2,
                                                    "line": {"color": "white", "width": 0.5}})
     if knees:
-        add("knee candidates", list(knees), {"color": palette.css(palette.KNEE), "size": size + 5,
+        add("knees", list(knees), {"color": palette.css(palette.KNEE), "size": size + 5,
                                              "symbol": "diamond", "line": {"color": "black", "width": 1}},
             text=knee_names)
     if extra:
-        add("best per objective", extra, {"color": palette.css(palette.BEST), "size": size + 4, "symbol": "square",
+        add("best", extra, {"color": palette.css(palette.BEST), "size": size + 4, "symbol": "square",
                                           "line": {"color": "black", "width": 1}}, text=names)
     placed.update(ringed)
 
@@ -458,7 +458,7 @@ def compact_3d(fig: go.Figure) -> go.Figure:
         title = fig.layout.scene[axis].title.text or ""
         fig.layout.scene[axis].title.text = title.split(" (")[0]
     for tr in fig.data:
-        if isinstance(tr, go.Scatter3d) and tr.name == "best per objective":
+        if isinstance(tr, go.Scatter3d) and tr.name == "best":
             tr.mode = "markers"
     return fig
 

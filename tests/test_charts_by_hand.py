@@ -66,8 +66,8 @@ def traces(fig: go.Figure) -> dict[str, list[int]]:
 def test_the_stage_chart_marks_its_knees_its_best_members_and_the_member_passed_on():
     fig = charts.result_figure(result(), {"a": "alpha (mm)"}, "cycloid L=1")
     got = traces(fig)
-    assert got["knee candidates"] == [2]  # K1
-    assert got["best per objective"] == [0]  # best a; best b is the knee already
+    assert got["knees"] == [2]  # K1
+    assert got["best"] == [0]  # best a; best b is the knee already
     assert got["passed on"] == [3]
     assert got["Pareto front"] == [0, 2] and got["infeasible"] == [1, 4]
     assert fig.layout.xaxis.title.text == "alpha (mm)" and fig.layout.yaxis.title.text == "b"

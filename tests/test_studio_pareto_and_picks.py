@@ -52,9 +52,9 @@ def test_pareto_chart_tells_feasible_infeasible_front_and_knees_apart_with_unit_
     # whole page (the worst of a run's first second on software rendering; session 35)
     assert fig.layout.xaxis.ticklabeloverflow == fig.layout.yaxis.ticklabeloverflow == "allow"
     assert 5 not in {i for tr in fig.data for i in tr.customdata}  # undefined members are not drawn
-    assert list(t["knee candidates"].customdata) == list(sl.knees)
+    assert list(t["knees"].customdata) == list(sl.knees)
     # K1 is the picked member: its label is on the ring around it (set off by the ring's size), not beside it.
-    assert list(t["knee candidates"].text) == [NO_LABEL] + [f"K{j + 1}" for j in range(1, len(sl.knees))]
+    assert list(t["knees"].text) == [NO_LABEL] + [f"K{j + 1}" for j in range(1, len(sl.knees))]
     picked = t["picked"]
     assert list(picked.customdata) == [sl.knees[0]] and list(picked.text) == ["K1"]
     assert (picked.x[0], picked.y[0]) == tuple(F[sl.knees[0]])
@@ -85,8 +85,8 @@ def test_three_objectives_give_a_3d_chart_and_one_objective_plots_against_the_vi
     s = side.layout.scene
     assert (s.xaxis.title.text, s.yaxis.title.text, s.zaxis.title.text) == ("a", "b", "c")
     t = traces(side)
-    assert t["best per objective"].mode == "markers" and t["knee candidates"].mode == "markers+text"
-    assert all(h.startswith("best ") for h in t["best per objective"].hovertext)
+    assert t["best"].mode == "markers" and t["knees"].mode == "markers+text"
+    assert all(h.startswith("best ") for h in t["best"].hovertext)
     flat = make_pareto_figure(rng.uniform(size=(5, 2)), np.zeros(5), objectives=("a", "b"), front=(0,))
     assert compact_3d(flat).layout.xaxis.title.text == "a"  # a 2-D chart as it was
     F1 = rng.uniform(size=(10, 1))
@@ -221,8 +221,8 @@ def test_three_objectives_project_onto_any_two():
     t = traces(side)
     assert t["Pareto front"].type == "scatter" and side.layout.xaxis.title.text == "a"
     assert side.layout.yaxis.title.text == "c"
-    i = t["knee candidates"].customdata[0]
-    assert (t["knee candidates"].x[0], t["knee candidates"].y[0]) == (F[i, 0], F[i, 2])
+    i = t["knees"].customdata[0]
+    assert (t["knees"].x[0], t["knees"].y[0]) == (F[i, 0], F[i, 2])
 
 
 def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_always_has_one() -> None:
@@ -242,7 +242,7 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
     t = traces(fig)
     ranges = (list(fig.layout.xaxis.range), list(fig.layout.yaxis.range))
     shown = []
-    for name in ("knee candidates", "best per objective"):
+    for name in ("knees", "best"):
         tr = t[name]
         assert [h.split(":")[0] for h in tr.hovertext] == ([f"K{j + 1}" for j in range(5)] if name.startswith("knee")
                                                           else ["best fd", "best f1"])
@@ -250,7 +250,7 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
             if text != NO_LABEL:
                 px = ((x - ranges[0][0]) / np.ptp(ranges[0]) * 240.0, (y - ranges[1][0]) / np.ptp(ranges[1]) * 190.0)
                 shown.append((text, _label_box(*px, text, pos)))
-    assert t["knee candidates"].text[0] == "K1"
+    assert t["knees"].text[0] == "K1"
     # The front's own point under a diamond took the hover and read "member #3": it names the candidate too, and
     # every hover gives the objectives with their names.
     hover = dict(zip(t["Pareto front"].customdata, t["Pareto front"].hovertext, strict=True))
@@ -260,12 +260,12 @@ def test_candidate_labels_on_a_crowded_front_never_cover_each_other_and_k1_alway
     # own marker the red ring crossed the label's first letter ("pest f1").
     ringed = traces(make_pareto_figure(F, cv, objectives=("fd", "f1"), front=tuple(range(8)), knees=knees, best=best,
                                        shown=3, passed=0))
-    k1 = list(t["knee candidates"].customdata).index(3)
-    assert ringed["knee candidates"].text[k1] == NO_LABEL and ringed["best per objective"].text[0] == NO_LABEL
+    k1 = list(t["knees"].customdata).index(3)
+    assert ringed["knees"].text[k1] == NO_LABEL and ringed["best"].text[0] == NO_LABEL
     assert list(ringed["picked"].text) == ["K1"]
-    assert ringed["picked"].textposition[0] == t["knee candidates"].textposition[k1]
+    assert ringed["picked"].textposition[0] == t["knees"].textposition[k1]
     assert list(ringed["passed on"].text) == ["best fd"]
-    assert list(ringed["knee candidates"].text)[k1 + 1:] == list(t["knee candidates"].text)[k1 + 1:]
+    assert list(ringed["knees"].text)[k1 + 1:] == list(t["knees"].text)[k1 + 1:]
     assert len(shown) >= 3
     for a in range(len(shown)):
         for b in range(a + 1, len(shown)):
@@ -294,7 +294,7 @@ def test_a_front_crowded_by_far_dominated_members_fills_the_view() -> None:
     assert (far[:, 1] > y1).sum() > 40  # most of the far members are off the view ...
     t = traces(fig)
     assert t["dominated"].cliponaxis and t["infeasible"].cliponaxis is not False  # ... and cut there
-    assert not any(t[n].cliponaxis for n in ("Pareto front", "knee candidates", "best per objective", "picked"))
+    assert not any(t[n].cliponaxis for n in ("Pareto front", "knees", "best", "picked"))
     # Too few such members: the feasible ones are framed, as they were.
     one = make_pareto_figure(F, np.zeros(len(F)), objectives=("fd", "f1"), front=(0,))
     assert one.layout.yaxis.range[1] > far[:, 1].max()

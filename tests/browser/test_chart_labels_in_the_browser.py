@@ -50,7 +50,7 @@ def front() -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
 def test_a_label_moved_onto_the_pick_and_back_is_drawn_again(chart_page: Any) -> None:
     F, cv, kw = front()
     plain, picked = make_pareto_figure(F, cv, **kw), make_pareto_figure(F, cv, shown=6, **kw)
-    assert NO_LABEL in list(next(t for t in picked.data if t.name == "knee candidates").text)
+    assert NO_LABEL in list(next(t for t in picked.data if t.name == "knees").text)
     everything = sorted(draw(chart_page, plain, "newPlot"))
     assert {"K1", "K2", "K3", "best a", "best b"} <= set(everything)
     # K1 picked: its label is drawn on the ring, once; unpicked: beside its diamond again (it stayed blank).
@@ -64,7 +64,7 @@ def test_plotly_react_still_forgets_a_label_drawn_empty(chart_page: Any) -> None
     # NO_LABEL could go back to "").
     F, cv, kw = front()
     fig = make_pareto_figure(F, cv, **kw)
-    knees = next(t for t in fig.data if t.name == "knee candidates")
+    knees = next(t for t in fig.data if t.name == "knees")
     text = list(knees.text)
     knees.text = [""] + text[1:]
     draw(chart_page, fig, "newPlot")

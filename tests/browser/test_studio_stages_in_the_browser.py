@@ -172,7 +172,7 @@ def test_a_short_subtask_runs_once_on_a_double_click_and_the_pareto_chart_fills(
     n_drawn = int(np.isfinite(r.F).all(axis=1).sum())
     wait_for(lambda: points.count() >= n_drawn, "every member in the chart")
     plot = pareto_plot(page, "subtask2 · complete")
-    expect(plot.locator(".legendtext", has_text="knee candidates")).to_be_attached()
+    expect(plot.locator(".legendtext", has_text="knees")).to_be_attached()
     expect(plot.locator(".xtitle")).to_have_text("f4 = h_s (mm)")
     expect(plot.locator(".ytitle")).to_have_text("f5 = I (mm/s)")
     # The run's pick (its first knee) is animated in the editor.
