@@ -885,10 +885,13 @@ def test_the_algorithm_list_offers_the_papers_seven_first_by_their_published_nam
         assert options[:3] == ("NSGA-II (paper, default)", "CMOEMT (paper)", "CMOES (paper)")
         assert "DRLOS-EMCMO (paper)" in options and "U-NSGA-III" in options and "drlos_emcmo" not in options
         assert studio.stages.algorithm.value == "NSGA-II (paper, default)"
+        assert 'algorithm = "nsga2"' in studio.stages.algorithm.hint
         press(studio.stages.algorithm, Client(), "MOEA/D-CMT (paper)")
         assert [s.algorithm for s in studio.session.study.settings.values()] == ["moead_cmt"]
         studio.refresh()
         assert studio.stages.algorithm.value == "MOEA/D-CMT (paper)"
+        # The hint names the chosen one for a config; every one's name (480 characters) covered Run and Stop.
+        assert 'algorithm = "moead_cmt"' in studio.stages.algorithm.hint and len(studio.stages.algorithm.hint) < 160
     finally:
         studio.close()
 
