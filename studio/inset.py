@@ -79,6 +79,7 @@ class CandidateInset:
         self._markers: tuple[InsetMarker, ...] = ()
         self._spheres: dict[int, viser.IcosphereHandle] = {}
         self._labels: list[viser.LabelHandle] = []
+        self._labelled: tuple[tuple[InsetMarker, ...], int | None] | None = None  # what the labels were placed for
         self._radius = 0.0
         empty_seg = np.zeros((1, 2, 3), dtype=np.float32)
         scene = server.scene
@@ -111,18 +112,15 @@ class CandidateInset:
         self._radius = 0.032 * (x1 - x0) * SCENE_SCALE  # ~9 px across in a 1400 x 900 page
 
     def show(self, markers: tuple[InsetMarker, ...], front: NDArray[np.float64], shown: int | None) -> None:
-        """Show candidates (rebuilt when they change) and the front; colour the shown member."""
+        """Show candidates (rebuilt when they change) and the front; colour the shown member, whose label is placed
+        first (it kept none when its neighbours' labels took every spot around it; QA session 38)."""
         with self._lock, self.server.atomic():
+            scene = self.server.scene
             if markers != self._markers:
                 for h in self._spheres.values():
                     h.remove()
-                for label in self._labels:
-                    label.remove()
-                self._spheres, self._labels = {}, []
-                scene = self.server.scene
-                tags = marker_texts(tuple((m.tag, m.xy) for m in markers), 0.8 * self._text_height / SCENE_SCALE,
-                                    self._radius / SCENE_SCALE)
-                for m, tag in zip(markers, tags, strict=True):
+                self._spheres = {}
+                for m in markers:
                     pos = (m.xy[0] * SCENE_SCALE, m.xy[1] * SCENE_SCALE, 2 * Z_MARKERS)
                     # Toon material, no shadows: the standard (PBR) shader takes ~3.5 s to compile under
                     # software WebGL, and the page would freeze the first time candidates appear.
@@ -131,15 +129,25 @@ class CandidateInset:
                                             cast_shadow=False, receive_shadow=False)
                     h.on_click(self._clicked(m.member))
                     self._spheres[m.member] = h
+                self._markers = markers
+            else:
+                for m in markers:
+                    self._spheres[m.member].color = self._colour(m, shown)
+            first = shown if any(m.member == shown for m in markers) else None
+            if (markers, first) != self._labelled:
+                for label in self._labels:
+                    label.remove()
+                self._labels = []
+                order = sorted(markers, key=lambda m: m.member != first)  # stable: K1 first after the shown one
+                tags = marker_texts(tuple((m.tag, m.xy) for m in order), 0.8 * self._text_height / SCENE_SCALE,
+                                    self._radius / SCENE_SCALE)
+                for m, tag in zip(order, tags, strict=True):
                     if tag is not None:  # no free spot: the sphere alone (the Pick panel lists it)
                         self._labels.append(scene.add_label(f"/candidates/tag_{m.member}", tag.text,
                                                             anchor=tag.anchor,  # type: ignore[arg-type]
                                                             font_size_mode="scene", font_scene_height=tag.height,
                                                             position=tag.position))
-                self._markers = markers
-            else:
-                for m in markers:
-                    self._spheres[m.member].color = self._colour(m, shown)
+                self._labelled = (markers, first)
             self.front.visible = len(front) > 0
             if len(front):
                 self.front.point_size = 0.6 * self._radius

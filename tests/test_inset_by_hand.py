@@ -90,6 +90,23 @@ def test_each_candidate_is_tagged_next_to_its_sphere_in_the_scenes_small_text(in
     assert sphere.position[1] + sphere.radius < y < sphere.position[1] + sphere.radius + TEXT  # just above it
 
 
+def test_the_member_shown_gets_its_label_first_in_a_crowd(inset):
+    # QA (session 38): K2 picked in a cluster of knees stood red and unlabelled, its neighbours' labels around it.
+    crowd = tuple(InsetMarker(10 + k, f"K{k + 1}", "knee", (240.0 + 2.0 * k, 150.0 + 2.0 * (k % 2)))
+                  for k in range(5))
+    inset.show(crowd, np.zeros((0, 2)), None)
+    unlabelled = {m.member for m in crowd} - {int(lab.name.rsplit("_", 1)[1]) for lab in inset._labels}
+    assert unlabelled  # the crowd leaves some without a spot
+    last = max(unlabelled)
+    inset.show(crowd, np.zeros((0, 2)), last)
+    tagged = {lab.text for lab in inset._labels}
+    assert f"K{last - 9}" in tagged  # its label, placed first
+    spheres = dict(inset._spheres)
+    inset.show(crowd, np.zeros((0, 2)), None)  # back: the same spheres, the labels in K1's order again
+    assert inset._spheres == spheres
+    assert {int(lab.name.rsplit("_", 1)[1]) for lab in inset._labels} == {m.member for m in crowd} - unlabelled
+
+
 def test_an_empty_front_hides_the_grey_dots_of_the_previous_one(inset):
     inset.show(MARKERS, np.array([[230.0, 160.0]]), None)
     assert inset.front.visible
