@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 from typing import NoReturn
 
+from core.kinematics.kernel_cache import warm_mark
 from core.kinematics.memory import keep_freed_memory
 from studio.address import exposure_warning, url_for
 from studio.app import Studio
@@ -56,6 +57,18 @@ def _parser() -> argparse.ArgumentParser:
                    help="compile the numeric kernels (every stage with every algorithm, tiny) and exit: the first "
                         "Run of a fresh install then starts at once (scripts/studio does it once per change)")
     return p
+
+
+def cold_note() -> str | None:
+    """What the studio says at its start when these sources' kernels have not been compiled by ``--warm-up`` (a QA
+    session's first CMOES run took 86 s, 80 of them compiling, with nothing said at the start); None when they
+    have, or when numba's cache is not ours to look at."""
+    mark = warm_mark()
+    if mark is None or mark.exists():
+        return None
+    return ("CLM Studio: the numeric kernels of this version are not compiled yet: the first run of each kind "
+            "compiles its own (up to a minute; the Stages status says so). `clm-studio --warm-up` compiles them all "
+            "now; ./scripts/studio does it by itself.")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -115,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         if lock is not None:
             lock.note(url_for(args.host, port, None))  # the address without the token: the lock file is not secret
         print(f"CLM Studio: {url_for(args.host, port, token)}  (Ctrl-C to stop)", flush=True)
+        if (note := cold_note()) is not None:
+            print(note, flush=True)
         # A timed wait: Ctrl-C's KeyboardInterrupt is raised in this thread, but the kernel may deliver SIGINT to
         # any of the server's threads, and then an untimed wait here never wakes (1 in 8 stops hung so).
         idle = threading.Event()

@@ -8,6 +8,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+from core.kinematics.kernel_cache import warm_mark
 from core.kinematics.presets import PRESETS, get
 from core.optimize.algorithms import ALGORITHMS
 from studio.chains import chain_for
@@ -101,3 +104,20 @@ def test_the_warm_up_runs_every_algorithm_on_the_opening_design_and_every_topolo
                  for s in chain_for(get(DEFAULT_PRESET).mechanism)[:2]]
     assert done == expected
     assert any(p.startswith("rtclm") for p, _, _ in done)  # the RTCLM's stages have kernels of their own
+    mark = warm_mark()
+    assert mark is None or mark.exists()  # the studio no longer says its first runs will compile
+
+
+def test_the_studio_says_at_its_start_that_its_first_runs_will_compile_until_the_warm_up_ran(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # A QA session's first CMOES run took 86 s, 80 of them compiling, and nothing at the start had said so.
+    from studio.serve import cold_note
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # a fresh cache: nothing compiled
+    note = cold_note()
+    assert note is not None and "not compiled yet" in note and "clm-studio --warm-up" in note
+    mark = warm_mark()
+    assert mark is not None and mark.parent.parent == tmp_path
+    mark.parent.mkdir(parents=True)
+    mark.touch()
+    assert cold_note() is None

@@ -55,6 +55,16 @@ def cache_dir(fingerprint: str) -> str | None:
     return os.path.join(base, fingerprint)
 
 
+WARM_MARK = "warmed"  # left in a version's directory by the studio's warm-up once it has compiled everything
+
+
+def warm_mark(fingerprint: str | None = None) -> Path | None:
+    """The file ``clm-studio --warm-up`` leaves in these sources' cache directory when it is done; None without a
+    cache directory of our own (numba's default)."""
+    where = cache_dir(kernel_fingerprint() if fingerprint is None else fingerprint)
+    return None if where is None else Path(where) / WARM_MARK
+
+
 def prune(where: str, keep: int = KEEP, idle_s: float = IDLE_S) -> list[str]:
     """Mark ``where`` as used now and remove its sibling version directories beyond the ``keep`` most recently
     used that have been idle ``idle_s`` seconds; returns the removed paths. Errors are ignored: a cache that
