@@ -26,6 +26,7 @@ from core.analysis.evaluate import (
     why_infeasible,
 )
 from core.analysis.features import FEATURE_NAMES
+from core.analysis.gait import DEFAULT_TRUNK
 from core.analysis.targets import Target
 from core.kinematics.solver import DEAD_POINT_RISK, MU_DEAD, MU_USUAL, Solution, worst_transmission
 from studio.tables import INSET
@@ -78,13 +79,15 @@ class Row:
 
 
 def evaluate_solution(solution: Solution, target: Target, period: float,
-                      obstacle: tuple[float, float] = DEFAULT_OBSTACLE) -> Evaluation:
-    """Every paper metric of a solved population, via ``core.analysis.evaluate`` (crank period ``period``, s).
+                      obstacle: tuple[float, float] = DEFAULT_OBSTACLE, trunk: float = DEFAULT_TRUNK) -> Evaluation:
+    """Every paper metric of a solved population, via ``core.analysis.evaluate`` (crank period ``period``, s), with
+    the walking view's obstacle and quadruped ``trunk`` (mm; psi4 was always the 450 mm trunk's while the view
+    drew the one set, a Jansen leg's 102 mm: 41.3 % shown for 10.0 %; QA session 38).
 
     A target without a time law (a curve of points only) is compared at the best cyclic shift.
     """
-    return evaluate_paths(solution.point, solution.leg, solution.dleg, solution.violation,
-                          target=target, period=period, obstacle=obstacle, phase_optimal=not target.has_time)
+    return evaluate_paths(solution.point, solution.leg, solution.dleg, solution.violation, target=target,
+                          period=period, obstacle=obstacle, trunk=trunk, phase_optimal=not target.has_time)
 
 
 def shape_error(ev: Evaluation, i: int = 0) -> float:

@@ -281,7 +281,7 @@ def build_view(design: Design, preset: str | None, target: TargetSpec, n_samples
     walk = walk or WalkSpec()
     sol = solve(design.mechanism, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
     tgt = target.points(n_samples)
-    ev = evaluate_solution(sol, target.target(), target.period, walk.obstacle)
+    ev = evaluate_solution(sol, target.target(), target.period, walk.obstacle, walk.trunk)
     assert sol.dleg is not None
     walking = build_walk(sol.leg[0], sol.dleg[0], target.period, walk) if ev.feasible[0] else None
     mode = MODE_HEIGHT.get(design.mechanism.name)  # an RTCLM mode: the height its h_m is, and that target
@@ -302,7 +302,7 @@ def other_mode_view(design: Design, sol: Solution, ev: Evaluation, target: Targe
     """The RTCLM's other mode as one Metrics row: the same leg locked the other way, solved and judged."""
     other = RTCLM_AUXILIARY if design.mechanism.name == RTCLM_PRIMARY.name else RTCLM_PRIMARY
     osol = solve(other, design.params, n_samples, output=design.output, joints=True, backend=BACKEND)
-    oev = evaluate_solution(osol, target.target(), target.period, walk.obstacle)
+    oev = evaluate_solution(osol, target.target(), target.period, walk.obstacle, walk.trunk)
     title = "Auxiliary mode" if other is RTCLM_AUXILIARY else "Primary mode"
     name = MODE_HEIGHT[other.name]
     return other_mode_row(title, osol, oev, mode_clearance(ground_clearance(osol, other, design.output), other,

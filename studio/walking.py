@@ -30,6 +30,7 @@ from core.analysis.gait import (
 )
 from core.analysis.gait import world_paths as core_world_paths
 from core.analysis.metrics import blocked_intervals
+from core.kinematics.checks import MAX_ABS
 
 F64 = NDArray[np.float64]
 
@@ -69,10 +70,14 @@ class WalkSpec:
     def __post_init__(self) -> None:
         if self.layout not in LAYOUTS:
             raise ValueError(f"walking layout must be one of {', '.join(LAYOUTS)}, got {self.layout!r}")
-        for name, unit in (("a", "mm"), ("b", "mm"), ("trunk", "mm")):
+        for name, unit in (("a", "mm"), ("b", "mm")):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0.0:
-                raise ValueError(f"obstacle {name} must be a number >= 0 ({unit}), got {v!r}")
+            if isinstance(v, bool) or not isinstance(v, int | float) or not 0.0 <= v <= MAX_ABS:
+                raise ValueError(f"obstacle {name} must be a number from 0 to {MAX_ABS:g} ({unit}), got {v!r}")
+        t = self.trunk  # psi4 is measured on it (core's evaluate takes 0 < trunk <= 1e6 mm)
+        if isinstance(t, bool) or not isinstance(t, int | float) or not 0.0 < t <= MAX_ABS:
+            raise ValueError(f"trunk (the quadruped's hip distance) must be a number > 0 and at most {MAX_ABS:g} "
+                             f"(mm), got {t!r}")
         p = self.place
         if isinstance(p, bool) or not isinstance(p, int | float) or not 0.0 <= p <= 1.0:
             raise ValueError(f"obstacle place must be a fraction of the stride in [0, 1], got {p!r}")

@@ -44,6 +44,25 @@ def test_the_share_of_obstacle_places_that_are_crossed_is_psi(x3: Session, layou
     assert abs(clear - psi) <= 6.0 / len(PLACES)
 
 
+def test_psi4_is_measured_on_the_trunk_the_walking_view_draws(x3: Session) -> None:
+    # QA (session 38): the view drew the trunk set (a Jansen leg's 102 mm) while psi4 was the 450 mm trunk's
+    # (41.3 % shown for 10.0 %); on X3 a 300 mm trunk turned the obstacle to "hit" and psi4 stayed 16.6 %.
+    from core.analysis.evaluate import evaluate
+
+    view = x3.view
+    spec = WalkSpec("quadruped", 25.0, 25.0, trunk=300.0)
+    ev = build_view(view.design, None, view.target, walk=spec).evaluation
+    clear = np.mean([not walk(view, layout="quadruped", trunk=300.0, place=p).hit for p in PLACES])
+    assert abs(clear - float(ev.psi4[0])) <= 6.0 / len(PLACES)
+    core = evaluate(view.design, view.n_samples, target=view.target.target(), period=view.target.period,
+                    trunk=300.0)
+    assert float(ev.psi4[0]) == pytest.approx(float(core.psi4[0]), abs=1e-12)
+    at_450 = build_view(view.design, None, view.target, walk=WalkSpec("quadruped", 25.0, 25.0)).evaluation
+    assert abs(float(at_450.psi4[0]) - float(ev.psi4[0])) > 0.1  # the trunk matters here
+    with pytest.raises(ValueError, match=r"trunk \(the quadruped's hip distance\) must be a number > 0"):
+        WalkSpec("quadruped", trunk=0.0)
+
+
 @pytest.mark.parametrize("layout", ["biped", "quadruped"])
 def test_a_clear_obstacle_has_no_foot_inside_and_a_foot_deep_inside_means_blocked(x3: Session, layout: str) -> None:
     for p in PLACES[::10]:
