@@ -44,9 +44,10 @@ PAPER_STEP = (300.0, 100.0)  # mm: the paper's target cycloid (length, height), 
 def sizes_for(step: tuple[float, float]) -> tuple[float, float, float]:
     """The obstacle (a, b) and trunk (mm) the walking view starts with for a target step (length, height) mm: the
     paper's (25 x 25 mm, 450 mm at its 300 x 100 mm cycloid), a and the trunk scaled with the length, b with the
-    height, to 0.1 mm."""
+    height, to 0.1 mm (a trunk at least 0.1 mm: psi4 needs hips apart)."""
     kx, ky = step[0] / PAPER_STEP[0], step[1] / PAPER_STEP[1]
-    return (round(DEFAULT_OBSTACLE[0] * kx, 1), round(DEFAULT_OBSTACLE[1] * ky, 1), round(DEFAULT_TRUNK * kx, 1))
+    return (round(DEFAULT_OBSTACLE[0] * kx, 1), round(DEFAULT_OBSTACLE[1] * ky, 1),
+            max(round(DEFAULT_TRUNK * kx, 1), 0.1))
 
 
 @dataclass(frozen=True)

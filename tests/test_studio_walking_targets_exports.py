@@ -101,7 +101,9 @@ def test_no_walking_view_without_a_well_defined_bench_trajectory() -> None:
 
 
 @pytest.mark.parametrize(("kw", "message"), [({"layout": "hexapod"}, "layout"), ({"a": -1.0}, "obstacle a"),
-                                             ({"b": math.nan}, "obstacle b"), ({"place": 1.5}, "place")])
+                                             ({"b": math.nan}, "obstacle b"), ({"place": 1.5}, "place"),
+                                             ({"a": 2e6}, "obstacle a"), ({"trunk": -3.0}, "trunk"),
+                                             ({"trunk": math.inf}, "trunk")])
 def test_walk_settings_are_validated(kw: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         WalkSpec(**kw)
@@ -137,6 +139,9 @@ def test_the_obstacle_and_trunk_go_with_the_leg_s_size_unless_the_designer_set_t
     assert w.b < 0.5 * t.height
     psi = {r.key: r for r in s.view.rows}["psi2"]
     assert psi.label == f"ψ₂({w.a:g}, {w.b:g})" and psi.value > 0.0
+    from studio.walking import sizes_for
+
+    assert sizes_for((0.01, 0.01))[2] == 0.1  # a tiny step keeps the hips apart: psi4 is measured on the trunk
     s.select_mechanism("rtclm_primary")  # the paper's leg for crossing heights: the paper's obstacle
     assert (s.view.walk.a, s.view.walk.b, s.view.walk.trunk) == (25.0, 25.0, 450.0)
     # A target edited since the leg came keeps the walk it came with, which still goes with the next leg (review of
