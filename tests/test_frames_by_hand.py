@@ -120,6 +120,13 @@ def test_a_feature_label_keeps_off_the_lines_through_its_point_and_apart_from_it
     assert a.anchor == "bottom-center" and b.anchor != "bottom-center"
     (c,) = feature_texts((("t1", (0.0, 0.0)),), h, np.array([10.0, 5.0]), (rising + (10.0, 5.0),))
     assert c.anchor == "bottom-center"  # the offset moves the lines with the view: nothing crosses
+    # Within a letter's width of a label costs less than covering it (review, session 38: every spot came within
+    # the gap, they cost the same, and the first covered t1's label where the right-hand spot was clear).
+    a, b = feature_texts((("t1", (0.0, 0.0)), ("t2", (0.8, 4.5))), h, np.zeros(2))
+    assert not _overlaps(a.box, b.box)
+    # A spot that leaves the view costs more than one crossing a line.
+    (d,) = feature_texts((("t5", (0.0, 0.0)),), h, np.zeros(2), (rising,), frame=(-10.0 * h, -h, 0.5 * h, 10.0 * h))
+    assert d.anchor in ("bottom-center", "top-center", "center-right") and d.box[2] <= 0.5 * h
 
 
 def test_a_candidates_label_sits_above_its_own_sphere_without_covering_it():

@@ -254,19 +254,52 @@ def test_feature_labels_cover_no_other_label_or_point_and_keep_off_the_ticks(nam
         assert a[1] >= 18.5 and a[3] <= plot[3] + 4.0  # under the legend's text, above the x ticks' labels
 
 
-@pytest.mark.parametrize("name", ["jansen", "klann", "fourbar/chebyshev", "stephenson1/X3", "stephenson1/X0",
-                                  "stephenson3/paper", "watt1/paper"])
-def test_the_scenes_feature_labels_cross_neither_the_foot_path_nor_the_target(name):
-    # Above their points, the labels at the path's ends sat on the swing curve rising from there (QA session 37).
-    from studio.frames import _crosses_box
+SCENE_LABEL_PRESETS = ["jansen", "klann", "fourbar/chebyshev", "stephenson1/X3", "stephenson1/X0",
+                       "stephenson3/paper", "watt1/paper"]
 
-    view = Session.default(name).view
+
+def _scene_labels(name):
+    from studio.frames import FEATURE_TEXT, LINE, feature_texts
+    from studio.geometry import SCENE_SCALE, closed_polyline
+
+    view = Session.default().load_preset(name)
     frames = build_frames(view)
-    off = np.asarray(frames.layout.leg_offset, dtype=np.float64)
-    for curve in (view.solution.leg[0], view.target_leg):
-        seg = np.stack([curve, np.roll(curve, -1, axis=0)], axis=1) + off
-        for t in frames.feature_labels:
-            assert not _crosses_box(seg[:, 0], seg[:, 1] - seg[:, 0], t.box).any(), (name, t.text)
+    g, off = frames.layout.leg, np.asarray(frames.layout.leg_offset, dtype=np.float64)
+    h = frames.text_height / SCENE_SCALE
+    pad = 0.06 * max(g[2] - g[0], g[3] - g[1])
+    room = (g[0] - pad, g[1] - pad, g[2] + pad, max(g[3] + pad, g[3] + (0.4 + LINE) * FEATURE_TEXT * h))
+    leg = view.solution.leg[0]
+    curves = [np.stack([c, np.roll(c, -1, axis=0)], axis=1) + off for c in (leg,)] + \
+        [closed_polyline(view.target_leg) + off]
+    first_clear_rule = feature_texts(view.features, FEATURE_TEXT * h, off)  # the rule before session 38
+    return frames.feature_labels, first_clear_rule, curves, np.array(room) + np.concatenate([off, off])
+
+
+def test_the_scenes_feature_labels_cover_less_of_the_curves_and_leave_their_view_less_than_the_first_clear_spot():
+    # QA (session 37): four-bar's t4 sat on the swing curve rising from it; review (session 38): labels pushed off
+    # the curves went below the frame or 45 mm sideways into the gap toward the design view, and beside a point
+    # a label lay along the stance line (a crossing counted once, however much of the label it covered).
+    from studio.frames import _inside_length
+
+    def covered(labels, curves):  # curve length under the labels, in label heights
+        return sum(_inside_length(c[:, 0], c[:, 1] - c[:, 0], t.box) / (t.box[3] - t.box[1])
+                   for t in labels for c in curves if len(c))
+
+    def outside(labels, room):
+        return sum(not (room[0] <= t.box[0] and room[1] <= t.box[1] and t.box[2] <= room[2] and t.box[3] <= room[3])
+                   for t in labels)
+
+    now, before = np.zeros(2), np.zeros(2)
+    for name in SCENE_LABEL_PRESETS:
+        labels, old, curves, room = _scene_labels(name)
+        for i, t in enumerate(labels):
+            assert all(_apart(t.box, o.box) for o in labels[i + 1:]), (name, t.text)
+        now += (covered(labels, curves), outside(labels, room))
+        before += (covered(old, curves), outside(old, room))
+        if name == "fourbar/chebyshev":
+            (t4,) = [t for t in labels if t.text == "t4"]
+            assert covered((t4,), curves) == 0.0
+    assert now[0] < 0.6 * before[0] and now[1] <= before[1], (now, before)  # (curve under labels, labels outside)
 
 
 def test_a_label_that_would_cover_a_neighbour_moves_and_the_first_stays_above_its_point():
