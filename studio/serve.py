@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 from typing import NoReturn
 
-from core.kinematics.kernel_cache import warm_mark
+from core.kinematics.kernel_cache import is_warm
 from core.kinematics.memory import keep_freed_memory
 from studio.address import exposure_warning, url_for
 from studio.app import Studio
@@ -63,8 +63,7 @@ def cold_note() -> str | None:
     """What the studio says at its start when these sources' kernels have not been compiled by ``--warm-up`` (a QA
     session's first CMOES run took 86 s, 80 of them compiling, with nothing said at the start); None when they
     have, or when numba's cache is not ours to look at."""
-    mark = warm_mark()
-    if mark is None or mark.exists():
+    if is_warm() is not False:
         return None
     return ("CLM Studio: the numeric kernels of this version are not compiled yet: the first run of each kind "
             "compiles its own (up to a minute; the Stages status says so). `clm-studio --warm-up` compiles them all "

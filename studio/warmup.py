@@ -20,7 +20,7 @@ import numpy as np
 
 from core.analysis.targets import compound_cycloid
 from core.kinematics import presets
-from core.kinematics.kernel_cache import warm_mark
+from core.kinematics.kernel_cache import mark_warm
 from core.optimize.algorithms import ALGORITHMS
 from core.optimize.evolve.qnet import QNet
 from core.optimize.evolve.variation import de_rand_1
@@ -75,8 +75,5 @@ def warm_up(say: Callable[[str], None] = print) -> list[tuple[str, str, str]]:
     net = QNet(rng)  # action is a random choice a generation, its network is built after generation 200
     net.fit(rows, rows, 2)
     net.predict(rows[:2])
-    mark = warm_mark()
-    if mark is not None:  # the studio stops saying its first runs will compile (studio.serve.cold_note)
-        mark.parent.mkdir(parents=True, exist_ok=True)
-        mark.touch()
+    mark_warm()  # the studio stops saying its first runs will compile (studio.serve.cold_note)
     return done

@@ -59,10 +59,40 @@ WARM_MARK = "warmed"  # left in a version's directory by the studio's warm-up on
 
 
 def warm_mark(fingerprint: str | None = None) -> Path | None:
-    """The file ``clm-studio --warm-up`` leaves in these sources' cache directory when it is done; None without a
-    cache directory of our own (numba's default)."""
+    """The file ``clm-studio --warm-up`` leaves in these sources' cache directory when it is done (it holds numba's
+    version: another numba compiles again); None without a cache directory of our own (numba's default)."""
     where = cache_dir(kernel_fingerprint() if fingerprint is None else fingerprint)
     return None if where is None else Path(where) / WARM_MARK
+
+
+def _numba_version() -> str:
+    from importlib.metadata import version
+
+    return version("numba")
+
+
+def mark_warm() -> None:
+    """Leave the warm-up's mark; a cache directory that cannot be written is left alone (numba compiles elsewhere
+    then, and the warm-up still did its work)."""
+    mark = warm_mark()
+    if mark is None:
+        return
+    try:
+        mark.parent.mkdir(parents=True, exist_ok=True)
+        mark.write_text(_numba_version())
+    except OSError:
+        pass
+
+
+def is_warm() -> bool | None:
+    """Whether the warm-up has compiled these sources' kernels with this numba; None without a cache of our own."""
+    mark = warm_mark()
+    if mark is None:
+        return None
+    try:
+        return mark.read_text() == _numba_version()
+    except OSError:
+        return False
 
 
 def prune(where: str, keep: int = KEEP, idle_s: float = IDLE_S) -> list[str]:
