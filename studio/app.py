@@ -248,8 +248,8 @@ class Studio:
     def _outgrown(self) -> bool:
         """True when the views' extent changed enough that the camera should frame them again: they no longer
         fit in what was framed, or they shrank to less than half of it (a Jansen pick 4x larger, a preset), or to
-        less than half its area (a design without a walking view lost the views' lower row and sat in the top half
-        of an empty page; QA session 38)."""
+        less than 0.7 of its height or width (a design without a walking view lost the views' lower row and sat in
+        the top half of an empty page, QA session 38: X3's views keep 0.46 of their height then, Jansen's 0.62)."""
         frames = self.scene.frames
         if frames is None:
             return False
@@ -259,8 +259,8 @@ class Studio:
         span = max(old[2] - old[0], old[3] - old[1], 1e-9)
         outside = bool((b[:2] < old[:2] - 0.02 * span).any() or (b[2:] > old[2:] + 0.02 * span).any())
         shrunk = max(b[2] - b[0], b[3] - b[1]) < 0.5 * span
-        area = (b[2] - b[0]) * (b[3] - b[1]) < 0.5 * (old[2] - old[0]) * (old[3] - old[1])
-        return bool(outside or shrunk or area)
+        lower = (b[3] - b[1]) < 0.7 * (old[3] - old[1]) or (b[2] - b[0]) < 0.7 * (old[2] - old[0])
+        return bool(outside or shrunk or lower)
 
     def _show_study(self, sv: StudyView) -> None:
         self.mechanism.hold(sv.status.running)
