@@ -79,7 +79,7 @@ class CandidateInset:
         self._markers: tuple[InsetMarker, ...] = ()
         self._spheres: dict[int, viser.IcosphereHandle] = {}
         self._labels: list[viser.LabelHandle] = []
-        self._labelled: tuple[tuple[InsetMarker, ...], int | None] | None = None  # what the labels were placed for
+        self._labelled: tuple[tuple[InsetMarker, ...], int | None, float, float] | None = None  # labels placed for
         self._radius = 0.0
         empty_seg = np.zeros((1, 2, 3), dtype=np.float32)
         scene = server.scene
@@ -134,7 +134,8 @@ class CandidateInset:
                 for m in markers:
                     self._spheres[m.member].color = self._colour(m, shown)
             first = shown if any(m.member == shown for m in markers) else None
-            if (markers, first) != self._labelled:
+            key = (markers, first, self._text_height, self._radius)  # place() may change the last two
+            if key != self._labelled:
                 for label in self._labels:
                     label.remove()
                 self._labels = []
@@ -147,7 +148,7 @@ class CandidateInset:
                                                             anchor=tag.anchor,  # type: ignore[arg-type]
                                                             font_size_mode="scene", font_scene_height=tag.height,
                                                             position=tag.position))
-                self._labelled = (markers, first)
+                self._labelled = key
             self.front.visible = len(front) > 0
             if len(front):
                 self.front.point_size = 0.6 * self._radius

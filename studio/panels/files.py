@@ -7,6 +7,7 @@ gets a red notification naming the problem and changes nothing.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -26,6 +27,8 @@ class FilesPanel:
     def __init__(self, studio: Studio, order: float) -> None:
         self.studio = studio
         self._parts_note: dict[int, viser.NotificationHandle] = {}  # each page's open warning about a drawing's parts
+        self._parts_lock = threading.Lock()
+        studio.server.on_client_disconnect(self._forget)
         gui = studio.server.gui
         self.folder = gui.add_folder("Session and export", order=order, expand_by_default=False)
         with self.folder:
@@ -83,6 +86,10 @@ class FilesPanel:
         """Show the session's pin holes (a loaded session's, a restored one's)."""
         self.hole.show(plates.hole)
 
+    def _forget(self, client: viser.ClientHandle) -> None:
+        with self._parts_lock:
+            self._parts_note.pop(client.client_id, None)
+
     def _send(self, make: Any, slow: str | None = None, notes: Any = None) -> Any:
         """A button's handler: ``make()`` -> (name, bytes) sent to the page. ``slow``: what takes the time, said in a
         notification while it does (the PNG took 6-9 s with nothing on screen, so a presenter clicked again); a click
@@ -112,11 +119,12 @@ class FilesPanel:
             if said:
                 # One warning on the page at a time: the DXF's and then the SVG's stacked the same text twice
                 # over the mechanism view (QA session 38).
-                old = self._parts_note.pop(client.client_id, None)
-                if old is not None:
-                    old.remove()
-                self._parts_note[client.client_id] = self.studio.notify(
-                    client, "Check the parts before cutting", "; ".join(said), color="yellow")
+                with self._parts_lock:  # two exports handled at once in viser's pool stacked theirs again
+                    old = self._parts_note.pop(client.client_id, None)
+                    if old is not None:
+                        old.remove()
+                    self._parts_note[client.client_id] = self.studio.notify(
+                        client, "Check the parts before cutting", "; ".join(said), color="yellow")
 
         return handler
 
