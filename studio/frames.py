@@ -138,13 +138,23 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     the foot path, the target; a curve rising past a point ran through its label, QA session 37), ``rules``
     crossed (the frame's edges, the ground line)."""
     groups: list[tuple[list[str], tuple[float, float]]] = []
+    spots_of: list[list[tuple[float, float]]] = []
     for name, xy in features:
-        for names, q in groups:
+        for (names, q), at in zip(groups, spots_of, strict=True):
             if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= h:
                 names.append(name)
+                at.append(xy)
                 break
         else:
             groups.append(([name], xy))
+            spots_of.append([xy])
+    # Labels of one spot are one point's names: t6, t7 and t8 given apart at one place print as one "=" run.
+    for (names, _), at in zip(groups, spots_of, strict=True):
+        merged: dict[tuple[float, float], list[str]] = {}
+        for name, q in zip(list(names), at, strict=True):
+            merged.setdefault(q, []).append(name)
+        names[:] = [",".join(v) if any("," in n for n in v) else "=".join(sorted(
+            "=".join(v).split("="), key=_first_number)) for v in merged.values()]
     ox, oy = float(offset[0]), float(offset[1])
 
     def prepared(sets: tuple[F64, ...]) -> list[tuple[F64, F64]]:
@@ -166,7 +176,7 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
         return c
 
     for k, (names, (x, y)) in enumerate(groups):
-        text = joined_names(sorted("=".join(names).split("="), key=lambda n: int(n[1:]) if n[1:].isdigit() else 0))
+        text = group_text(names)
         spots = [(x, y + 0.4 * h, "bottom-center"), (x, y - 0.4 * h, "top-center"),
                  (x + 0.6 * h, y, "center-left"), (x - 0.6 * h, y, "center-right")]
         tries = [_text(f"feature_{k}", text, sx, sy, a, h, offset) for sx, sy, a in spots]
@@ -274,6 +284,21 @@ def _inside_length(a: F64, d: F64, box: tuple[float, float, float, float]) -> fl
         lo = np.maximum(lo, np.where(flat, np.where(inside, 0.0, np.inf), np.minimum(t0, t1)))
         hi = np.minimum(hi, np.where(flat, np.where(inside, 1.0, -np.inf), np.maximum(t0, t1)))
     return float((np.clip(hi - lo, 0.0, None) * np.hypot(d[..., 0], d[..., 1])).sum())
+
+
+def _first_number(name: str) -> int:
+    head = name.split(",")[0].split("=")[0]
+    return int(head[1:]) if head[1:].isdigit() else 0
+
+
+def group_text(labels: list[str]) -> str:
+    """One label for feature labels printed together (their points closer than a label's height): the labels listed
+    in the order of their first point (``t1=t4,t6``), or, if each is one spot's (only ``=`` in them) and every
+    label of the group is, a run compressed as :func:`joined_names` does. Coinciding points stay joined by ``=``,
+    points merely near each other by ``,`` (a ``=`` between them claimed they coincide; QA, session 38)."""
+    if len(labels) == 1 and "," not in labels[0]:
+        return joined_names(labels[0].split("="))
+    return ",".join(sorted(labels, key=_first_number))
 
 
 def joined_names(names: list[str]) -> str:

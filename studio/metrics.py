@@ -263,32 +263,48 @@ def stance_mask(ev: Evaluation, n_samples: int, i: int = 0) -> NDArray[np.bool_]
 
 
 MERGE = 0.04  # feature points closer than this fraction of their spread share one label (``t1=t4``)
+SAME = 0.005  # ... and are said to coincide (``=``) when closer than this one; else they are listed (``t2,t3``)
 
 
 def feature_labels(ev: Evaluation, i: int = 0, tol: float | None = None) -> tuple[tuple[str, tuple[float, float]], ...]:
     """Feature points t1 ... t8 of member i as ``(label, (x, y))``; points that would print over each other
-    share one label at the first one (``t6=t7=t8`` for a single-peak swing, ``t1=t4`` when the stance starts
-    where it is lowest): closer than ``tol`` mm, by default ``MERGE`` of the points' spread. Empty without
-    feature points."""
+    share one label at the first one: closer than ``tol`` mm, by default ``MERGE`` of the points' spread. Those
+    that coincide (within ``SAME`` of the spread) are joined by ``=`` (``t6=t7=t8`` for a single-peak swing,
+    ``t1=t4`` when the stance starts where it is lowest), the others listed (``t2=t5,t3``: QA, session 38, Klann's
+    "t2=t3=t5" hid that t3, the lowest point, is 2.2 mm below t2). Empty without feature points."""
     if not ev.feasible[i]:
         return ()
     pts = np.asarray(ev.points[i], dtype=np.float64)
     finite = pts[np.isfinite(pts).all(axis=1)]
+    spread = float(np.ptp(finite, axis=0).max()) if len(finite) else 0.0
     if tol is None:
-        spread = float(np.ptp(finite, axis=0).max()) if len(finite) else 0.0
         tol = max(MERGE * spread, 1e-6)
-    out: list[tuple[list[str], tuple[float, float]]] = []
+    same = min(tol, max(SAME * spread, 1e-6))
+    out: list[tuple[list[tuple[str, tuple[float, float]]], tuple[float, float]]] = []
     for name, p in zip(FEATURE_NAMES, ev.points[i], strict=True):
         if not np.isfinite(p).all():
             continue
         xy = (float(p[0]), float(p[1]))
-        for names, q in out:
+        for members, q in out:
             if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= tol:
+                members.append((name, xy))
+                break
+        else:
+            out.append(([(name, xy)], xy))
+    return tuple((listed(members, same), xy) for members, xy in out)
+
+
+def listed(members: list[tuple[str, tuple[float, float]]], same: float) -> str:
+    """Names at points: those within ``same`` mm of an earlier one joined to it by ``=``, the groups by ``,``."""
+    groups: list[tuple[list[str], tuple[float, float]]] = []
+    for name, xy in members:
+        for names, q in groups:
+            if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= same:
                 names.append(name)
                 break
         else:
-            out.append(([name], xy))
-    return tuple(("=".join(names), xy) for names, xy in out)
+            groups.append(([name], xy))
+    return ",".join("=".join(names) for names, _ in groups)
 
 
 def metrics_html(rows: tuple[Row, ...]) -> str:

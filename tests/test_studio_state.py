@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import threading
 
 import numpy as np
@@ -473,7 +474,7 @@ def test_stance_is_the_half_cycle_from_landing_to_take_off_and_holds_the_lowest_
 
 def test_feature_labels_name_every_feature_point_once_merging_coincident_ones(session: Session) -> None:
     labels = feature_labels(session.view.evaluation)
-    names = [n for label, _ in labels for n in label.split("=")]
+    names = [n for label, _ in labels for n in re.split("[=,]", label)]
     assert sorted(names) == sorted(FEATURE_NAMES)
     points = [xy for _, xy in labels]
     assert len(set(points)) == len(points)
