@@ -377,12 +377,28 @@ def test_play_toggles_its_label_and_the_slider_stays_still_while_playing(studio)
 
 
 def test_held_is_said_only_while_playing(studio):
-    from studio.panels.playback import PlaybackPanel
-
     pb = studio.session.playback
     assert not pb.playing
-    assert PlaybackPanel._readout(pb, held=True).endswith("(paused)")
-    assert PlaybackPanel._readout(studio.session.set_playing(True), held=True).endswith("(held while the stage runs)")
+    assert studio.playback._readout(pb, held=True).endswith("(paused)")
+    assert studio.playback._readout(studio.session.set_playing(True), held=True).endswith("(held while the stage runs)")
+
+
+def test_the_readout_says_where_the_design_does_not_assemble_and_which_pose_is_drawn(studio):
+    # QA (session 38): a Klann leg with CH = 60 mm, which does not assemble from 108 to 224 deg, was drawn at its
+    # 107 deg pose in its usual colours while the readout said 166 deg.
+    from core.kinematics.presets import get
+    from studio.geometry import hold_last_valid
+
+    studio.session.set_design(get("klann").design().replace(CH=60.0), cause="a file")
+    sol = studio.session.view.solution
+    valid = sol.valid[0]
+    bad = int(np.flatnonzero(~valid)[len(np.flatnonzero(~valid)) // 2])
+    shown = int(hold_last_valid(valid)[bad])
+    pb = studio.session.scrub(float(sol.theta[bad]))
+    text = studio.playback._readout(pb)
+    assert f"it does not assemble here: drawn at {math.degrees(float(sol.theta[shown])):.0f}°" in text
+    good = int(np.flatnonzero(valid)[0])
+    assert "does not assemble" not in studio.playback._readout(studio.session.scrub(float(sol.theta[good])))
 
 
 def test_a_refused_speed_puts_the_slider_back_and_says_why(studio):

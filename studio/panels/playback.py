@@ -6,8 +6,11 @@ import math
 import time
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import viser
 
+from core.kinematics.solver import Solution
+from studio.geometry import frame_index, hold_last_valid
 from studio.panels._inputs import set_value
 from studio.state import MAX_SPEED, Playback
 
@@ -18,6 +21,18 @@ if TYPE_CHECKING:
 # client, so not at the frame rate). The slider itself stays still while playing: a value pushed into its
 # number box while someone types there overwrote what they typed (issue 13, item 11).
 SLIDER_SYNC_PERIOD = 0.25
+
+
+def held_pose_note(solution: Solution, angle: float) -> str:
+    """What the readout adds where the design does not assemble at crank ``angle`` (rad): the scene draws its last
+    assembled pose there, which read as the pose at the angle shown (QA, session 38: Klann at 166° drawn at 107°
+    in its usual colours, unsaid)."""
+    valid = np.asarray(solution.valid[0], dtype=bool)
+    i = frame_index(angle, len(valid))
+    hold = hold_last_valid(valid)
+    if valid[i] or hold is None:
+        return ""
+    return f" · it does not assemble here: drawn at {math.degrees(float(solution.theta[hold[i]])):.0f}°"
 
 
 class PlaybackPanel:
@@ -49,10 +64,10 @@ class PlaybackPanel:
     def _degrees(pb: Playback) -> float:
         return float(round(math.degrees(pb.angle)) % 360)
 
-    @classmethod
-    def _readout(cls, pb: Playback, held: bool = False) -> str:
+    def _readout(self, pb: Playback, held: bool = False) -> str:
         state = "held while the stage runs" if held and pb.playing else "playing" if pb.playing else "paused"
-        return f"θ = {cls._degrees(pb):.0f}° ({state})"
+        text = f"θ = {self._degrees(pb):.0f}° ({state})"
+        return text + held_pose_note(self.studio.session.view.solution, pb.angle)
 
     def show(self, pb: Playback, held: bool = False) -> None:
         """Mirror the playback state into the controls (the slider only while paused: see SLIDER_SYNC_PERIOD);
