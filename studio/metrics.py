@@ -240,8 +240,12 @@ def metric_rows(solution: Solution, ev: Evaluation, i: int = 0,
             warn=warns.get("crank_margin", ("", False))[0]),
         Row("dyad_margin", "Assembly margin", dyad, "mm", note="closest approach of any dyad to its stretched/folded "
             "limit", warn=warns.get("dyad_margin", ("", False))[0]),
-        Row("mu_min", "Min transmission angle μ", mu, "deg", 1, note="min over dyads and cycle of min(mu, 180 - mu)",
-            warn=warns.get("mu_min", ("", False))[0], severe=warns.get("mu_min", ("", False))[1]),
+        # "-", not "NaN", where it does not turn fully: at the ends of its assembled range a dyad is at a dead point
+        # (0 deg), which the violation rows say (QA, session 38).
+        Row("mu_min", "Min transmission angle μ", mu if solution.violation[i] == 0 else None, "deg", 1,
+            note="min over dyads and cycle of min(mu, 180 - mu)", warn=warns.get("mu_min", ("", False))[0],
+            severe=warns.get("mu_min", ("", False))[1],
+            undefined="" if solution.violation[i] == 0 else "not defined: it does not assemble over the whole cycle"),
         *extra,
     )
     if solution.violation[i] == 0 and not ev.feasible[i]:
