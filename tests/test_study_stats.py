@@ -21,7 +21,8 @@ def test_the_verdict_follows_the_metrics_direction_and_needs_significance() -> N
     assert verdict(BETTER, WORSE, True) == "+" and verdict(WORSE, BETTER, True) == "-"
     assert verdict(BETTER, WORSE, False) == "-" and verdict(WORSE, BETTER, False) == "+"
     assert verdict([1.0, 2.0, 3.0, 4.0], [1.5, 2.5, 3.5, 4.5], True) == "≈"  # p = 0.69 (exact)
-    assert verdict(BETTER, WORSE, None) == "≈"  # a metric without a better direction
+    assert verdict(BETTER, WORSE, None) == ""  # a metric without a better direction: nothing tested, no sign
+    assert verdict([1.0], WORSE, True) == "" and verdict(BETTER, [2.0], False) == ""  # one value: not tested
 
 
 def test_summary_is_the_median_and_the_interquartile_range_of_the_finite_values() -> None:

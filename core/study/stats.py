@@ -127,11 +127,13 @@ def rank_sum_p(a: Sequence[float] | F64, b: Sequence[float] | F64) -> float:
 
 
 def verdict(values: Sequence[float], reference: Sequence[float], higher: bool | None) -> str:
-    """``+`` significantly better than the reference, ``-`` worse, ``≈`` neither (Wilcoxon rank-sum, exact, 5 %)."""
+    """``+`` significantly better than the reference, ``-`` worse, ``≈`` neither (Wilcoxon rank-sum, exact, 5 %);
+    ``""`` where nothing is tested: a metric without a better direction (evaluations, h6, h4) or fewer than two
+    values on a side (a referee read "≈" on the RTCLM's evaluations and on one-run IGD+ medians as tested, s. 38)."""
     a = np.asarray([x for x in values if np.isfinite(x)])
     b = np.asarray([x for x in reference if np.isfinite(x)])
     if higher is None or len(a) < 2 or len(b) < 2:
-        return "≈"
+        return ""
     if np.array_equal(np.sort(a), np.sort(b)):
         return "≈"
     p = rank_sum_p(a, b)
