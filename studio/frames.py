@@ -121,10 +121,10 @@ def scale_bar(x0: float, y: float, span: float, h: float, key: str) -> tuple[F64
 
 
 # What a feature label's spot costs (feature_texts): covering a label, coming within a narrow letter's width of one,
-# leaving the leg view's frame (and the room the layout keeps above the path), crossing the foot path or the target,
-# crossing the frame's edge or the ground line. Measured over the 113 presets against the rule before session 38
-# (the first spot clear of labels): labels across the path or target 130 -> 105 of 207, across a frame edge or the
-# ground line 99 -> 70, partly outside the frame 54 -> 6.
+# leaving the leg view's frame (and the room the layout keeps above the path), and per label height of foot path or
+# target, then of frame edge or ground line, under it. Measured over the 113 presets against the rule before
+# session 38 (the first spot clear of labels): labels over the path or target 130 -> 79 of 207, the curves' length
+# under labels 202 -> 103 label heights, labels partly outside their view 68 -> 37.
 COVER_COST, NEAR_COST, OUTSIDE_COST, LINE_COST, RULE_COST = 100.0, 50.0, 3.0, 1.0, 0.3
 
 
@@ -132,11 +132,11 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
                   lines: tuple[F64, ...] = (), rules: tuple[F64, ...] = (),
                   frame: tuple[float, float, float, float] | None = None) -> tuple[SceneText, ...]:
     """Feature-point labels in the leg view (``h`` mm high): points closer than a label's height print as one
-    (``t2=t5``); each label goes above its point, or below, right or left of it: the first of the spots that cost
-    least (``COVER_COST`` ...): another label covered or too near, the view left (``frame``: x0, y0, x1, y1 in
-    leg-view mm, the room above the path included), ``lines`` crossed (``(k, 2, 2)`` segments each, leg-view mm:
-    the foot path, the target; a curve rising past a point ran through its label, QA session 37), ``rules``
-    crossed (the frame's edges, the ground line)."""
+    (``t1,t4``; :func:`group_text`); each label goes above its point, or below, right or left of it: the first of
+    the spots that cost least (``COVER_COST`` ...): another label covered or too near, the view left (``frame``:
+    x0, y0, x1, y1 in leg-view mm, the room above the path included), the length of ``lines`` under it (``(k, 2,
+    2)`` segments each, leg-view mm: the foot path, the target; a curve rising past a point ran through its label,
+    QA session 37), then of ``rules`` (the frame's edges, the ground line)."""
     groups: list[tuple[list[str], tuple[float, float]]] = []
     spots_of: list[list[tuple[float, float]]] = []
     for name, xy in features:
@@ -292,8 +292,8 @@ def _first_number(name: str) -> int:
 
 def group_text(labels: list[str]) -> str:
     """One label for feature labels printed together (their points closer than a label's height): the labels listed
-    in the order of their first point (``t1=t4,t6``), or, if each is one spot's (only ``=`` in them) and every
-    label of the group is, a run compressed as :func:`joined_names` does. Coinciding points stay joined by ``=``,
+    in the order of their first point (``t1=t4,t6``); a single label of one spot's names (``=`` only) with a run
+    compressed as :func:`joined_names` does. Coinciding points stay joined by ``=``,
     points merely near each other by ``,`` (a ``=`` between them claimed they coincide; QA, session 38)."""
     if len(labels) == 1 and "," not in labels[0]:
         return joined_names(labels[0].split("="))
