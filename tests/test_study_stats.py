@@ -4,6 +4,7 @@ IQRs, the case's normalisation, HV and IGD+, and which run the report shows as b
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -236,3 +237,16 @@ def test_too_few_runs_names_only_the_algorithms_it_applies_to_and_populations_pe
     assert "every sign is ≈" not in md
     assert "Too few runs against the reference's 5 for any difference to reach 5 %: A (2 runs, smallest p 0.095)" in md
     assert "population R 200, A 200, B 40;" in md
+
+
+def test_igd_plus_counts_a_run_without_a_feasible_member_as_the_worst_in_its_sign() -> None:
+    # Referee read (session 38): dropped from the test, CMOEMT's 3 runs of 10 with a feasible member read "≈" beside
+    # an HV "-"; benchmarks/algorithms.py counts such runs as the worst. The median stays over the runs that have one.
+    good = [[[0.05 * s, 1.0], [1.0, 0.05 * s]] for s in range(1, 11)]
+    ref = [run_row("a", s, 3.0, good[s - 1]) for s in range(1, 11)]
+    few = [run_row("b", s, 3.0, good[s - 1] if s <= 2 else [], s <= 2) for s in range(1, 11)]
+    c = case_report(Rows(ref + few), "c", ["a", "b"], {"a": "A", "b": "B"}, "a", "mse")
+    igd = c["table"]["igd_plus"]["b"]
+    assert igd["n"] == 2 and igd["verdict"] == "-"
+    assert verdict([math.inf, math.inf, 1.0], [0.1, 0.2, 0.3], False) in ("≈", "-")  # an inf ranks at the end
+    assert verdict([math.nan, math.nan, 1.0], [0.1, 0.2, 0.3], False) == ""  # a NaN is left out: one value

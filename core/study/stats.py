@@ -130,8 +130,8 @@ def verdict(values: Sequence[float], reference: Sequence[float], higher: bool | 
     """``+`` significantly better than the reference, ``-`` worse, ``≈`` neither (Wilcoxon rank-sum, exact, 5 %);
     ``""`` where nothing is tested: a metric without a better direction (evaluations, h6, h4) or fewer than two
     values on a side (a referee read "≈" on the RTCLM's evaluations and on one-run IGD+ medians as tested, s. 38)."""
-    a = np.asarray([x for x in values if np.isfinite(x)])
-    b = np.asarray([x for x in reference if np.isfinite(x)])
+    a = np.asarray([x for x in values if not np.isnan(x)], dtype=np.float64)  # an infinite value ranks at its end
+    b = np.asarray([x for x in reference if not np.isnan(x)], dtype=np.float64)
     if higher is None or len(a) < 2 or len(b) < 2:
         return ""
     if np.array_equal(np.sort(a), np.sort(b)):
