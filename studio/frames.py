@@ -32,7 +32,7 @@ from studio.geometry import (
     nice_step,
     to_scene,
 )
-from studio.spots import first_clear
+from studio.spots import clusters, first_clear
 from studio.state import DesignView
 from studio.walking import WalkFrames
 
@@ -137,24 +137,14 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     x0, y0, x1, y1 in leg-view mm, the room above the path included), the length of ``lines`` under it (``(k, 2,
     2)`` segments each, leg-view mm: the foot path, the target; a curve rising past a point ran through its label,
     QA session 37), then of ``rules`` (the frame's edges, the ground line)."""
+    names = [n for n, _ in features]
+    xy = [(float(q[0]), float(q[1])) for _, q in features]
     groups: list[tuple[list[str], tuple[float, float]]] = []
-    spots_of: list[list[tuple[float, float]]] = []
-    for name, xy in features:
-        for (names, q), at in zip(groups, spots_of, strict=True):
-            if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= h:
-                names.append(name)
-                at.append(xy)
-                break
-        else:
-            groups.append(([name], xy))
-            spots_of.append([xy])
-    # Labels of one spot are one point's names: t6, t7 and t8 given apart at one place print as one "=" run.
-    for (names, _), at in zip(groups, spots_of, strict=True):
-        merged: dict[tuple[float, float], list[str]] = {}
-        for name, q in zip(list(names), at, strict=True):
-            merged.setdefault(q, []).append(name)
-        names[:] = [",".join(v) if any("," in n for n in v) else "=".join(sorted(
-            "=".join(v).split("="), key=_first_number)) for v in merged.values()]
+    for g in clusters(xy, h):
+        # Labels of one spot are one point's names: t6, t7 and t8 given apart at one place print as one "=" run.
+        spot = [[names[g[j]] for j in s] for s in clusters([xy[k] for k in g], 0.0)]
+        groups.append(([",".join(v) if any("," in n for n in v) else "=".join(sorted(
+            "=".join(v).split("="), key=_first_number)) for v in spot], xy[g[0]]))
     ox, oy = float(offset[0]), float(offset[1])
 
     def prepared(sets: tuple[F64, ...]) -> tuple[F64, F64, F64, F64]:

@@ -29,6 +29,7 @@ from core.analysis.features import FEATURE_NAMES
 from core.analysis.gait import DEFAULT_TRUNK
 from core.analysis.targets import Target
 from core.kinematics.solver import DEAD_POINT_RISK, MU_DEAD, MU_USUAL, Solution, worst_transmission
+from studio.spots import clusters
 from studio.tables import INSET
 
 F64 = NDArray[np.float64]
@@ -284,31 +285,15 @@ def feature_labels(ev: Evaluation, i: int = 0, tol: float | None = None) -> tupl
     if tol is None:
         tol = max(MERGE * spread, 1e-6)
     same = min(tol, max(SAME * spread, 1e-6))
-    out: list[tuple[list[tuple[str, tuple[float, float]]], tuple[float, float]]] = []
-    for name, p in zip(FEATURE_NAMES, ev.points[i], strict=True):
-        if not np.isfinite(p).all():
-            continue
-        xy = (float(p[0]), float(p[1]))
-        for members, q in out:
-            if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= tol:
-                members.append((name, xy))
-                break
-        else:
-            out.append(([(name, xy)], xy))
-    return tuple((listed(members, same), xy) for members, xy in out)
+    named = [(name, (float(p[0]), float(p[1]))) for name, p in zip(FEATURE_NAMES, ev.points[i], strict=True)
+             if np.isfinite(p).all()]
+    xy = [q for _, q in named]
+    return tuple((listed([named[k] for k in g], same), xy[g[0]]) for g in clusters(xy, tol))
 
 
 def listed(members: list[tuple[str, tuple[float, float]]], same: float) -> str:
     """Names at points: those within ``same`` mm of an earlier one joined to it by ``=``, the groups by ``,``."""
-    groups: list[tuple[list[str], tuple[float, float]]] = []
-    for name, xy in members:
-        for names, q in groups:
-            if math.hypot(xy[0] - q[0], xy[1] - q[1]) <= same:
-                names.append(name)
-                break
-        else:
-            groups.append(([name], xy))
-    return ",".join("=".join(names) for names, _ in groups)
+    return ",".join("=".join(members[k][0] for k in g) for g in clusters([q for _, q in members], same))
 
 
 def metrics_html(rows: tuple[Row, ...]) -> str:

@@ -4,6 +4,7 @@ Pareto chart's (``studio.figures``) and the scene's (``studio.frames``); each ke
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -41,3 +42,18 @@ def covers(boxes: Sequence[Box], taken: Sequence[Box]) -> NDArray[np.float64]:
     w = np.clip(np.minimum(a[..., 2], b[..., 2]) - np.maximum(a[..., 0], b[..., 0]), 0.0, None)
     h = np.clip(np.minimum(a[..., 3], b[..., 3]) - np.maximum(a[..., 1], b[..., 1]), 0.0, None)
     return (w * h).sum(axis=1)
+
+
+def clusters(points: Sequence[tuple[float, float]], tol: float) -> list[list[int]]:
+    """Indices of ``points`` grouped greedily: each joins the first group whose first point lies within ``tol``
+    (0: the same point), else starts one; groups and members in the points' order. Feature points sharing a label."""
+    groups: list[list[int]] = []
+    for k, (x, y) in enumerate(points):
+        for g in groups:
+            qx, qy = points[g[0]]
+            if math.hypot(x - qx, y - qy) <= tol:
+                g.append(k)
+                break
+        else:
+            groups.append([k])
+    return groups
