@@ -62,16 +62,12 @@ def case_report(store: Store, case: str, algorithms: list[str], labels: dict[str
     per_alg = {a: [(r, v) for r, v in pairs if r["algorithm"] == a] for a in algorithms}
     table = {}
     for m in metrics:
-        def tested(a: str, m: str = m) -> list[float]:
-            # A run without a feasible member has no IGD+: its sign counts it as the worst, as benchmarks/algorithms.py
-            # does (dropped, a "(3 of 10) ≈" stood beside an HV "-"; referee read, session 38). Its median does not.
-            got = [v.get(m, np.nan) for _, v in per_alg.get(a, [])]
-            return [math.inf if m == "igd_plus" and math.isnan(x) else x for x in got]
-
-        ref = tested(reference)
-        table[m] = {a: {**summary([v.get(m, np.nan) for _, v in per_alg[a]]),
-                        "verdict": "" if a == reference else verdict(tested(a), ref, higher_is_better(m))}
-                    for a in algorithms}
+        col = {a: [v.get(m, np.nan) for _, v in per_alg.get(a, [])] for a in {*algorithms, reference}}
+        # A run without a feasible member has no IGD+: its sign counts it as the worst, as benchmarks/algorithms.py
+        # does (dropped, a "(3 of 10) ≈" stood beside an HV "-"; referee read, session 38). Its median does not.
+        signed = {a: [math.inf if m == "igd_plus" and math.isnan(x) else x for x in xs] for a, xs in col.items()}
+        table[m] = {a: {**summary(col[a]), "verdict": "" if a == reference else
+                        verdict(signed[a], signed[reference], higher_is_better(m))} for a in algorithms}
     key = best_metric([v for _, v in pairs], best)
     best_rows: dict[str, Any] = {}
     fronts: dict[str, Any] = {}
