@@ -249,7 +249,8 @@ class Studio:
         """True when the views' extent changed enough that the camera should frame them again: they no longer
         fit in what was framed, or they shrank to less than half of it (a Jansen pick 4x larger, a preset), or to
         less than 0.7 of its height or width (a design without a walking view lost the views' lower row and sat in
-        the top half of an empty page, QA session 38: X3's views keep 0.46 of their height then, Jansen's 0.62)."""
+        the top half of an empty page, QA session 38: X3's views keep 0.48 of their height then, Jansen's 0.57,
+        Watt-I's 0.56)."""
         frames = self.scene.frames
         if frames is None:
             return False
