@@ -30,6 +30,7 @@ from studio.geometry import (
     link_edges,
     link_segments,
     nice_step,
+    simplified,
     to_scene,
 )
 from studio.spots import clusters, first_clear
@@ -342,8 +343,9 @@ class SceneFrames:
         joint_names: names of the moving joints, in ``joints``' order (labelled while the animation is paused).
         foot: ``(n_samples, 1, 3)`` tracked point, design frame.
         leg_foot: ``(n_samples, 1, 3)`` tracked point, leg frame (leg-view local coordinates).
-        path, target: ``(m, 2, 3)`` design-frame path and target segments.
-        leg_path, leg_target: ``(m, 2, 3)`` leg-frame path and target segments (leg-view local).
+        path, target: ``(m, 2, 3)`` design-frame path and target segments (``geometry.simplified``: within 0.05 %
+            of their extent of every sample).
+        leg_path, leg_target: ``(m, 2, 3)`` leg-frame path and target segments (leg-view local; simplified).
         leg_path_colors: ``(m, 2, 3)`` uint8: stance and swing in two colours (one colour without
             feature points).
         leg_axes: ``(k, 2, 3)`` leg-view frame: a border and the ground line y_g = y(t1).
@@ -402,7 +404,7 @@ class WalkScene:
         body: ``(n_samples, 1 + n_legs, 2, 3)`` trunk and hip-to-foot legs per crank sample.
         body_colors: ``(1 + n_legs, 2, 3)`` uint8.
         feet: ``(n_samples, n_legs, 3)`` feet per crank sample; feet_colors ``(n_legs, 3)``.
-        trails: ``(m, 2, 3)`` the feet's paths over one stride; trail_colors ``(m, 2, 3)``.
+        trails: ``(m, 2, 3)`` the feet's paths over one stride (simplified); trail_colors ``(m, 2, 3)``.
         ground: ``(1, 2, 3)`` the ground line; obstacle ``(4, 2, 3)`` the obstacle's outline.
         hit: a foot path enters the obstacle where it stands.
         text: h_m, h_bar, psi2, psi4 of the design.
@@ -458,7 +460,9 @@ def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
     body = np.concatenate([wf.trunk[:, None], wf.legs], axis=1)
     body_colors = np.repeat(vertex_colours(np.concatenate([[palette.TRUNK], leg_rgb]))[:, None, :], 2, axis=1)
     seg = np.stack([wf.trails[:, :-1], wf.trails[:, 1:]], axis=2)  # (n_legs, m - 1, 2, 2)
-    trail_colors = np.repeat(np.repeat(vertex_colours(leg_rgb)[:, None, None, :], seg.shape[1], 1), 2, 2)
+    painted = np.repeat(np.repeat(vertex_colours(leg_rgb)[:, None, None, :], seg.shape[1], 1), 2, 2)
+    [(trails, trail_colors)] = simplified((seg.reshape(-1, 2, 2), painted.reshape(-1, 2, 3)))
+    assert trail_colors is not None
     x0, y0, x1, y1 = wf.bounds
     pad = 0.04 * (x1 - x0)
     ground = np.array([[[x0 - pad, wf.ground], [x1 + pad, wf.ground]]])
@@ -469,8 +473,8 @@ def build_walk_scene(wf: WalkFrames, view: DesignView) -> WalkScene:
         body_colors=body_colors,
         feet=_lift(to_scene(wf.feet), Z_MARKERS),
         feet_colors=np.asarray(leg_rgb, dtype=np.uint8),  # a point cloud's: sRGB as it is
-        trails=_lift(to_scene(seg.reshape(-1, 2, 2)), 0.5 * Z_LINES),
-        trail_colors=trail_colors.reshape(-1, 2, 3),
+        trails=_lift(to_scene(trails), 0.5 * Z_LINES),
+        trail_colors=trail_colors,
         ground=to_scene(ground),
         obstacle=_lift(to_scene(outline), Z_LINES),
         hit=wf.hit,
@@ -563,6 +567,10 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         pose, foot, leg_foot = joints[hold], point[hold], leg[hold]
         segments = link_segments(pose, edges.pairs)
     grid, step = grid_lines(composition.bounds)
+    (path, _), (target, _), (leg_path, leg_colors), (leg_target, _) = simplified(
+        (closed_polyline(point), None), (closed_polyline(target_design), None),
+        (seg[keep], np.repeat(seg_colour[keep][:, None, :], 2, axis=1)), (closed_polyline(target_leg), None))
+    assert leg_colors is not None
     return SceneFrames(
         links=_lift(to_scene(segments), Z_LINES),
         link_colors=link_colors,
@@ -574,11 +582,11 @@ def build_frames(view: DesignView, show_target: bool = True) -> SceneFrames:
         else (),
         foot=_lift(to_scene(foot[:, None, :]), 2 * Z_MARKERS),
         leg_foot=_lift(to_scene(leg_foot[:, None, :]), 2 * Z_MARKERS),
-        path=_lift(to_scene(closed_polyline(point)), Z_LINES),
-        target=_lift(to_scene(closed_polyline(target_design)), Z_LINES),
-        leg_path=_lift(to_scene(seg[keep]), Z_LINES),
-        leg_target=_lift(to_scene(closed_polyline(target_leg)), Z_LINES),
-        leg_path_colors=np.repeat(seg_colour[keep][:, None, :], 2, axis=1),
+        path=_lift(to_scene(path), Z_LINES),
+        target=_lift(to_scene(target), Z_LINES),
+        leg_path=_lift(to_scene(leg_path), Z_LINES),
+        leg_target=_lift(to_scene(leg_target), Z_LINES),
+        leg_path_colors=leg_colors,
         leg_axes=to_scene(np.concatenate([border, axis])),
         features=_lift(to_scene(feats), Z_MARKERS),
         feature_names=tuple(name for name, _ in view.features),

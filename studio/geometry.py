@@ -80,6 +80,100 @@ def closed_polyline(points: F64) -> F64:
     return seg[np.isfinite(seg).all(axis=(1, 2))]
 
 
+SEED = 32  # a kept sample at least every SEED: fewer levels of splits (2-3x faster), 0-15 more segments a curve
+DRAWN = 5e-4  # a drawn curve keeps within this share of its extent of every sample (a fraction of a pixel)
+
+
+def simplified(*curves: tuple[F64, NDArray[np.uint8] | None]) -> list[tuple[F64, NDArray[np.uint8] | None]]:
+    """Segments ``(m, 2, 2)`` of polylines -> fewer segments drawing the same curves, for each ``(segments,
+    colors)`` given (per-vertex ``colors`` ``(m, 2, 3)``, one colour a segment, or None). Each chain of joined
+    segments of one colour keeps the samples Ramer-Douglas-Peucker needs to pass within ``DRAWN`` x its
+    curve's extent of every sample; its ends and every break (a gap, a colour change) stay where they were.
+
+    A software-rendered page draws each segment of a line for ~20 us a frame (session 39: the default scene's
+    2242 segments were ~40 of its ~90 ms a frame, 10 frames a second, the page's main thread always waiting on
+    them); a 360-sample path needs 40-70 to look the same. The curves are done together (numpy's calls, not
+    the points, are what a level of splits costs).
+    """
+    pts, a, b, tol, owner_of = [], [], [], [], []
+    base = 0
+    for k, (seg, colors) in enumerate(curves):
+        m = len(seg)
+        brk = np.any(seg[1:, 0] != seg[:-1, 1], axis=1)
+        if colors is not None:
+            brk |= np.any(colors[1:, 0] != colors[:-1, 0], axis=1)
+        starts = np.concatenate([[0], np.flatnonzero(brk) + 1, [m]]) if m else np.zeros(1, dtype=np.int64)
+        # Chain c's points are its segments' starts and its last end: its segments s..e-1 are points s+c..e+c.
+        first, last = starts[:-1], starts[1:]
+        c = np.arange(len(first))
+        p = np.empty((m + len(first), 2))
+        p[np.arange(m) + np.repeat(c, last - first)] = seg[:, 0]
+        p[last + c] = seg[last - 1, 1]
+        ext = float(np.ptp(seg.reshape(-1, 2), axis=0).max()) if m else 0.0
+        pts.append(p)
+        a.append(base + first + c)
+        b.append(base + last + c)
+        tol.append(np.full(len(first), DRAWN * ext))
+        owner_of.append(np.full(len(p), k))
+        base += len(p)
+    if not base:
+        return list(curves)
+    flat = np.concatenate(pts)
+    ends = np.zeros(base, dtype=bool)
+    ends[np.concatenate(b)] = True
+    kept = np.flatnonzero(_kept(flat, np.concatenate(a), np.concatenate(b), np.concatenate(tol)))
+    start = kept[:-1][~ends[kept[:-1]]]  # each kept point but a chain's last starts a segment to the next kept one
+    end = kept[1:][~ends[kept[:-1]]]
+    curve = np.concatenate(owner_of)[start]
+    out: list[tuple[F64, NDArray[np.uint8] | None]] = []
+    offset = 0
+    for k, (_, colors) in enumerate(curves):
+        s, e = start[curve == k], end[curve == k]
+        drawn = np.stack([flat[s], flat[e]], axis=1)
+        if colors is not None:
+            # the colour of the chain each drawn segment starts in: the original segment at the same point
+            c = np.searchsorted(b[k], s, side="left")  # the chain of point s (points s..b[k][c] belong to chain c)
+            colors = colors[s - offset - c]
+        out.append((drawn, colors))
+        offset += len(pts[k])
+    return out
+
+
+def _kept(pts: F64, a: NDArray[np.int64], b: NDArray[np.int64], tol: F64) -> NDArray[np.bool_]:
+    """``(n,)`` the points Ramer-Douglas-Peucker keeps at ``tol[i]`` of the open polylines ``pts[a[i]..b[i]]``
+    (their ends and each point farther than ``tol`` from the kept segment over it: the segment, not its line, so
+    a foot path's hairpin past a chord's end stays; a closed one starts and ends on one point, and its farthest
+    point splits it first). All polylines a level of splits at a time, in numpy."""
+    keep = np.zeros(len(pts), dtype=bool)
+    keep[a], keep[b] = True, True
+    # Seeded: a point every SEED samples is kept as well (a few more segments; about half the levels of splits).
+    n = (b - a + SEED - 1) // SEED
+    owner = np.repeat(np.arange(len(a)), n)
+    cuts = a[owner] + SEED * (np.arange(len(owner)) - (np.cumsum(n) - n)[owner])
+    keep[cuts] = True
+    a, b, tol = cuts, np.minimum(cuts + SEED, b[owner]), tol[owner]
+    while len(a):
+        inner = b - a - 1
+        a, b, tol, inner = a[inner > 0], b[inner > 0], tol[inner > 0], inner[inner > 0]
+        if not len(a):
+            break
+        at = np.cumsum(inner) - inner  # where each interval's points start in the flat arrays
+        owner = np.repeat(np.arange(len(a)), inner)
+        idx = a[owner] + 1 + np.arange(len(owner)) - at[owner]
+        d = (pts[b] - pts[a])[owner]
+        r = pts[idx] - pts[a[owner]]
+        t = np.clip((r * d).sum(axis=1) / np.maximum((d * d).sum(axis=1), np.finfo(float).tiny), 0.0, 1.0)
+        dist = np.hypot(r[:, 0] - t * d[:, 0], r[:, 1] - t * d[:, 1])
+        top = np.maximum.reduceat(dist, at)
+        pos = np.minimum.reduceat(np.where(dist == top[owner], np.arange(len(owner)), len(owner)), at)
+        split = top > tol
+        mid = idx[pos[split]]
+        keep[mid] = True
+        a, b = np.concatenate([a[split], mid]), np.concatenate([mid, b[split]])
+        tol = np.concatenate([tol[split], tol[split]])
+    return keep
+
+
 def to_scene(points: F64, offset: F64 | tuple[float, float] = (0.0, 0.0)) -> F32:
     """Planar points ``(..., 2)`` (mm) plus an offset (mm) -> ``(..., 3)`` scene points (m, z = 0)."""
     p = (np.asarray(points, dtype=np.float64) + np.asarray(offset, dtype=np.float64)) * SCENE_SCALE

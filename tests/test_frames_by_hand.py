@@ -25,7 +25,7 @@ from studio.frames import (
     text_width,
     vertex_colours,
 )
-from studio.geometry import EDGE_CRANK, EDGE_GROUND, EDGE_LINK, SCENE_SCALE, link_edges
+from studio.geometry import EDGE_CRANK, EDGE_GROUND, EDGE_LINK, SCENE_SCALE, link_edges, to_scene
 from studio.spots import overlaps
 from studio.spots import overlaps as _overlaps
 from studio.state import Session, build_view
@@ -186,7 +186,21 @@ def test_stance_and_swing_segments_have_their_colours(x3_view, x3):
     stance = x3_view.stance
     assert stance is not None and 0 < stance.sum() < len(stance)
     want = np.where(stance[:, None], vertex_colours(np.array(palette.STANCE)), vertex_colours(np.array(palette.SWING)))
-    assert (x3.leg_path_colors[:, 0] == want).all() and (x3.leg_path_colors[:, 1] == want).all()
+    # Segment i -> i + 1 has sample i's colour; a drawn segment spans samples i..j - 1 of one colour and has it.
+    ends = _sample_ends(x3.leg_path, x3_view.solution.leg[0])
+    n = len(stance)
+    for (i, j), c in zip(ends, x3.leg_path_colors, strict=True):
+        run = np.arange(i, j if j > i else j + n) % n
+        assert (want[run] == c[0]).all() and (c[1] == c[0]).all()
+    assert sum((j - i) % n for i, j in ends) == n  # the whole closed path, once
+
+
+def _sample_ends(drawn, points):
+    """``(k, 2)`` the sample indices of each drawn segment's ends (leg-view local scene coordinates)."""
+    samples = to_scene(np.nan_to_num(points, nan=1e9))[:, :2]
+    at = [np.flatnonzero(np.abs(samples - p).sum(axis=1) < 1e-9) for p in drawn[:, :, :2].reshape(-1, 2)]
+    assert all(len(i) == 1 for i in at)
+    return np.array([i[0] for i in at]).reshape(-1, 2)
 
 
 def test_the_bench_path_leaves_out_every_segment_with_an_end_where_the_mechanism_does_not_assemble(x3_view):
@@ -196,7 +210,12 @@ def test_the_bench_path_leaves_out_every_segment_with_an_end_where_the_mechanism
     assert 0 < ok.sum() < len(ok)
     f = build_frames(broken)
     assert np.isfinite(f.leg_path).all()
-    assert len(f.leg_path) == int((ok & np.roll(ok, -1)).sum()) == len(f.leg_path_colors)
+    assert 0 < len(f.leg_path) == len(f.leg_path_colors) <= int((ok & np.roll(ok, -1)).sum())
+    # Drawn with fewer segments (tests/test_drawn_curves.py), none across the samples that do not assemble: each
+    # segment joins two samples with every sample between them assembled.
+    for i, j in _sample_ends(f.leg_path, leg):
+        run = np.arange(i, j + 1 if j >= i else j + 1 + len(ok)) % len(ok)
+        assert ok[run].all()
 
 
 def test_a_design_that_never_assembles_keeps_its_pivots_turns_its_crank_and_draws_no_foot(x3_view):
