@@ -481,11 +481,17 @@ class Session:
 
     @classmethod
     def default(cls, preset: str = DEFAULT_PRESET, target: TargetSpec | None = None) -> Session:
-        """A session on a preset (the paper's Stephenson-I X3 by default), animating; an RTCLM case's preset with
-        that case's h4."""
+        """A session on a preset (the paper's Stephenson-I X3 by default), animating, as the Topology and Preset
+        dropdowns load it: the paper's target for the paper's mechanisms, else one fitted to the preset's path
+        (``preset_target``), an RTCLM case's preset with that case's h4, and the walking view sized to the leg
+        (``walk_sizes``). (Until session 39 every preset got the paper's cycloid and obstacle: a Jansen leg read MSE
+        206 mm here and 2.3 mm in the studio.)"""
+        design = presets.get(preset).design()
         if target is None:
-            target = TargetSpec(h4=case_h4(preset) or H4_CASES[1])
-        return cls(build_view(presets.get(preset).design(), preset, target))
+            target = (TargetSpec(h4=case_h4(preset) or H4_CASES[1]) if design.mechanism.name in PAPER_TARGET
+                      else preset_target(preset))
+        walk = resized(WalkSpec(), walk_sizes(design.mechanism.name, target))
+        return cls(build_view(design, preset, target, walk=walk))
 
     def _rebuild(self, design: Design, preset: str | None, target: TargetSpec | None = None,
                  walk: WalkSpec | None = None) -> DesignView:

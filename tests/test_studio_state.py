@@ -6,6 +6,7 @@ import json
 import math
 import re
 import threading
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -81,6 +82,21 @@ def test_every_registered_preset_opens_and_reports_whether_it_assembles() -> Non
         assert view.assembles == (view.solution.violation[0] == 0.0)
         if not view.assembles:
             assert rows(view)["feasible"].value is False and rows(view)["why"].text() != "-"
+
+
+@pytest.mark.parametrize("name", ["jansen", "klann", "fourbar/chebyshev", "rtclm/case3", "stephenson3/paper"])
+def test_a_session_on_a_preset_is_the_one_the_topology_and_preset_dropdowns_load(name: str) -> None:
+    # Session.default(name) gave every preset the paper's cycloid and the paper's 25 x 25 mm obstacle on a 450 mm
+    # trunk: a Jansen leg read MSE 206 mm through the API and 2.3 mm in the studio (session 38's note).
+    shown = Session.default()
+    shown.load_preset(name)
+    made = Session.default(name).view
+    np.testing.assert_array_equal(made.design.params, shown.view.design.params)
+    assert made.walk == shown.view.walk
+    # the same target; the paper's mechanisms' target says "the paper's" once switched to from another mechanism
+    assert replace(made.target, origin="") == replace(shown.view.target, origin="")
+    assert made.target.origin == shown.view.target.origin or made.target.origin == ""
+    assert rows(made)["mse"].text() == rows(shown.view)["mse"].text()
 
 
 def test_the_gait_numbers_of_a_path_that_does_not_walk_are_marked_not_defined() -> None:
