@@ -185,6 +185,7 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     return tuple(out)
 
 
+LABEL_CLASH = 1000.0  # a joint's label over another label: worse than any number of links under it
 PIVOT_SPOTS = ((1.0, -1.0, "top-left"), (1.0, 1.0, "bottom-left"), (-1.0, -1.0, "top-right"),
                (-1.0, 1.0, "bottom-right"))  # (x, y) sides of the pivot, and the anchor that puts the label there
 
@@ -248,7 +249,7 @@ def joint_label_spots(names: tuple[str, ...], joints: np.ndarray, links: np.ndar
             xa, ya, xb, yb = here = label_box(name, spot, anchor, h)
             cost = float(_crosses_box(a, d, here).sum())
             cost += 3.0 * sum(xa < c and c < xb and ya < e and e < yb for c, e in others)
-            cost += 3.0 * sum(xa < b[2] and b[0] < xb and ya < b[3] and b[1] < yb for b in boxes)
+            cost += LABEL_CLASH * sum(xa < b[2] and b[0] < xb and ya < b[3] and b[1] < yb for b in boxes)
             if cost < least:
                 best, least, box = (spot, anchor), cost, here
         boxes.append(box)
