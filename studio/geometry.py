@@ -80,7 +80,7 @@ def closed_polyline(points: F64) -> F64:
     return seg[np.isfinite(seg).all(axis=(1, 2))]
 
 
-SEED = 32  # a kept sample at least every SEED: fewer levels of splits (2-3x faster), 0-15 more segments a curve
+SEED = 32  # a kept sample at least every SEED: fewer levels of splits (~1.6x faster), 0-15 more segments a curve
 DRAWN = 5e-4  # a drawn curve keeps within this share of its extent of every sample (a fraction of a pixel)
 
 
@@ -89,6 +89,7 @@ def simplified(*curves: tuple[F64, NDArray[np.uint8] | None]) -> list[tuple[F64,
     colors)`` given (per-vertex ``colors`` ``(m, 2, 3)``, one colour a segment, or None). Each chain of joined
     segments of one colour keeps the samples Ramer-Douglas-Peucker needs to pass within ``DRAWN`` x its
     curve's extent of every sample; its ends and every break (a gap, a colour change) stay where they were.
+    A segment with a non-finite end is left out (a gap), as viser needs finite arrays.
 
     A software-rendered page draws each segment of a line for ~20 us a frame (session 39: the default scene's
     2242 segments were ~40 of its ~90 ms a frame, 10 frames a second, the page's main thread always waiting on
@@ -97,6 +98,12 @@ def simplified(*curves: tuple[F64, NDArray[np.uint8] | None]) -> list[tuple[F64,
     """
     pts, a, b, tol, owner_of = [], [], [], [], []
     base = 0
+    finite = []
+    for seg, colors in curves:
+        seg = np.asarray(seg, dtype=np.float64)
+        ok = np.isfinite(seg).all(axis=(1, 2))
+        finite.append((seg[ok], None if colors is None else colors[ok]))
+    curves = tuple(finite)
     for k, (seg, colors) in enumerate(curves):
         m = len(seg)
         brk = np.any(seg[1:, 0] != seg[:-1, 1], axis=1)
@@ -141,9 +148,9 @@ def simplified(*curves: tuple[F64, NDArray[np.uint8] | None]) -> list[tuple[F64,
 
 def _kept(pts: F64, a: NDArray[np.int64], b: NDArray[np.int64], tol: F64) -> NDArray[np.bool_]:
     """``(n,)`` the points Ramer-Douglas-Peucker keeps at ``tol[i]`` of the open polylines ``pts[a[i]..b[i]]``
-    (their ends and each point farther than ``tol`` from the kept segment over it: the segment, not its line, so
-    a foot path's hairpin past a chord's end stays; a closed one starts and ends on one point, and its farthest
-    point splits it first). All polylines a level of splits at a time, in numpy."""
+    (their ends, every SEED-th point, and each point farther than ``tol`` from the kept segment over it: the
+    segment, not its line, so a foot path's hairpin past a chord's end stays; a piece whose ends are one point is
+    measured from that point). All polylines a level of splits at a time, in numpy."""
     keep = np.zeros(len(pts), dtype=bool)
     keep[a], keep[b] = True, True
     # Seeded: a point every SEED samples is kept as well (a few more segments; about half the levels of splits).
