@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.spots import Box, cover, spill
+from studio.spots import Box, cover, inside_length, spill
 
 F64 = NDArray[np.float64]
 WIDTH = 320.0  # viewBox width (px); the chart scales to the panel's width
@@ -108,6 +108,7 @@ def _points(arc: F64) -> list[str]:
 # A feature label's box (px, 11 px sans-serif): a character's mean width, the height above and below the baseline.
 CHAR_W, ASCENT, DESCENT = 6.2, 9.0, 2.5
 DOT = 3.5  # a feature point's radius (px)
+CURVE = 0.1  # a label's cost per px of curve under it: 80 px of it weigh as one px of label reaching off the plot
 # Where a label may go, tried in this order: (dx, dy) of its baseline anchor from the point, and the anchor.
 SPOTS = ((0.0, -7.0, "middle"), (0.0, 15.0, "middle"), (6.0, 4.0, "start"), (-6.0, 4.0, "end"),
          (5.0, -6.0, "start"), (-5.0, -6.0, "end"), (5.0, 14.0, "start"), (-5.0, 14.0, "end"),
@@ -122,19 +123,34 @@ def label_box(x: float, y: float, anchor: str, text: str) -> Box:
     return x0, y - ASCENT, x0 + w, y + DESCENT
 
 
-def label_spots(points: list[tuple[float, float]], texts: list[str], bounds: Box) -> list[tuple[float, float, str]]:
+def label_spots(points: list[tuple[float, float]], texts: list[str], bounds: Box,
+                lines: F64 | None = None) -> list[tuple[float, float, str]]:
     """Each feature label's baseline anchor (x, y, text-anchor), in the points' order: above its point where that
     covers no other label or point, stays inside ``bounds`` (x0, y0, x1, y1: the plot, so no label covers a
     tick's) and is nearer its own point than any other; else the first of ``SPOTS`` that does, or failing that
     the one that does least harm. Placed in order, then each placed again against all the others (a few rounds):
     placed only in order, Jansen's t1=t4 took the spot under t3 that t3 needed. Labels centred above their points
     printed over each other where points sit close (Jansen's t1=t4 and t3 on a 70 mm stance, Klann's t2=t3 and
-    t5)."""
+    t5). ``lines``: ``(k, 2, 2)`` the curves' segments (px); the length of them under a label costs ``CURVE`` a px
+    (session 39: the bench chart's labels sat on the swing curve the scene's had left in session 38)."""
     dots = [(x - DOT, y - DOT, x + DOT, y + DOT) for x, y in points]
+    seg = np.zeros((0, 2, 2)) if lines is None else np.asarray(lines, dtype=np.float64).reshape(-1, 2, 2)
+    lo, hi = seg.min(axis=1), seg.max(axis=1)
+    close = []  # per point, the segments whose box meets the box around all of its spots (10x fewer to clip)
+    for (x, y), text in zip(points, texts, strict=True):
+        reach = CHAR_W * len(text) + 6.0
+        hit = (lo[:, 0] < x + reach) & (hi[:, 0] > x - reach) & (lo[:, 1] < y + 30.0) & (hi[:, 1] > y - 30.0)
+        close.append((seg[hit, 0], seg[hit, 1] - seg[hit, 0]))
+    under: dict[tuple[int, tuple[float, float, str]], float] = {}  # curve px under label k at a spot, once each
+
+    def curve_cost(k: int, spot: tuple[float, float, str], box: Box) -> float:
+        if (k, spot) not in under:
+            under[k, spot] = CURVE * inside_length(*close[k], box) if len(close[k][0]) else 0.0
+        return under[k, spot]
 
     def cost(k: int, spot: tuple[float, float, str], others: list[Box]) -> float:
         box = label_box(*spot, texts[k])
-        c = 10.0 * sum(cover(box, o) for o in others) + 8.0 * spill(box, bounds)
+        c = 10.0 * sum(cover(box, o) for o in others) + 8.0 * spill(box, bounds) + curve_cost(k, spot, box)
         # Nearer another point than its own, a label reads as that point's.
         cx, cy = 0.5 * (box[0] + box[2]), 0.5 * (box[1] + box[3])
         x, y = points[k]
@@ -260,7 +276,10 @@ def bench_svg(
     names = [n for n, _ in shown]
     # Labels may rise into the top margin, not onto the legend (its text ends at y = 18.5), nor onto the x ticks.
     plot = (x0 - 4.0, TOP - 11.0, x0 + pw_used + 4.0, TOP + ph + 3.0)
-    for name, (lx, ly, anchor) in zip(names, label_spots([xy for _, xy in shown], names, plot), strict=True):
+    drawn = [np.stack([x0 + (arc[:, 0] - xr[0]) * k, TOP + (yr[1] - arc[:, 1]) * k], axis=1) for _, arc, _, _ in curves]
+    lines = np.concatenate([np.stack([c[:-1], c[1:]], axis=1) for c in drawn if len(c) > 1] or [np.zeros((0, 2, 2))])
+    lines = lines[np.isfinite(lines).all(axis=(1, 2))]
+    for name, (lx, ly, anchor) in zip(names, label_spots([xy for _, xy in shown], names, plot, lines), strict=True):
         out.append(f'<text class="label" x="{lx:.2f}" y="{ly:.2f}" text-anchor="{anchor}" '
                    f'style="{FONT};fill:#222">{escape(name)}</text>')
 

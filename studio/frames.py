@@ -33,7 +33,7 @@ from studio.geometry import (
     simplified,
     to_scene,
 )
-from studio.spots import clusters, first_clear
+from studio.spots import clusters, crosses_box, first_clear, inside_length
 from studio.state import DesignView
 from studio.walking import WalkFrames
 
@@ -158,7 +158,7 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     def under(sets: tuple[F64, F64, F64, F64], b: tuple[float, float, float, float]) -> float:
         a, d, lo, hi = sets
         near = (lo[:, 0] < b[2]) & (hi[:, 0] > b[0]) & (lo[:, 1] < b[3]) & (hi[:, 1] > b[1])
-        return _inside_length(a[near], d[near], b) if near.any() else 0.0
+        return inside_length(a[near], d[near], b) if near.any() else 0.0
 
     crossed, ruled = prepared(lines), prepared(rules)
     box = None if frame is None else (frame[0] + ox, frame[1] + oy, frame[2] + ox, frame[3] + oy)
@@ -209,7 +209,7 @@ def pivot_label_spots(names: tuple[str, ...], pivots: np.ndarray, links: np.ndar
         for sx, sy, anchor in PIVOT_SPOTS:
             spot = (float(p[0] + sx * off), float(p[1] + sy * off), float(p[2]))
             box = label_box(name, spot, anchor, h)
-            crossed = int(_crosses_box(a, d, box).any(axis=1).sum())  # samples a link crosses it in
+            crossed = int(crosses_box(a, d, box).any(axis=1).sum())  # samples a link crosses it in
             if crossed < least:
                 best, least = (spot, anchor), crossed
         out.append(best)
@@ -247,7 +247,7 @@ def joint_label_spots(names: tuple[str, ...], joints: np.ndarray, links: np.ndar
         for sx, sy, anchor in PIVOT_SPOTS:
             spot = (float(p[0] + sx * off), float(p[1] + sy * off), float(p[2]))
             xa, ya, xb, yb = here = label_box(name, spot, anchor, h)
-            cost = float(_crosses_box(a, d, here).sum())
+            cost = float(crosses_box(a, d, here).sum())
             cost += 3.0 * sum(xa < c and c < xb and ya < e and e < yb for c, e in others)
             cost += LABEL_CLASH * sum(xa < b[2] and b[0] < xb and ya < b[3] and b[1] < yb for b in boxes)
             if cost < least:
@@ -255,33 +255,6 @@ def joint_label_spots(names: tuple[str, ...], joints: np.ndarray, links: np.ndar
         boxes.append(box)
         out.append(best)
     return tuple(out)
-
-
-def _clip(a: F64, d: F64, box: tuple[float, float, float, float]) -> tuple[F64, F64]:
-    """The parameter range [lo, hi] of segments ``a + t d`` (t in [0, 1]; ``(..., 2)`` arrays) inside the open box
-    (Liang-Barsky); empty where lo >= hi."""
-    lo, hi = np.zeros(a.shape[:-1]), np.ones(a.shape[:-1])
-    for k, (b0, b1) in enumerate(((box[0], box[2]), (box[1], box[3]))):
-        ak, dk = a[..., k], d[..., k]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t0, t1 = (b0 - ak) / dk, (b1 - ak) / dk
-        flat = dk == 0.0  # parallel to this slab: in it throughout, or never
-        inside = (ak > b0) & (ak < b1)
-        lo = np.maximum(lo, np.where(flat, np.where(inside, 0.0, np.inf), np.minimum(t0, t1)))
-        hi = np.minimum(hi, np.where(flat, np.where(inside, 1.0, -np.inf), np.maximum(t0, t1)))
-    return lo, hi
-
-
-def _crosses_box(a: F64, d: F64, box: tuple[float, float, float, float]) -> np.ndarray:
-    """Whether segments ``a + t d`` (t in [0, 1]; ``(..., 2)`` arrays) pass through the open box."""
-    lo, hi = _clip(a, d, box)
-    return lo < hi
-
-
-def _inside_length(a: F64, d: F64, box: tuple[float, float, float, float]) -> float:
-    """How much of the segments ``a + t d`` (t in [0, 1]) runs inside the open box, mm."""
-    lo, hi = _clip(a, d, box)
-    return float((np.clip(hi - lo, 0.0, None) * np.hypot(d[..., 0], d[..., 1])).sum())
 
 
 def _first_number(name: str) -> int:

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 Box = tuple[float, float, float, float]
+F64 = NDArray[np.float64]
 
 
 def overlaps(a: Box, b: Box) -> bool:
@@ -57,3 +58,30 @@ def clusters(points: Sequence[tuple[float, float]], tol: float) -> list[list[int
         else:
             groups.append([k])
     return groups
+
+
+def _clip(a: F64, d: F64, box: Box) -> tuple[F64, F64]:
+    """The parameter range [lo, hi] of segments ``a + t d`` (t in [0, 1]; ``(..., 2)`` arrays) inside the open box
+    (Liang-Barsky); empty where lo >= hi."""
+    lo, hi = np.zeros(a.shape[:-1]), np.ones(a.shape[:-1])
+    for k, (b0, b1) in enumerate(((box[0], box[2]), (box[1], box[3]))):
+        ak, dk = a[..., k], d[..., k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t0, t1 = (b0 - ak) / dk, (b1 - ak) / dk
+        flat = dk == 0.0  # parallel to this slab: in it throughout, or never
+        inside = (ak > b0) & (ak < b1)
+        lo = np.maximum(lo, np.where(flat, np.where(inside, 0.0, np.inf), np.minimum(t0, t1)))
+        hi = np.minimum(hi, np.where(flat, np.where(inside, 1.0, -np.inf), np.maximum(t0, t1)))
+    return lo, hi
+
+
+def crosses_box(a: F64, d: F64, box: Box) -> np.ndarray:
+    """Whether segments ``a + t d`` (t in [0, 1]; ``(..., 2)`` arrays) pass through the open box."""
+    lo, hi = _clip(a, d, box)
+    return lo < hi
+
+
+def inside_length(a: F64, d: F64, box: Box) -> float:
+    """How much of the segments ``a + t d`` (t in [0, 1]) runs inside the open box (in their units)."""
+    lo, hi = _clip(a, d, box)
+    return float((np.clip(hi - lo, 0.0, None) * np.hypot(d[..., 0], d[..., 1])).sum())

@@ -326,7 +326,7 @@ def test_a_pivot_label_takes_the_corner_the_links_cross_least(preset):
 
 
 def test_a_segment_crosses_a_box_by_hand():
-    from studio.frames import _crosses_box
+    from studio.spots import crosses_box as _crosses_box
 
     box = (0.0, 0.0, 2.0, 1.0)
     a = np.array([[-1.0, 0.5], [-1.0, 2.0], [0.5, 0.5], [1.0, -1.0], [-1.0, 0.5], [3.0, 0.0], [0.5, 0.2]])
