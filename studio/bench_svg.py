@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from studio import palette
-from studio.spots import Box, cover, inside_length, spill
+from studio.spots import Box, as_segments, cover, length_under, spill
 
 F64 = NDArray[np.float64]
 WIDTH = 320.0  # viewBox width (px); the chart scales to the panel's width
@@ -134,18 +134,12 @@ def label_spots(points: list[tuple[float, float]], texts: list[str], bounds: Box
     t5). ``lines``: ``(k, 2, 2)`` the curves' segments (px); the length of them under a label costs ``CURVE`` a px
     (session 39: the bench chart's labels sat on the swing curve the scene's had left in session 38)."""
     dots = [(x - DOT, y - DOT, x + DOT, y + DOT) for x, y in points]
-    seg = np.zeros((0, 2, 2)) if lines is None else np.asarray(lines, dtype=np.float64).reshape(-1, 2, 2)
-    lo, hi = seg.min(axis=1), seg.max(axis=1)
-    close = []  # per point, the segments whose box meets the box around all of its spots (10x fewer to clip)
-    for (x, y), text in zip(points, texts, strict=True):
-        reach = CHAR_W * len(text) + 6.0
-        hit = (lo[:, 0] < x + reach) & (hi[:, 0] > x - reach) & (lo[:, 1] < y + 30.0) & (hi[:, 1] > y - 30.0)
-        close.append((seg[hit, 0], seg[hit, 1] - seg[hit, 0]))
+    curves = as_segments(*(() if lines is None else (lines,)))
     under: dict[tuple[int, tuple[float, float, str]], float] = {}  # curve px under label k at a spot, once each
 
     def curve_cost(k: int, spot: tuple[float, float, str], box: Box) -> float:
         if (k, spot) not in under:
-            under[k, spot] = CURVE * inside_length(*close[k], box) if len(close[k][0]) else 0.0
+            under[k, spot] = CURVE * length_under(curves, box)
         return under[k, spot]
 
     def cost(k: int, spot: tuple[float, float, str], others: list[Box]) -> float:

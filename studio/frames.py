@@ -33,7 +33,7 @@ from studio.geometry import (
     simplified,
     to_scene,
 )
-from studio.spots import clusters, crosses_box, first_clear, inside_length
+from studio.spots import as_segments, clusters, crosses_box, first_clear, length_under
 from studio.state import DesignView
 from studio.walking import WalkFrames
 
@@ -148,19 +148,7 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
             "=".join(v).split("="), key=_first_number)) for v in spot], xy[g[0]]))
     ox, oy = float(offset[0]), float(offset[1])
 
-    def prepared(sets: tuple[F64, ...]) -> tuple[F64, F64, F64, F64]:
-        # The sets' segments as one array (starts, steps) with each segment's bounding box: a label is clipped only
-        # against the few whose box meets its own (clipping all ~700 at every spot was half of build_frames).
-        seg = np.concatenate([np.asarray(s, dtype=np.float64).reshape(-1, 2, 2) for s in sets] or
-                             [np.zeros((0, 2, 2))]) + (ox, oy)
-        return seg[:, 0], seg[:, 1] - seg[:, 0], seg.min(axis=1), seg.max(axis=1)
-
-    def under(sets: tuple[F64, F64, F64, F64], b: tuple[float, float, float, float]) -> float:
-        a, d, lo, hi = sets
-        near = (lo[:, 0] < b[2]) & (hi[:, 0] > b[0]) & (lo[:, 1] < b[3]) & (hi[:, 1] > b[1])
-        return inside_length(a[near], d[near], b) if near.any() else 0.0
-
-    crossed, ruled = prepared(lines), prepared(rules)
+    crossed, ruled = as_segments(*lines, offset=(ox, oy)), as_segments(*rules, offset=(ox, oy))
     box = None if frame is None else (frame[0] + ox, frame[1] + oy, frame[2] + ox, frame[3] + oy)
     out: list[SceneText] = []
     near: list[tuple[float, float, float, float]] = []
@@ -168,7 +156,7 @@ def feature_texts(features: tuple[tuple[str, tuple[float, float]], ...], h: floa
     def cost(t: SceneText) -> float:
         b = t.box
         c = COVER_COST * (first_clear([b], [o.box for o in out]) is None) + NEAR_COST * (first_clear([b], near) is None)
-        c += (LINE_COST * under(crossed, b) + RULE_COST * under(ruled, b)) / h
+        c += (LINE_COST * length_under(crossed, b) + RULE_COST * length_under(ruled, b)) / h
         if box is not None and not (b[0] >= box[0] and b[1] >= box[1] and b[2] <= box[2] and b[3] <= box[3]):
             c += OUTSIDE_COST
         return c

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -85,3 +86,26 @@ def inside_length(a: F64, d: F64, box: Box) -> float:
     """How much of the segments ``a + t d`` (t in [0, 1]) runs inside the open box (in their units)."""
     lo, hi = _clip(a, d, box)
     return float((np.clip(hi - lo, 0.0, None) * np.hypot(d[..., 0], d[..., 1])).sum())
+
+
+class Segments(NamedTuple):
+    """Segments ready for :func:`length_under`: their starts and steps ``(k, 2)`` and bounding boxes (lo, hi)."""
+
+    a: F64
+    d: F64
+    lo: F64
+    hi: F64
+
+
+def as_segments(*sets: F64, offset: tuple[float, float] = (0.0, 0.0)) -> Segments:
+    """Sets of segments ``(..., 2, 2)`` (moved by ``offset``) as one :class:`Segments`."""
+    seg = np.concatenate([np.asarray(s, dtype=np.float64).reshape(-1, 2, 2) for s in sets] or
+                         [np.zeros((0, 2, 2))]) + np.asarray(offset, dtype=np.float64)
+    return Segments(seg[:, 0], seg[:, 1] - seg[:, 0], seg.min(axis=1), seg.max(axis=1))
+
+
+def length_under(segs: Segments, box: Box) -> float:
+    """How much of ``segs`` runs inside the open box: clipped only where a segment's box meets it (the scene's
+    labels clipped all ~700 segments at every spot, half of a parameter edit's frames in session 38)."""
+    near = (segs.lo[:, 0] < box[2]) & (segs.hi[:, 0] > box[0]) & (segs.lo[:, 1] < box[3]) & (segs.hi[:, 1] > box[1])
+    return inside_length(segs.a[near], segs.d[near], box) if near.any() else 0.0
